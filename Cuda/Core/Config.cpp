@@ -1,0 +1,81 @@
+#include "Config.h"
+
+#include "Error.h"
+
+#include <cmath>
+
+namespace nv
+{
+
+double EncodingConfig::effectivePerLevelScale() const
+{
+  if (perLevelScale > 0.0)
+  {
+    return perLevelScale;
+  }
+  if (levels <= 1)
+  {
+    return 1.0;
+  }
+  return std::pow(static_cast<double>(finestResolution) / baseResolution, 1.0 / (levels - 1));
+}
+
+double OptimizerConfig::learningRateAt(int64_t step) const
+{
+  if (!stepDecay || decayInterval <= 0 || step <= 0)
+  {
+    return learningRate;
+  }
+  return learningRate * std::pow(decayFactor, static_cast<double>((step - 1) / decayInterval));
+}
+
+const char* deviceName(Device d)
+{
+  switch (d)
+  {
+    case Device::Auto:
+      return "Auto";
+    case Device::Cpu:
+      return "CPU";
+    case Device::Cuda:
+      return "CUDA";
+  }
+  return "?";
+}
+
+void validate(const ModelConfig& c)
+{
+  const EncodingConfig& e = c.encoding;
+  NV_CHECK(e.levels >= 1 && e.levels <= 32, "levels must be in 1..32, got " + std::to_string(e.levels));
+  NV_CHECK(e.featuresPerLevel == 1 || e.featuresPerLevel == 2 || e.featuresPerLevel == 4 || e.featuresPerLevel == 8,
+    "features per level must be 1, 2, 4 or 8, got " + std::to_string(e.featuresPerLevel));
+  NV_CHECK(e.log2TableSize >= 10 && e.log2TableSize <= 26,
+    "log2 table size must be in 10..26, got " + std::to_string(e.log2TableSize));
+  NV_CHECK(e.baseResolution >= 2 && e.baseResolution <= 4096,
+    "base resolution must be in 2..4096, got " + std::to_string(e.baseResolution));
+  if (e.perLevelScale <= 0.0)
+  {
+    NV_CHECK(e.finestResolution >= e.baseResolution && e.finestResolution <= (1 << 20),
+      "finest resolution must be >= base resolution and <= 2^20, got " + std::to_string(e.finestResolution));
+  }
+  else
+  {
+    NV_CHECK(e.perLevelScale >= 1.0 && e.perLevelScale <= 4.0, "per-level scale must be in [1, 4]");
+  }
+  const int w = c.network.width;
+  NV_CHECK(w == 16 || w == 32 || w == 64 || w == 128, "network width must be 16, 32, 64 or 128, got " + std::to_string(w));
+  NV_CHECK(c.network.hiddenLayers >= 1 && c.network.hiddenLayers <= 8,
+    "hidden layers must be in 1..8, got " + std::to_string(c.network.hiddenLayers));
+}
+
+void validate(const TrainConfig& c)
+{
+  NV_CHECK(c.batchSize >= 1 && c.batchSize <= (1 << 24), "batch size must be in 1..2^24");
+  NV_CHECK(c.optimizer.learningRate > 0.0 && std::isfinite(c.optimizer.learningRate), "learning rate must be > 0");
+  NV_CHECK(c.optimizer.beta1 >= 0.0 && c.optimizer.beta1 < 1.0, "beta1 must be in [0,1)");
+  NV_CHECK(c.optimizer.beta2 >= 0.0 && c.optimizer.beta2 < 1.0, "beta2 must be in [0,1)");
+  NV_CHECK(c.optimizer.epsilon >= 0.0, "epsilon must be >= 0");
+  NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
+}
+
+} // namespace nv

@@ -1,0 +1,83 @@
+// NeuralVolume engine: model and training configuration (VTK-free).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace nv
+{
+
+/// Multiresolution hash-grid encoding (Mueller et al. 2022, as used by Wu et al. 2023).
+struct EncodingConfig
+{
+  int levels = 16;           ///< number of resolution levels, 1..32
+  int featuresPerLevel = 4;  ///< 1, 2, 4 or 8
+  int log2TableSize = 19;    ///< entries per hashed level = 2^log2TableSize, 10..26
+  int baseResolution = 16;   ///< coarsest grid resolution, >= 2
+  /// Growth factor between levels. If <= 0 it is derived from finestResolution:
+  /// (finest / base)^(1 / (levels - 1)).
+  double perLevelScale = 0.0;
+  int finestResolution = 4096; ///< used only when perLevelScale <= 0
+
+  int outputDims() const { return levels * featuresPerLevel; }
+  /// The per-level scale actually used.
+  double effectivePerLevelScale() const;
+};
+
+/// Fully connected ReLU network without biases; linear scalar output.
+struct NetworkConfig
+{
+  int width = 64;        ///< 16, 32, 64 or 128
+  int hiddenLayers = 4;  ///< 1..8
+};
+
+struct ModelConfig
+{
+  EncodingConfig encoding;
+  NetworkConfig network;
+};
+
+enum class LossType : int
+{
+  L1 = 0,
+  L2 = 1
+};
+
+/// Adam; the default schedule is the paper's (lr 1e-2, x0.8 every 1000 steps).
+struct OptimizerConfig
+{
+  double learningRate = 1e-2;
+  double beta1 = 0.9;
+  double beta2 = 0.99;
+  double epsilon = 1e-15;
+  bool stepDecay = true;     ///< false: constant learning rate
+  int decayInterval = 1000;  ///< steps
+  double decayFactor = 0.8;
+
+  /// Learning rate used by (1-based) step `step`.
+  double learningRateAt(int64_t step) const;
+};
+
+enum class Device : int
+{
+  Auto = 0,
+  Cpu = 1,
+  Cuda = 2
+};
+
+const char* deviceName(Device d);
+
+struct TrainConfig
+{
+  int batchSize = 65536;
+  uint64_t seed = 1;
+  LossType loss = LossType::L1;
+  OptimizerConfig optimizer;
+  int threads = 0; ///< CPU worker threads; 0 = hardware concurrency
+};
+
+/// Throws nv::Error with a readable message when a configuration is out of range.
+void validate(const ModelConfig& config);
+void validate(const TrainConfig& config);
+
+} // namespace nv

@@ -1,0 +1,239 @@
+#include "Model.h"
+
+#include "Error.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace nv
+{
+
+GridLayout makeGridLayout(const EncodingConfig& e)
+{
+  ModelConfig probe;
+  probe.encoding = e;
+  validate(probe);
+  GridLayout g{};
+  g.levels = e.levels;
+  g.features = e.featuresPerLevel;
+  const float log2Scale = std::log2(static_cast<float>(e.effectivePerLevelScale()));
+  const uint64_t tableSize = 1ull << e.log2TableSize;
+  uint64_t offset = 0;
+  for (int l = 0; l < e.levels; ++l)
+  {
+    LevelInfo& lv = g.level[l];
+    lv.scale = std::exp2(static_cast<float>(l) * log2Scale) * static_cast<float>(e.baseResolution) - 1.0f;
+    const uint64_t res = static_cast<uint64_t>(std::ceil(lv.scale)) + 1;
+    NV_CHECK(res <= (1u << 21), "level resolution too large");
+    const uint64_t dense = res * res * res;
+    const uint64_t rounded = (dense + 7) / 8 * 8;
+    lv.res = static_cast<uint32_t>(res);
+    lv.entries = static_cast<uint32_t>(rounded < tableSize ? rounded : tableSize);
+    // Dense indexing needs res^3 to fit in 32 bits as well as in the table.
+    lv.hashed = (lv.entries < dense || res > 1625) ? 1u : 0u;
+    if (lv.hashed)
+    {
+      lv.entries = static_cast<uint32_t>(tableSize);
+    }
+    lv.offset = static_cast<uint32_t>(offset);
+    offset += lv.entries;
+    NV_CHECK(offset * e.featuresPerLevel < (1ull << 31), "hash table too large (more than 2^31 parameters)");
+  }
+  g.totalEntries = static_cast<uint32_t>(offset);
+  return g;
+}
+
+Model::Model(const ModelConfig& config)
+  : Config(config)
+{
+  validate(config);
+  Layout = makeGridLayout(config.encoding);
+  Params.assign(encodingParamCount() + mlpParamCount(), 0.0f);
+}
+
+size_t Model::mlpParamCount() const
+{
+  size_t n = 0;
+  for (int l = 0; l <= Config.network.hiddenLayers; ++l)
+  {
+    n += static_cast<size_t>(layerInputs(l)) * layerOutputs(l);
+  }
+  return n;
+}
+
+int Model::layerInputs(int l) const
+{
+  return l == 0 ? Config.encoding.outputDims() : Config.network.width;
+}
+
+int Model::layerOutputs(int l) const
+{
+  return l == Config.network.hiddenLayers ? 1 : Config.network.width;
+}
+
+size_t Model::layerOffset(int l) const
+{
+  size_t off = encodingParamCount();
+  for (int k = 0; k < l; ++k)
+  {
+    off += static_cast<size_t>(layerInputs(k)) * layerOutputs(k);
+  }
+  return off;
+}
+
+namespace
+{
+float uniform(uint64_t seed, uint64_t i, float lo, float hi)
+{
+  const uint64_t r = mix64(seed * 0x9E3779B97F4A7C15ull ^ mix64(i));
+  const float u = static_cast<float>(r >> 40) / 16777216.0f;
+  return lo + (hi - lo) * u;
+}
+} // namespace
+
+void Model::initialize(uint64_t seed)
+{
+  const size_t ne = encodingParamCount();
+  for (size_t i = 0; i < ne; ++i)
+  {
+    Params[i] = uniform(seed, i, -1e-4f, 1e-4f);
+  }
+  for (int l = 0; l <= Config.network.hiddenLayers; ++l)
+  {
+    const float bound = 1.0f / std::sqrt(static_cast<float>(layerInputs(l)));
+    const size_t off = layerOffset(l);
+    const size_t n = static_cast<size_t>(layerInputs(l)) * layerOutputs(l);
+    for (size_t i = 0; i < n; ++i)
+    {
+      Params[off + i] = uniform(seed + 0x5bd1e995ull * (l + 1), i, -bound, bound);
+    }
+  }
+  Storage = Precision::Float32;
+}
+
+void Model::quantize(Precision p)
+{
+  Storage = p;
+  if (p == Precision::Float16)
+  {
+    for (float& v : Params)
+    {
+      v = halfToFloat(floatToHalf(v));
+    }
+  }
+}
+
+int64_t Model::parameterBytes() const
+{
+  return static_cast<int64_t>(Params.size()) * (Storage == Precision::Float16 ? 2 : 4);
+}
+
+int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio, Precision storage, int minLog2,
+  int maxLog2)
+{
+  NV_CHECK(targetRatio > 0.0, "target compression ratio must be > 0");
+  int best = minLog2;
+  for (int l = minLog2; l <= maxLog2; ++l)
+  {
+    config.encoding.log2TableSize = l;
+    const GridLayout g = makeGridLayout(config.encoding);
+    size_t mlp = 0;
+    for (int k = 0; k <= config.network.hiddenLayers; ++k)
+    {
+      const int in = k == 0 ? config.encoding.outputDims() : config.network.width;
+      const int out = k == config.network.hiddenLayers ? 1 : config.network.width;
+      mlp += static_cast<size_t>(in) * out;
+    }
+    const double params = static_cast<double>(g.totalEntries) * g.features + static_cast<double>(mlp);
+    const double bytes = params * (storage == Precision::Float16 ? 2.0 : 4.0);
+    if (static_cast<double>(rawBytes) / bytes >= targetRatio)
+    {
+      best = l;
+    }
+    else
+    {
+      break;
+    }
+  }
+  return best;
+}
+
+uint16_t floatToHalf(float f)
+{
+  uint32_t x;
+  std::memcpy(&x, &f, 4);
+  const uint32_t sign = (x >> 16) & 0x8000u;
+  const uint32_t absx = x & 0x7FFFFFFFu;
+  if (absx >= 0x7F800000u)
+  {
+    return static_cast<uint16_t>(sign | 0x7C00u | (absx > 0x7F800000u ? 0x200u : 0u));
+  }
+  if (absx >= 0x477FF000u) // rounds to >= 65520: overflow to infinity
+  {
+    return static_cast<uint16_t>(sign | 0x7C00u);
+  }
+  if (absx < 0x38800000u) // subnormal half (or zero)
+  {
+    if (absx < 0x33000000u)
+    {
+      return static_cast<uint16_t>(sign);
+    }
+    const uint32_t e = absx >> 23;
+    const uint32_t m = (absx & 0x7FFFFFu) | 0x800000u;
+    const uint32_t shift = 126 - e; // 14..24
+    uint32_t h = m >> shift;
+    const uint32_t rem = m & ((1u << shift) - 1u);
+    const uint32_t half = 1u << (shift - 1);
+    if (rem > half || (rem == half && (h & 1u)))
+    {
+      ++h;
+    }
+    return static_cast<uint16_t>(sign | h);
+  }
+  uint32_t h = ((absx - 0x38000000u) >> 13);
+  const uint32_t rem = absx & 0x1FFFu;
+  if (rem > 0x1000u || (rem == 0x1000u && (h & 1u)))
+  {
+    ++h;
+  }
+  return static_cast<uint16_t>(sign | h);
+}
+
+float halfToFloat(uint16_t h)
+{
+  const uint32_t sign = (static_cast<uint32_t>(h) & 0x8000u) << 16;
+  const uint32_t e = (h >> 10) & 0x1Fu;
+  uint32_t m = h & 0x3FFu;
+  uint32_t x;
+  if (e == 0)
+  {
+    if (m == 0)
+    {
+      x = sign;
+    }
+    else
+    {
+      int shift = 0;
+      while (!(m & 0x400u))
+      {
+        m <<= 1;
+        ++shift;
+      }
+      m &= 0x3FFu;
+      x = sign | (static_cast<uint32_t>(113 - shift) << 23) | (m << 13);
+    }
+  }
+  else if (e == 31)
+  {
+    x = sign | 0x7F800000u | (m << 13);
+  }
+  else
+  {
+    x = sign | ((e + 112) << 23) | (m << 13);
+  }
+  float f;
+  std::memcpy(&f, &x, 4);
+  return f;
+}
+
+} // namespace nv

@@ -1,0 +1,99 @@
+// NeuralVolume engine: a trained (or untrained) neural representation of one scalar field.
+#pragma once
+
+#include "Config.h"
+#include "HashGridMath.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nv
+{
+
+/// Where the field came from: enough to place the decoded grid and to de-normalise its values.
+struct SourceInfo
+{
+  int64_t dims[3] = { 1, 1, 1 };       ///< number of samples per axis of the source grid
+  double origin[3] = { 0, 0, 0 };
+  double spacing[3] = { 1, 1, 1 };
+  double bounds[6] = { 0, 0, 0, 0, 0, 0 }; ///< xmin xmax ymin ymax zmin zmax: maps to [0,1]^3
+  double valueMin = 0.0;               ///< normalised 0 <-> valueMin
+  double valueMax = 1.0;               ///< normalised 1 <-> valueMax
+  std::string arrayName;
+  int association = 0;                 ///< 0 = point data, 1 = cell data
+  int64_t rawBytes = 0;                ///< bytes of the source array (for the compression ratio)
+};
+
+struct TrainingStats
+{
+  int64_t steps = 0;
+  double seconds = 0.0;
+  double finalLoss = 0.0;
+  double psnr = 0.0;        ///< dB, over all source samples, values normalised by the source range
+  double maxError = 0.0;    ///< max |decoded - source| in source units
+  int64_t invalidSamples = 0; ///< NaN/Inf source samples excluded from training
+  std::string device;
+};
+
+enum class Precision : int
+{
+  Float32 = 0,
+  Float16 = 1
+};
+
+/// Layout of the parameter vector: hash table (entries x features), then MLP layers (row-major [out][in]).
+class Model
+{
+public:
+  Model() = default;
+  explicit Model(const ModelConfig& config);
+
+  const ModelConfig& config() const { return Config; }
+  const GridLayout& layout() const { return Layout; }
+
+  size_t encodingParamCount() const { return static_cast<size_t>(Layout.totalEntries) * Layout.features; }
+  size_t mlpParamCount() const;
+  size_t paramCount() const { return Params.size(); }
+  /// Offset of MLP layer `l` (0 = first hidden layer, hiddenLayers = output layer) in the parameter vector.
+  size_t layerOffset(int l) const;
+  int layerInputs(int l) const;
+  int layerOutputs(int l) const;
+
+  std::vector<float>& params() { return Params; }
+  const std::vector<float>& params() const { return Params; }
+
+  /// Hash table U(-1e-4, 1e-4); MLP U(-1/sqrt(fan_in), 1/sqrt(fan_in)) (PyTorch's nn.Linear default).
+  void initialize(uint64_t seed);
+
+  /// Round every parameter to the storage precision (so the model decodes exactly as it will be stored).
+  void quantize(Precision p);
+  Precision storagePrecision() const { return Storage; }
+  /// Bytes the parameters take in the serialized form.
+  int64_t parameterBytes() const;
+
+  SourceInfo source;
+  TrainingStats stats;
+
+  /// Map a de-normalised value to [0,1] and back.
+  double denormalize(double y) const { return source.valueMin + y * (source.valueMax - source.valueMin); }
+
+private:
+  ModelConfig Config;
+  GridLayout Layout{};
+  std::vector<float> Params;
+  Precision Storage = Precision::Float32;
+};
+
+/// Level table for an encoding configuration (validates it).
+GridLayout makeGridLayout(const EncodingConfig& config);
+
+/// Choose the largest log2 table size (in [minLog2, maxLog2]) whose model keeps raw/model >= targetRatio.
+int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio, Precision storage,
+  int minLog2 = 10, int maxLog2 = 24);
+
+/// IEEE half conversion (round to nearest even), used for fp16 storage.
+uint16_t floatToHalf(float f);
+float halfToFloat(uint16_t h);
+
+} // namespace nv

@@ -1,0 +1,29 @@
+// NeuralVolume engine: versioned binary format of a model.
+//
+// Layout (little endian): magic "NVOLNET\0", u32 version, u32 header bytes, header fields (config, storage
+// precision, source info, training stats), u64 parameter count, parameters (fp32 or fp16), u32 CRC-32 of
+// everything before it. Reading checks magic, version, sizes, ranges and the checksum.
+#pragma once
+
+#include "Model.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nv
+{
+
+constexpr uint32_t kFormatVersion = 1;
+
+std::vector<uint8_t> serialize(const Model& model);
+/// Throws nv::Error with a clear message on truncated, corrupt or wrong-version input.
+Model deserialize(const uint8_t* data, size_t size);
+inline Model deserialize(const std::vector<uint8_t>& bytes) { return deserialize(bytes.data(), bytes.size()); }
+
+void saveModel(const Model& model, const std::string& path);
+Model loadModel(const std::string& path);
+
+uint32_t crc32(const uint8_t* data, size_t size);
+
+} // namespace nv

@@ -1,0 +1,57 @@
+// NeuralVolume engine: training on the CPU (multithreaded; deterministic for a seed and thread count).
+#pragma once
+
+#include "Core/Engine.h"
+#include "CpuAdam.h"
+#include "CpuMlp.h"
+#include "ThreadPool.h"
+
+#include <vector>
+
+namespace nv
+{
+
+class CpuTrainer final : public Trainer
+{
+public:
+  CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config);
+
+  float step() override;
+  int64_t stepsDone() const override { return Steps; }
+  double currentLearningRate() const override { return Train.optimizer.learningRateAt(Steps + 1); }
+  void syncTo(Model& model) const override;
+  Device device() const override { return Device::Cpu; }
+
+  /// Loss and gradient of the current parameters on a given batch, without updating (for tests).
+  /// grad receives dL/dparams (encoding then MLP). Returns the loss.
+  float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
+    std::vector<float>& grad);
+
+private:
+  float forwardBackward(int64_t n, int64_t nValid);
+
+  static constexpr int kTile = 64;
+  ModelConfig Config;
+  GridLayout Layout;
+  CpuMlp Mlp;
+  TrainConfig Train;
+  VolumeView Volume;
+  ThreadPool Pool;
+  std::vector<float> Params;
+  std::vector<float> Grad;
+  std::vector<float> WT;
+  std::vector<float> Xyz;
+  std::vector<float> Targets;
+  std::vector<uint8_t> Valid;
+  std::vector<float> DEnc;
+  struct Scratch
+  {
+    std::vector<float> enc, acts, out, dOut, tmp, dW;
+    double loss = 0.0;
+  };
+  std::vector<Scratch> Work;
+  CpuAdam Adam;
+  int64_t Steps = 0;
+};
+
+} // namespace nv

@@ -1,0 +1,150 @@
+#include "ThreadPool.h"
+
+#include <algorithm>
+#include <atomic>
+
+namespace nv
+{
+
+int ThreadPool::defaultThreads()
+{
+  const unsigned n = std::thread::hardware_concurrency();
+  return n == 0 ? 1 : static_cast<int>(n);
+}
+
+ThreadPool::ThreadPool(int threads)
+  : Count(threads > 0 ? threads : defaultThreads())
+{
+  for (int i = 1; i < Count; ++i)
+  {
+    Workers.emplace_back([this, i] { workerLoop(i); });
+  }
+}
+
+ThreadPool::~ThreadPool()
+{
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    Stop = true;
+  }
+  Wake.notify_all();
+  for (auto& t : Workers)
+  {
+    t.join();
+  }
+}
+
+void ThreadPool::workerLoop(int id)
+{
+  uint64_t seen = 0;
+  for (;;)
+  {
+    const std::function<void(int)>* job;
+    {
+      std::unique_lock<std::mutex> lock(Mutex);
+      Wake.wait(lock, [&] { return Stop || Generation != seen; });
+      if (Stop)
+      {
+        return;
+      }
+      seen = Generation;
+      job = Job;
+    }
+    try
+    {
+      (*job)(id);
+    }
+    catch (...)
+    {
+      std::lock_guard<std::mutex> lock(Mutex);
+      if (!Failure)
+      {
+        Failure = std::current_exception();
+      }
+    }
+    {
+      std::lock_guard<std::mutex> lock(Mutex);
+      if (--Pending == 0)
+      {
+        Done.notify_all();
+      }
+    }
+  }
+}
+
+void ThreadPool::runOnAll(const std::function<void(int)>& fn)
+{
+  if (Count == 1)
+  {
+    fn(0);
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    Job = &fn;
+    Pending = Count - 1;
+    Failure = nullptr;
+    ++Generation;
+  }
+  Wake.notify_all();
+  std::exception_ptr mine;
+  try
+  {
+    fn(0);
+  }
+  catch (...)
+  {
+    mine = std::current_exception();
+  }
+  std::unique_lock<std::mutex> lock(Mutex);
+  Done.wait(lock, [&] { return Pending == 0; });
+  Job = nullptr;
+  if (mine)
+  {
+    std::rethrow_exception(mine);
+  }
+  if (Failure)
+  {
+    std::rethrow_exception(Failure);
+  }
+}
+
+void ThreadPool::parallelFor(int64_t n, const std::function<void(int64_t, int64_t, int)>& fn)
+{
+  if (n <= 0)
+  {
+    return;
+  }
+  const int64_t parts = std::min<int64_t>(Count, n);
+  runOnAll([&](int w) {
+    if (w >= parts)
+    {
+      return;
+    }
+    const int64_t b = n * w / parts;
+    const int64_t e = n * (w + 1) / parts;
+    fn(b, e, w);
+  });
+}
+
+void ThreadPool::parallelChunks(int64_t n, int64_t chunk, const std::function<void(int64_t, int64_t, int)>& fn)
+{
+  if (n <= 0)
+  {
+    return;
+  }
+  std::atomic<int64_t> next(0);
+  runOnAll([&](int w) {
+    for (;;)
+    {
+      const int64_t b = next.fetch_add(chunk);
+      if (b >= n)
+      {
+        return;
+      }
+      fn(b, std::min(n, b + chunk), w);
+    }
+  });
+}
+
+} // namespace nv

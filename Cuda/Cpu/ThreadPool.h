@@ -1,0 +1,51 @@
+// NeuralVolume engine: a small fixed-size thread pool with static work partitioning (deterministic).
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace nv
+{
+
+class ThreadPool
+{
+public:
+  /// threads <= 0: hardware concurrency.
+  explicit ThreadPool(int threads);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  int size() const { return Count; }
+
+  /// Run fn(worker) on every worker (worker 0 is the calling thread) and wait. Exceptions are rethrown.
+  void runOnAll(const std::function<void(int)>& fn);
+
+  /// Split [0, n) into size() contiguous ranges; fn(begin, end, worker).
+  void parallelFor(int64_t n, const std::function<void(int64_t, int64_t, int)>& fn);
+
+  /// Dynamic chunks of `chunk` items; fn(begin, end, worker). Results must not depend on which worker runs a chunk.
+  void parallelChunks(int64_t n, int64_t chunk, const std::function<void(int64_t, int64_t, int)>& fn);
+
+  static int defaultThreads();
+
+private:
+  void workerLoop(int id);
+
+  int Count;
+  std::vector<std::thread> Workers;
+  std::mutex Mutex;
+  std::condition_variable Wake;
+  std::condition_variable Done;
+  const std::function<void(int)>* Job = nullptr;
+  uint64_t Generation = 0;
+  int Pending = 0;
+  bool Stop = false;
+  std::exception_ptr Failure;
+};
+
+} // namespace nv

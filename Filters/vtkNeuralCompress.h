@@ -1,0 +1,201 @@
+/**
+ * @class   vtkNeuralCompress
+ * @brief   trains a neural representation (multiresolution hash grid + MLP) of a scalar field
+ *
+ * vtkNeuralCompress takes a vtkImageData and one of its point or cell arrays (any numeric
+ * type; vectors are reduced to their magnitude or to one component) and trains a neural
+ * network that represents the field. The work is done by the VTK-free NeuralVolume engine;
+ * this class only translates VTK data and properties into engine calls.
+ *
+ * Output port 0: vtkImageData with the input's bounds (spacing adapted when OutputResolution
+ * is set) holding the decoded field (float) under the input array's name, point data for a
+ * point array, cell data for a cell array. Its field data carries the serialized network
+ * (`NeuralNetwork`, vtkUnsignedCharArray) and the metadata arrays `NeuralTrainingSeconds`,
+ * `NeuralSteps`, `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`,
+ * `NeuralModelBytes`, `NeuralInvalidSamples` and `NeuralDevice`.
+ *
+ * Output port 1: vtkTable training log with the columns Step, Loss, LearningRate,
+ * ElapsedSeconds and PSNR (NaN except every PSNRInterval steps and at the last step; the
+ * intermediate values are estimated on a fixed random subset of voxels, the last one is over
+ * every input voxel).
+ *
+ * Training stops after TrainingSteps steps or TimeBudget seconds, whichever comes first, or
+ * when the algorithm's AbortExecute flag is set; the output is then built from the steps done.
+ *
+ * Only vtkImageData input is supported in this version; other dataset types produce an error.
+ */
+#ifndef vtkNeuralCompress_h
+#define vtkNeuralCompress_h
+
+#include "NeuralVolumeFiltersModule.h" // for export macro
+#include "vtkDataObjectAlgorithm.h"
+
+class vtkDataArray;
+class vtkImageData;
+class vtkTable;
+
+class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
+{
+public:
+  static vtkNeuralCompress* New();
+  vtkTypeMacro(vtkNeuralCompress, vtkDataObjectAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  enum VectorModes
+  {
+    MAGNITUDE = 0,
+    COMPONENT = 1
+  };
+  enum LossTypes
+  {
+    LOSS_L1 = 0,
+    LOSS_L2 = 1
+  };
+  enum Schedules
+  {
+    STEP_DECAY = 0,
+    CONSTANT = 1
+  };
+  enum Precisions
+  {
+    FLOAT32 = 0,
+    FLOAT16 = 1
+  };
+  enum Devices
+  {
+    DEVICE_AUTO = 0,
+    DEVICE_CPU = 1
+  };
+
+  ///@{
+  /// How a multi-component array becomes a scalar field: its magnitude or one component.
+  vtkSetClampMacro(VectorMode, int, MAGNITUDE, COMPONENT);
+  vtkGetMacro(VectorMode, int);
+  vtkSetClampMacro(VectorComponent, int, 0, 255);
+  vtkGetMacro(VectorComponent, int);
+  ///@}
+
+  ///@{
+  /// Training length: stops at TrainingSteps or after TimeBudget seconds (0 = no time limit).
+  vtkSetClampMacro(TrainingSteps, int, 0, VTK_INT_MAX);
+  vtkGetMacro(TrainingSteps, int);
+  vtkSetClampMacro(TimeBudget, double, 0.0, VTK_DOUBLE_MAX);
+  vtkGetMacro(TimeBudget, double);
+  ///@}
+
+  ///@{
+  /// Optimiser settings.
+  vtkSetClampMacro(BatchSize, int, 1, VTK_INT_MAX);
+  vtkGetMacro(BatchSize, int);
+  vtkSetClampMacro(LearningRate, double, 0.0, VTK_DOUBLE_MAX);
+  vtkGetMacro(LearningRate, double);
+  vtkSetClampMacro(Seed, int, 0, VTK_INT_MAX);
+  vtkGetMacro(Seed, int);
+  vtkSetClampMacro(Loss, int, LOSS_L1, LOSS_L2);
+  vtkGetMacro(Loss, int);
+  vtkSetClampMacro(LearningRateSchedule, int, STEP_DECAY, CONSTANT);
+  vtkGetMacro(LearningRateSchedule, int);
+  ///@}
+
+  ///@{
+  /// Target raw/model size ratio; used to pick the hash table size when Log2TableSize is 0.
+  vtkSetClampMacro(TargetCompressionRatio, double, 1e-6, VTK_DOUBLE_MAX);
+  vtkGetMacro(TargetCompressionRatio, double);
+  ///@}
+
+  ///@{
+  /// Hash-grid encoding. Log2TableSize 0 derives the table size from TargetCompressionRatio;
+  /// FinestResolution 0 means twice the largest input dimension.
+  vtkSetMacro(Levels, int);
+  vtkGetMacro(Levels, int);
+  vtkSetMacro(FeaturesPerLevel, int);
+  vtkGetMacro(FeaturesPerLevel, int);
+  vtkSetMacro(Log2TableSize, int);
+  vtkGetMacro(Log2TableSize, int);
+  vtkSetMacro(BaseResolution, int);
+  vtkGetMacro(BaseResolution, int);
+  vtkSetMacro(FinestResolution, int);
+  vtkGetMacro(FinestResolution, int);
+  ///@}
+
+  ///@{
+  /// The MLP: width (16/32/64/128) and number of hidden layers (1-8).
+  vtkSetMacro(NetworkWidth, int);
+  vtkGetMacro(NetworkWidth, int);
+  vtkSetMacro(HiddenLayers, int);
+  vtkGetMacro(HiddenLayers, int);
+  ///@}
+
+  ///@{
+  /// Precision of the stored parameters (FLOAT32 or FLOAT16).
+  vtkSetClampMacro(StoragePrecision, int, FLOAT32, FLOAT16);
+  vtkGetMacro(StoragePrecision, int);
+  ///@}
+
+  ///@{
+  /// Compute device (DEVICE_AUTO picks CUDA when a GPU is usable, else the CPU) and number of
+  /// CPU threads (0 = all cores).
+  vtkSetClampMacro(Device, int, DEVICE_AUTO, DEVICE_CPU);
+  vtkGetMacro(Device, int);
+  vtkSetClampMacro(Threads, int, 0, 4096);
+  vtkGetMacro(Threads, int);
+  ///@}
+
+  ///@{
+  /// Samples per axis of the decoded output (0 0 0 = the input's point dimensions for a point
+  /// array, its cell dimensions for a cell array).
+  vtkSetVector3Macro(OutputResolution, int);
+  vtkGetVector3Macro(OutputResolution, int);
+  ///@}
+
+  ///@{
+  /// Steps between two PSNR estimates in the training log (0 = only at the end).
+  vtkSetClampMacro(PSNRInterval, int, 0, VTK_INT_MAX);
+  vtkGetMacro(PSNRInterval, int);
+  ///@}
+
+protected:
+  vtkNeuralCompress();
+  ~vtkNeuralCompress() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  int RequestDataObject(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  int VectorMode = MAGNITUDE;
+  int VectorComponent = 0;
+  int TrainingSteps = 1000;
+  double TimeBudget = 60.0;
+  int BatchSize = 65536;
+  double LearningRate = 0.01;
+  int Seed = 1;
+  int Loss = LOSS_L1;
+  int LearningRateSchedule = STEP_DECAY;
+  double TargetCompressionRatio = 10.0;
+  int Levels = 16;
+  int FeaturesPerLevel = 4;
+  int Log2TableSize = 0;
+  int BaseResolution = 16;
+  int FinestResolution = 0;
+  int NetworkWidth = 64;
+  int HiddenLayers = 4;
+  int StoragePrecision = FLOAT16;
+  int Device = DEVICE_AUTO;
+  int Threads = 0;
+  int OutputResolution[3] = { 0, 0, 0 };
+  int PSNRInterval = 100;
+
+private:
+  vtkNeuralCompress(const vtkNeuralCompress&) = delete;
+  void operator=(const vtkNeuralCompress&) = delete;
+
+  /// Trains on `array` of `input` and fills both outputs; returns false (outputs emptied by the
+  /// caller) after reporting an error.
+  bool Compress(vtkImageData* input, vtkDataArray* array, int association, vtkImageData* output,
+    vtkTable* log);
+};
+
+#endif

@@ -1,0 +1,86 @@
+// Private to NeuralVolume::Filters: the engine-facing half of vtkNeuralCompress. Keeps the engine
+// headers out of the wrapped public header (the way vtkONNXInference hides its runtime).
+#ifndef vtkNeuralCompressInternals_h
+#define vtkNeuralCompressInternals_h
+
+#include "Core/Engine.h"
+#include "Core/Model.h"
+#include "Core/Volume.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+class vtkDataArray;
+
+namespace vtkNeuralCompressInternals
+{
+
+/// A single-component view of the selected array, with the copy that backs it when the array
+/// could not be used in place (vectors, non-contiguous layouts, bit arrays).
+struct SourceField
+{
+  nv::VolumeView View;
+  std::vector<unsigned char> Storage;
+  int64_t RawBytes = 0;     ///< bytes of the field in the input's native type
+  std::string Description;  ///< e.g. "magnitude of 3 components"
+};
+
+/// Fill `field` from `array` (nTuples must equal dims[0]*dims[1]*dims[2]). Returns false and sets
+/// `error` when the array cannot be represented.
+bool MakeSourceField(vtkDataArray* array, int vectorMode, int component, const int64_t dims[3],
+  SourceField& field, std::string& error);
+
+struct LogRow
+{
+  int64_t Step;
+  double Loss;
+  double LearningRate;
+  double ElapsedSeconds;
+  double PSNR; ///< NaN when not evaluated at this step
+};
+
+/// Estimates the PSNR of a model on a fixed random subset of valid voxels.
+class PsnrProbe
+{
+public:
+  PsnrProbe(const nv::VolumeView& view, uint64_t seed, int64_t maxSamples);
+  double Estimate(const nv::Model& model, nv::Device device, int threads) const;
+
+private:
+  std::vector<float> Coords;   // xyz interleaved in [0,1]
+  std::vector<float> Expected; // normalised source values
+};
+
+struct TrainingRequest
+{
+  int64_t MaxSteps = 0;
+  double TimeBudget = 0.0; ///< seconds, 0 = unlimited
+  int PsnrInterval = 0;
+  int Threads = 0;
+  nv::Device Device = nv::Device::Cpu;
+  std::function<bool()> ShouldAbort;
+  std::function<void(double)> Progress;
+};
+
+struct TrainingResult
+{
+  int64_t Steps = 0;
+  double Seconds = 0.0;
+  double FinalLoss = 0.0;
+  bool Aborted = false;
+  bool TimedOut = false;
+  std::vector<LogRow> Log;
+};
+
+/// Trains `model` (updated in place) on `view`. Engine errors propagate as nv::Error.
+TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::TrainConfig& config,
+  const TrainingRequest& request, const PsnrProbe* probe);
+
+/// PSNR (dB) from a mean squared error of normalised values; +inf for an exact match.
+double PsnrFromMse(double mse);
+
+} // namespace vtkNeuralCompressInternals
+
+#endif

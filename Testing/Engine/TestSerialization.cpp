@@ -1,0 +1,129 @@
+// Model serialization: bit-exact round trip and clear errors for bad input.
+#include "Core/Engine.h"
+#include "Core/Error.h"
+#include "Core/Serialization.h"
+#include "TestHarness.h"
+
+#include <cstring>
+#include <random>
+
+using namespace nv;
+
+namespace
+{
+Model sample(Precision p)
+{
+  ModelConfig c;
+  c.encoding.levels = 5;
+  c.encoding.featuresPerLevel = 8;
+  c.encoding.log2TableSize = 11;
+  c.encoding.finestResolution = 100;
+  c.network.width = 32;
+  c.network.hiddenLayers = 3;
+  Model m(c);
+  m.initialize(42);
+  std::mt19937 rng(1);
+  std::normal_distribution<float> g(0.f, 1.f);
+  for (float& v : m.params())
+    v = g(rng);
+  m.source.dims[0] = 64;
+  m.source.dims[1] = 32;
+  m.source.dims[2] = 7;
+  m.source.origin[1] = -2.5;
+  m.source.spacing[2] = 0.125;
+  m.source.bounds[5] = 0.75;
+  m.source.valueMin = -17.25;
+  m.source.valueMax = 1e6;
+  m.source.arrayName = "density";
+  m.source.association = 1;
+  m.source.rawBytes = 64 * 32 * 7 * 2;
+  m.stats.steps = 1234;
+  m.stats.seconds = 5.5;
+  m.stats.psnr = 41.25;
+  m.stats.maxError = 0.01;
+  m.stats.invalidSamples = 3;
+  m.stats.device = "CPU";
+  m.quantize(p);
+  return m;
+}
+} // namespace
+
+NV_TEST(round_trip_is_bit_exact)
+{
+  for (Precision p : { Precision::Float32, Precision::Float16 })
+  {
+    const Model a = sample(p);
+    const auto bytes = serialize(a);
+    const Model b = deserialize(bytes);
+    EXPECT_TRUE(std::memcmp(a.params().data(), b.params().data(), a.params().size() * 4) == 0);
+    EXPECT_TRUE(serialize(b) == bytes);
+    EXPECT_TRUE(b.source.arrayName == "density" && b.source.dims[2] == 7 && b.source.origin[1] == -2.5);
+    EXPECT_TRUE(b.source.valueMax == 1e6 && b.stats.steps == 1234 && b.stats.device == "CPU");
+    EXPECT_TRUE(b.config().network.hiddenLayers == 3 && b.config().encoding.featuresPerLevel == 8);
+    EXPECT_TRUE(b.storagePrecision() == p);
+    const int64_t expected = int64_t(a.paramCount()) * (p == Precision::Float16 ? 2 : 4);
+    EXPECT_TRUE(a.parameterBytes() == expected);
+    EXPECT_TRUE(int64_t(bytes.size()) > expected && int64_t(bytes.size()) < expected + 1024);
+  }
+}
+
+NV_TEST(file_round_trip)
+{
+  const Model a = sample(Precision::Float16);
+  const std::string path = "nv_test_model.nvnet";
+  saveModel(a, path);
+  const Model b = loadModel(path);
+  EXPECT_TRUE(a.params() == b.params());
+  std::remove(path.c_str());
+  EXPECT_THROW_MSG(loadModel("/nonexistent/dir/x.nvnet"), "cannot open");
+}
+
+NV_TEST(corrupt_inputs_give_clear_errors)
+{
+  const auto bytes = serialize(sample(Precision::Float16));
+  // Truncated at many lengths.
+  for (size_t len : { size_t(0), size_t(5), size_t(12), size_t(40), bytes.size() / 2, bytes.size() - 1 })
+  {
+    bool thrown = false;
+    try
+    {
+      deserialize(bytes.data(), len);
+    }
+    catch (const Error& e)
+    {
+      const std::string w = e.what();
+      thrown = w.find("truncated") != std::string::npos || w.find("not a NeuralVolume model") != std::string::npos;
+    }
+    EXPECT_TRUE(thrown);
+  }
+  // One flipped bit anywhere after the magic is caught by the checksum or field checks.
+  for (size_t pos : { size_t(20), size_t(100), bytes.size() / 2, bytes.size() - 2 })
+  {
+    auto bad = bytes;
+    bad[pos] ^= 0x10;
+    EXPECT_THROW_MSG(deserialize(bad), "corrupt");
+  }
+  auto magic = bytes;
+  magic[0] = 'X';
+  EXPECT_THROW_MSG(deserialize(magic), "not a NeuralVolume model");
+  auto version = bytes;
+  version[8] = 99;
+  EXPECT_THROW_MSG(deserialize(version), "unsupported NeuralVolume model version 99");
+}
+
+NV_TEST(half_conversion)
+{
+  EXPECT_TRUE(floatToHalf(1.0f) == 0x3C00 && floatToHalf(-2.0f) == 0xC000 && floatToHalf(0.0f) == 0);
+  EXPECT_TRUE(floatToHalf(65504.0f) == 0x7BFF && floatToHalf(1e6f) == 0x7C00);
+  EXPECT_TRUE(halfToFloat(0x0001) == std::ldexp(1.0f, -24)); // smallest subnormal
+  EXPECT_TRUE(floatToHalf(1.0f + std::ldexp(1.0f, -11)) == 0x3C00); // tie rounds to even
+  EXPECT_TRUE(floatToHalf(1.0f + 3 * std::ldexp(1.0f, -11)) == 0x3C02);
+  for (uint32_t h = 0; h < 0x7C00; ++h) // every finite positive half survives the round trip
+    if (floatToHalf(halfToFloat(uint16_t(h))) != h)
+    {
+      nvtest::fail(__FILE__, __LINE__, "half round trip " + std::to_string(h));
+      break;
+    }
+}
+
+NV_TEST_MAIN()

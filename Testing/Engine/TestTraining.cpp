@@ -1,0 +1,208 @@
+// Training behaviour of the CPU engine: convergence, determinism, invalid samples, degenerate volumes.
+#include "Core/Engine.h"
+#include "TestHarness.h"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+using namespace nv;
+
+namespace
+{
+std::vector<float> analyticVolume(int n, double offset = 0.0)
+{
+  std::vector<float> v(size_t(n) * n * n);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+      {
+        const double X = double(x) / (n - 1), Y = double(y) / (n - 1), Z = double(z) / (n - 1);
+        const double r2 = (X - .5) * (X - .5) + (Y - .5) * (Y - .5) + (Z - .5) * (Z - .5);
+        v[(size_t(z) * n + y) * n + x] =
+          float(100.0 * (std::sin(6 * X) * std::cos(5 * Y) + 0.5 * std::sin(7 * Z) + (r2 < 0.09 ? 0.8 : 0.0)) + offset);
+      }
+  return v;
+}
+
+VolumeView view(const std::vector<float>& v, int n)
+{
+  VolumeView vol;
+  vol.data = v.data();
+  vol.type = ScalarType::Float32;
+  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
+  const VolumeStats s = computeStats(vol);
+  vol.valueMin = s.min;
+  vol.valueMax = s.max;
+  return vol;
+}
+
+ModelConfig smallConfig()
+{
+  ModelConfig c;
+  c.encoding.levels = 8;
+  c.encoding.featuresPerLevel = 2;
+  c.encoding.log2TableSize = 14;
+  c.encoding.finestResolution = 64;
+  c.network.width = 32;
+  c.network.hiddenLayers = 2;
+  return c;
+}
+
+Model train(const VolumeView& vol, int steps, int threads, uint64_t seed, std::vector<float>* losses = nullptr)
+{
+  Model m(smallConfig());
+  m.initialize(seed);
+  m.source.valueMin = vol.valueMin;
+  m.source.valueMax = vol.valueMax;
+  TrainConfig tc;
+  tc.batchSize = 8192;
+  tc.seed = seed;
+  tc.threads = threads;
+  auto tr = createTrainer(Device::Cpu, m, vol, tc);
+  for (int i = 0; i < steps; ++i)
+  {
+    const float l = tr->step();
+    if (losses)
+      losses->push_back(l);
+  }
+  tr->syncTo(m);
+  EXPECT_TRUE(tr->stepsDone() == steps);
+  return m;
+}
+} // namespace
+
+NV_TEST(converges_on_analytic_field)
+{
+  const int n = 32;
+  const auto data = analyticVolume(n);
+  const VolumeView vol = view(data, n);
+  std::vector<float> losses;
+  const Model m = train(vol, 400, 2, 1, &losses);
+  const ErrorStats e = compareToSource(m, vol, Device::Cpu, 2);
+  std::printf("  analytic 32^3, 400 steps: PSNR %.2f dB, max error %.3f, loss %.5f -> %.5f\n", e.psnr,
+    e.maxAbsError, losses.front(), losses.back());
+  EXPECT_TRUE(e.count == int64_t(n) * n * n);
+  EXPECT_TRUE(e.psnr > 35.0);
+  EXPECT_TRUE(losses.back() < 0.1 * losses.front());
+}
+
+NV_TEST(deterministic_for_seed_and_threads)
+{
+  const int n = 24;
+  const auto data = analyticVolume(n);
+  const VolumeView vol = view(data, n);
+  const Model a = train(vol, 20, 2, 7), b = train(vol, 20, 2, 7);
+  EXPECT_TRUE(a.params() == b.params());
+  const Model c = train(vol, 20, 2, 8);
+  EXPECT_TRUE(a.params() != c.params());
+  // Another thread count changes only the summation order of the MLP gradients: the fields stay close.
+  const Model d = train(vol, 20, 1, 7);
+  const ErrorStats ea = compareToSource(a, vol, Device::Cpu, 2), ed = compareToSource(d, vol, Device::Cpu, 2);
+  EXPECT_NEAR_REL(ea.psnr, ed.psnr, 0.02, 0.0);
+}
+
+NV_TEST(nan_and_inf_are_excluded)
+{
+  const int n = 24;
+  auto data = analyticVolume(n);
+  auto clean = data;
+  int64_t bad = 0;
+  for (size_t i = 0; i < data.size(); i += 97)
+  {
+    data[i] = (i % 2) ? std::numeric_limits<float>::quiet_NaN() : std::numeric_limits<float>::infinity();
+    ++bad;
+  }
+  VolumeView vol = view(data, n);
+  const VolumeStats s = computeStats(vol);
+  EXPECT_TRUE(s.invalid == bad);
+  const VolumeView cleanVol = view(clean, n);
+  EXPECT_TRUE(std::isfinite(vol.valueMin) && std::isfinite(vol.valueMax));
+  const Model m = train(vol, 300, 2, 3);
+  std::vector<float> grid(data.size());
+  decodeGrid(m, n, n, n, 0, n, grid.data(), Device::Cpu, 2);
+  for (float g : grid)
+    EXPECT_TRUE(std::isfinite(g));
+  // Error over the valid voxels is close to that of training on the clean field.
+  const ErrorStats e = compareDecoded(grid.data(), vol, vol.valueMin, vol.valueMax, 2);
+  EXPECT_TRUE(e.count == int64_t(data.size()) - bad);
+  const ErrorStats ec = compareToSource(train(cleanVol, 300, 2, 3), cleanVol, Device::Cpu, 2);
+  std::printf("  with %lld invalid voxels: PSNR %.2f dB (clean %.2f dB)\n", (long long)bad, e.psnr, ec.psnr);
+  EXPECT_TRUE(e.psnr > ec.psnr - 1.5);
+}
+
+NV_TEST(constant_field_is_exact)
+{
+  std::vector<int16_t> data(10 * 6 * 3, int16_t(-1234));
+  VolumeView vol;
+  vol.data = data.data();
+  vol.type = ScalarType::Int16;
+  vol.dims[0] = 10;
+  vol.dims[1] = 6;
+  vol.dims[2] = 3;
+  const VolumeStats s = computeStats(vol);
+  EXPECT_TRUE(s.min == -1234 && s.max == -1234);
+  vol.valueMin = s.min;
+  vol.valueMax = s.max;
+  Model m(smallConfig());
+  m.initialize(1);
+  m.source.valueMin = s.min;
+  m.source.valueMax = s.max;
+  const ErrorStats e = compareToSource(m, vol, Device::Cpu, 1);
+  EXPECT_TRUE(e.maxAbsError == 0.0 && e.mse == 0.0 && std::isinf(e.psnr));
+}
+
+NV_TEST(degenerate_and_typed_volumes_train)
+{
+  // A 2D image (nz = 1) in uint8 and a 1-voxel-thick double volume with a huge range.
+  std::vector<uint8_t> img(40 * 30);
+  for (size_t i = 0; i < img.size(); ++i)
+    img[i] = uint8_t((i * 7) % 251);
+  VolumeView v;
+  v.data = img.data();
+  v.type = ScalarType::UInt8;
+  v.dims[0] = 40;
+  v.dims[1] = 30;
+  v.dims[2] = 1;
+  VolumeStats s = computeStats(v);
+  v.valueMin = s.min;
+  v.valueMax = s.max;
+  Model m = train(v, 30, 2, 1);
+  ErrorStats e = compareToSource(m, v, Device::Cpu, 2);
+  EXPECT_TRUE(std::isfinite(e.psnr) && e.count == 1200);
+
+  std::vector<double> huge(16 * 16 * 2);
+  for (size_t i = 0; i < huge.size(); ++i)
+    huge[i] = (i % 16) * 1e300 - 5e300;
+  v.data = huge.data();
+  v.type = ScalarType::Float64;
+  v.dims[0] = 16;
+  v.dims[1] = 16;
+  v.dims[2] = 2;
+  s = computeStats(v);
+  v.valueMin = s.min;
+  v.valueMax = s.max;
+  m = train(v, 200, 2, 1);
+  e = compareToSource(m, v, Device::Cpu, 2);
+  std::printf("  huge-range double volume: PSNR %.2f dB\n", e.psnr);
+  EXPECT_TRUE(e.psnr > 20.0);
+}
+
+NV_TEST(table_size_from_target_ratio)
+{
+  ModelConfig c; // 16 x 4 levels, finest 4096
+  c.encoding.finestResolution = 512;
+  const int64_t raw = int64_t(128) * 128 * 256 * 2; // stent int16
+  const int l = chooseLog2TableSize(c, raw, 4.0, Precision::Float16);
+  c.encoding.log2TableSize = l;
+  Model m(c);
+  m.quantize(Precision::Float16);
+  EXPECT_TRUE(double(raw) / m.parameterBytes() >= 4.0);
+  c.encoding.log2TableSize = l + 1;
+  Model bigger(c);
+  bigger.quantize(Precision::Float16);
+  EXPECT_TRUE(double(raw) / bigger.parameterBytes() < 4.0);
+  EXPECT_TRUE(l == 14); // 2^14: 970,944 + 16,448 params in fp16 = 1.97 MB -> 4.25:1
+}
+
+NV_TEST_MAIN()
