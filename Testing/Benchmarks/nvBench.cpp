@@ -1,0 +1,168 @@
+// NeuralVolume engine benchmark (CPU or CUDA through the same API).
+//   nvBench step  DEVICE BATCH LOG2T FINEST [STEPS]      -> ms per training step, samples/s
+//   nvBench infer DEVICE N LOG2T FINEST                  -> inference samples/s
+//   nvBench curve DEVICE file.nhdr LOG2T STEPS[,..] [BATCH] -> PSNR over all voxels at the given steps
+//   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
+// DEVICE: cpu | cuda. Prints lines "RESULT {json}".
+#include "Core/Engine.h"
+#include "Nhdr.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace nv;
+using Clock = std::chrono::steady_clock;
+
+static double seconds(Clock::time_point a, Clock::time_point b)
+{
+  return std::chrono::duration<double>(b - a).count();
+}
+
+static Device parseDevice(const std::string& s)
+{
+  return s == "cuda" ? Device::Cuda : Device::Cpu;
+}
+
+static std::vector<float> analytic(int n)
+{
+  std::vector<float> v(size_t(n) * n * n);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        v[(size_t(z) * n + y) * n + x] = float(std::sin(0.2 * x) * std::cos(0.13 * y) + std::sin(0.07 * z * x / n));
+  return v;
+}
+
+int main(int argc, char** argv)
+{
+  if (argc < 3)
+  {
+    std::fprintf(stderr, "usage: see the header of nvBench.cpp\n");
+    return 2;
+  }
+  const std::string mode = argv[1];
+  const Device dev = parseDevice(argv[2]);
+  try
+  {
+    if (mode == "step" || mode == "infer" || mode == "decode")
+    {
+      const int64_t size = std::atoll(argv[3]);
+      ModelConfig c;
+      c.encoding.log2TableSize = argc > 4 ? std::atoi(argv[4]) : 19;
+      c.encoding.finestResolution = argc > 5 ? std::atoi(argv[5]) : 4096;
+      Model m(c);
+      m.initialize(1);
+      const int n = 128;
+      const auto data = analytic(n);
+      VolumeView vol;
+      vol.data = data.data();
+      vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
+      const VolumeStats st = computeStats(vol);
+      vol.valueMin = st.min;
+      vol.valueMax = st.max;
+      m.source.valueMin = st.min;
+      m.source.valueMax = st.max;
+      if (mode == "step")
+      {
+        TrainConfig tc;
+        tc.batchSize = int(size);
+        const int steps = argc > 6 ? std::atoi(argv[6]) : 10;
+        auto tr = createTrainer(dev, m, vol, tc);
+        tr->step();
+        tr->step();
+        std::vector<double> ts;
+        for (int i = 0; i < steps; ++i)
+        {
+          const auto a = Clock::now();
+          tr->step();
+          ts.push_back(seconds(a, Clock::now()));
+        }
+        std::sort(ts.begin(), ts.end());
+        const double med = ts[ts.size() / 2];
+        std::printf("RESULT {\"what\":\"train_step\",\"device\":\"%s\",\"batch\":%lld,\"log2T\":%d,\"finest\":%d,"
+                    "\"params\":%zu,\"ms_median\":%.3f,\"ms_min\":%.3f,\"samples_per_s\":%.4g,\"device_mem_MiB\":%.1f}\n",
+          deviceName(dev), (long long)size, c.encoding.log2TableSize, c.encoding.finestResolution, m.paramCount(),
+          med * 1e3, ts.front() * 1e3, double(size) / med, tr->deviceMemoryBytes() / 1048576.0);
+      }
+      else if (mode == "infer")
+      {
+        std::vector<float> xyz(static_cast<size_t>(size) * 3), out(static_cast<size_t>(size));
+        for (size_t i = 0; i < xyz.size(); ++i)
+          xyz[i] = float((i * 2654435761ull) % 1000003) / 1000003.f;
+        inferPoints(m, xyz.data(), size, out.data(), dev);
+        const auto a = Clock::now();
+        inferPoints(m, xyz.data(), size, out.data(), dev);
+        const double t = seconds(a, Clock::now());
+        std::printf("RESULT {\"what\":\"inference\",\"device\":\"%s\",\"n\":%lld,\"ms\":%.3f,\"samples_per_s\":%.4g,"
+                    "\"note\":\"host arrays, transfers included\"}\n",
+          deviceName(dev), (long long)size, t * 1e3, double(size) / t);
+      }
+      else
+      {
+        std::vector<float> out(size_t(size) * size * size);
+        decodeGrid(m, size, size, size, 0, size, out.data(), dev);
+        const auto a = Clock::now();
+        decodeGrid(m, size, size, size, 0, size, out.data(), dev);
+        const double t = seconds(a, Clock::now());
+        std::printf("RESULT {\"what\":\"decode\",\"device\":\"%s\",\"grid\":%lld,\"ms\":%.3f,\"samples_per_s\":%.4g,"
+                    "\"note\":\"to host memory\"}\n",
+          deviceName(dev), (long long)size, t * 1e3, double(size * size * size) / t);
+      }
+      return 0;
+    }
+    if (mode == "curve")
+    {
+      const nvbench::RawVolume raw = nvbench::loadNhdr(argv[3]);
+      const int log2T = std::atoi(argv[4]);
+      std::vector<int> marks;
+      std::stringstream ss(argv[5]);
+      for (std::string t; std::getline(ss, t, ',');)
+        marks.push_back(std::atoi(t.c_str()));
+      ModelConfig c;
+      c.encoding.log2TableSize = log2T;
+      c.encoding.finestResolution =
+        int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+      Model m(c);
+      m.initialize(1);
+      m.source.valueMin = raw.view.valueMin;
+      m.source.valueMax = raw.view.valueMax;
+      TrainConfig tc;
+      tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;
+      auto tr = createTrainer(dev, m, raw.view, tc);
+      double trainTime = 0;
+      std::printf("RESULT {\"what\":\"curve\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"finest\":%d,"
+                  "\"batch\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T, c.encoding.finestResolution,
+        tc.batchSize);
+      int done = 0;
+      for (size_t k = 0; k < marks.size(); ++k)
+      {
+        const auto a = Clock::now();
+        while (done < marks[k])
+        {
+          tr->step();
+          ++done;
+        }
+        tr->syncTo(m);
+        trainTime += seconds(a, Clock::now());
+        const ErrorStats e = compareToSource(m, raw.view, dev);
+        std::printf("%s[%d,%.2f,%.2f]", k ? "," : "", done, trainTime, e.psnr);
+        std::fflush(stdout);
+      }
+      std::printf("]}\n");
+      return 0;
+    }
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  std::fprintf(stderr, "unknown mode %s\n", mode.c_str());
+  return 2;
+}
