@@ -67,6 +67,14 @@ enum class Device : int
 
 const char* deviceName(Device d);
 
+/// Where training targets are sampled (the paper's Sections 4.1-4.2). CPU training always samples on the host.
+enum class TrainingStrategy : int
+{
+  Auto = 0,        ///< GPU-resident when the volume fits in GPU memory, else host-sampled
+  GpuResident = 1, ///< volume uploaded once (native type or fp16); targets sampled on the GPU
+  HostSampled = 2  ///< CPU threads sample the next batch while the GPU trains on the current one
+};
+
 struct TrainConfig
 {
   int batchSize = 65536;
@@ -74,6 +82,7 @@ struct TrainConfig
   LossType loss = LossType::L1;
   OptimizerConfig optimizer;
   int threads = 0; ///< CPU worker threads; 0 = hardware concurrency
+  TrainingStrategy strategy = TrainingStrategy::Auto; ///< used by the CUDA trainer
 };
 
 /// Throws nv::Error with a readable message when a configuration is out of range.
