@@ -1,8 +1,9 @@
 // NeuralVolume engine benchmark (CPU or CUDA through the same API).
 //   nvBench step  DEVICE BATCH LOG2T FINEST [STEPS]      -> ms per training step, samples/s
 //   nvBench infer DEVICE N LOG2T FINEST                  -> inference samples/s
-//   nvBench curve DEVICE file.nhdr LOG2T STEPS[,..] [BATCH] -> PSNR over all voxels at the given steps
+//   nvBench curve DEVICE file.nhdr LOG2T STEPS[,..] [BATCH] [SEED] -> PSNR over all voxels at the given steps
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
+//   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
 // DEVICE: cpu | cuda. Prints lines "RESULT {json}".
 #include "Core/Engine.h"
 #include "Nhdr.h"
@@ -116,6 +117,34 @@ int main(int argc, char** argv)
       }
       return 0;
     }
+    if (mode == "budget")
+    {
+      const nvbench::RawVolume raw = nvbench::loadNhdr(argv[3]);
+      ModelConfig c;
+      c.encoding.log2TableSize = std::atoi(argv[4]);
+      c.encoding.finestResolution =
+        int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+      const double budget = std::atof(argv[5]);
+      Model m(c);
+      m.initialize(1);
+      m.source.valueMin = raw.view.valueMin;
+      m.source.valueMax = raw.view.valueMax;
+      TrainConfig tc;
+      tc.batchSize = std::atoi(argv[6]);
+      const auto a = Clock::now();
+      auto tr = createTrainer(dev, m, raw.view, tc);
+      while (seconds(a, Clock::now()) < budget)
+        tr->step();
+      tr->syncTo(m);
+      const double t = seconds(a, Clock::now());
+      m.quantize(Precision::Float16);
+      const ErrorStats e = compareToSource(m, raw.view, dev);
+      std::printf("RESULT {\"what\":\"budget\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"batch\":%d,"
+                  "\"seconds\":%.2f,\"steps\":%lld,\"psnr_fp16\":%.2f,\"ratio_fp16\":%.2f}\n",
+        deviceName(dev), raw.name.c_str(), c.encoding.log2TableSize, tc.batchSize, t, (long long)tr->stepsDone(),
+        e.psnr, double(raw.view.bytes()) / double(m.parameterBytes()));
+      return 0;
+    }
     if (mode == "curve")
     {
       const nvbench::RawVolume raw = nvbench::loadNhdr(argv[3]);
@@ -128,11 +157,13 @@ int main(int argc, char** argv)
       c.encoding.log2TableSize = log2T;
       c.encoding.finestResolution =
         int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+      const uint64_t seed = argc > 7 ? std::strtoull(argv[7], nullptr, 10) : 1;
       Model m(c);
-      m.initialize(1);
+      m.initialize(seed);
       m.source.valueMin = raw.view.valueMin;
       m.source.valueMax = raw.view.valueMax;
       TrainConfig tc;
+      tc.seed = seed;
       tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;
       auto tr = createTrainer(dev, m, raw.view, tc);
       double trainTime = 0;

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
+# Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvBenchGpu nvBench; data/: .nhdr+.raw;
+# ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
+#   parity | memcheck | racecheck | step | infer | quality | cpucurves | torch
+# Logs go to $OUT (or ./gpu-bench-out).
+set -u
+B=.devcarry/bin
+D=.devcarry/data
+O=${OUT:-gpu-bench-out}
+mkdir -p "$O"
+for s in "$@"; do
+  case $s in
+    parity)
+      nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv | tee "$O/gpu.txt"
+      $B/nvTestGpuParity 2>&1 | tee "$O/parity.log" ;;
+    memcheck)
+      compute-sanitizer --tool memcheck --leak-check full $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/memcheck.log"
+      compute-sanitizer --tool memcheck $B/nvTestGpuParity host_sampled_equals_gpu_resident 2>&1 | tail -6 | tee -a "$O/memcheck.log"
+      compute-sanitizer --tool memcheck $B/nvTestGpuParity decode_equals_batched_inference 2>&1 | tail -6 | tee -a "$O/memcheck.log" ;;
+    racecheck)
+      compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/racecheck.log"
+      compute-sanitizer --tool racecheck $B/nvTestGpuParity inference_matches_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
+    step)
+      for b in 16384 32768 65536 131072 262144 524288 1048576; do $B/nvBench step cuda $b 19 4096 200; done 2>&1 | tee "$O/step_batch.log"
+      for t in 14 16 18 19 20 22; do $B/nvBench step cuda 65536 $t 4096 200; done 2>&1 | tee "$O/step_table.log" ;;
+    infer)
+      for n in 2097152 8388608; do $B/nvBenchGpu infer $n 19 4096; done 2>&1 | tee "$O/infer.log"
+      $B/nvBenchGpu decode 512 19 4096 2>&1 | tee -a "$O/infer.log" ;;
+    quality)
+      $B/nvBenchGpu ttq $D/stent_128x128x256_int16.nhdr 14 250,500,750,1000,1500,2000,4000 2>&1 | tee "$O/quality.log"
+      $B/nvBenchGpu ttq $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log"
+      $B/nvBench curve cuda $D/stent_128x128x256_int16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log"
+      $B/nvBench curve cuda $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log" ;;
+    cpucurves)
+      # The CPU engine's curves (the accuracy reference), 16 threads of the device machine.
+      for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do
+        $B/nvBench curve cpu $D/$v.nhdr 14 500,1000,2000,4000
+      done > "$O/cpu_curves.log" 2>&1 ;;
+    torch)
+      (cd .devcarry/ref && PYTHONUNBUFFERED=1 timeout 300 python3 quality_torch.py bench_torch.py 2000 14 ../data/stent_128x128x256_int16.nhdr) 2>&1 | tail -15 | tee "$O/torch.log" ;;
+  esac
+done
