@@ -35,61 +35,6 @@ vtkStandardNewMacro(vtkNeuralCompress);
 namespace
 {
 
-/// Geometry of the decoded output for an input of extent/origin/spacing and a requested
-/// resolution (samples per axis; 0 = the source's). For a point array the samples are the
-/// output's points; for a cell array they are its cells.
-struct OutputGeometry
-{
-  int Extent[6];
-  double Origin[3];
-  double Spacing[3];
-  int SourceDims[3];  ///< samples per axis of the trained field (points or cells)
-  int DecodedDims[3]; ///< samples per axis of the decoded output
-  bool OnSourceGrid;  ///< decoded samples coincide with the source samples
-};
-
-OutputGeometry ComputeGeometry(
-  const int ext[6], const double origin[3], const double spacing[3], bool cells, const int res[3])
-{
-  OutputGeometry g;
-  g.OnSourceGrid = true;
-  std::copy(ext, ext + 6, g.Extent);
-  std::copy(origin, origin + 3, g.Origin);
-  std::copy(spacing, spacing + 3, g.Spacing);
-  for (int d = 0; d < 3; ++d)
-  {
-    const int points = std::max(ext[2 * d + 1] - ext[2 * d] + 1, 0);
-    g.SourceDims[d] = cells ? std::max(points - 1, points > 0 ? 1 : 0) : points;
-    int r = res[d] > 0 ? res[d] : g.SourceDims[d];
-    if (cells && points == 1)
-    {
-      r = 1; // a flat axis keeps its single layer of cells
-    }
-    g.DecodedDims[d] = r;
-    if (r == g.SourceDims[d])
-    {
-      continue;
-    }
-    g.OnSourceGrid = false;
-    const double b0 = origin[d] + ext[2 * d] * spacing[d];
-    const double length = (points - 1) * spacing[d];
-    g.Extent[2 * d] = 0;
-    if (cells)
-    {
-      g.Extent[2 * d + 1] = r;
-      g.Spacing[d] = length / r;
-      g.Origin[d] = b0;
-    }
-    else
-    {
-      g.Extent[2 * d + 1] = r - 1;
-      g.Spacing[d] = r > 1 ? length / (r - 1) : spacing[d];
-      g.Origin[d] = r > 1 ? b0 : b0 + 0.5 * length;
-    }
-  }
-  return g;
-}
-
 bool IsCellAssociation(vtkInformation* arrayInfo)
 {
   return arrayInfo && arrayInfo->Has(vtkDataObject::FIELD_ASSOCIATION()) &&
@@ -198,7 +143,7 @@ int vtkNeuralCompress::RequestInformation(
   {
     inInfo->Get(vtkDataObject::SPACING(), spacing);
   }
-  const OutputGeometry g = ComputeGeometry(
+  const nvi::OutputGeometry g = nvi::ComputeGeometry(
     ext, origin, spacing, IsCellAssociation(this->GetInputArrayInformation(0)), this->OutputResolution);
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
   outInfo->Set(vtkDataObject::ORIGIN(), g.Origin, 3);
@@ -239,19 +184,46 @@ int vtkNeuralCompress::RequestData(
   output->Initialize();
   InitializeLog(log);
 
+  if (!this->Execute(inputObject, inputVector, output, log))
+  {
+    // A defined result: no arrays, no network. For an image input the output keeps the promised
+    // (input) geometry, so the pipeline does not execute again (and repeat the error) on every
+    // update.
+    output->Initialize();
+    InitializeLog(log);
+    vtkInformation* outInfo = outputVector->GetInformationObject(0);
+    if (outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      int ext[6];
+      double origin[3], spacing[3];
+      outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
+      outInfo->Get(vtkDataObject::ORIGIN(), origin);
+      outInfo->Get(vtkDataObject::SPACING(), spacing);
+      output->SetExtent(ext);
+      output->SetOrigin(origin);
+      output->SetSpacing(spacing);
+    }
+  }
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
+  vtkImageData* output, vtkTable* log)
+{
   vtkImageData* input = vtkImageData::SafeDownCast(inputObject);
   if (!input)
   {
     vtkErrorMacro("Neural Compress supports vtkImageData input only; "
       << (inputObject ? inputObject->GetClassName() : "no") << " input (unstructured grids, "
       << "polydata, other datasets) arrives in a later version. The output is empty.");
-    return 1;
+    return false;
   }
   if (input->GetNumberOfPoints() == 0)
   {
     vtkErrorMacro("Neural Compress: the input image has an empty extent; nothing to train on. "
                   "The output is empty.");
-    return 1;
+    return false;
   }
 
   int association = -1;
@@ -260,7 +232,7 @@ int vtkNeuralCompress::RequestData(
   {
     vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array of the "
                   "image (SelectInputScalars). The output is empty.");
-    return 1;
+    return false;
   }
   if (association != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
     association != vtkDataObject::FIELD_ASSOCIATION_CELLS)
@@ -268,15 +240,10 @@ int vtkNeuralCompress::RequestData(
     vtkErrorMacro("Neural Compress: array '" << (array->GetName() ? array->GetName() : "")
                                              << "' is neither a point nor a cell array. "
                                                 "The output is empty.");
-    return 1;
+    return false;
   }
 
-  if (!this->Compress(input, array, association, output, log))
-  {
-    output->Initialize();
-    InitializeLog(log);
-  }
-  return 1;
+  return this->Compress(input, array, association, output, log);
 }
 
 //------------------------------------------------------------------------------
@@ -287,8 +254,8 @@ bool vtkNeuralCompress::Compress(
   const std::string name = array->GetName() ? array->GetName() : "Scalars";
   int ext[6];
   input->GetExtent(ext);
-  const OutputGeometry g =
-    ComputeGeometry(ext, input->GetOrigin(), input->GetSpacing(), cells, this->OutputResolution);
+  const nvi::OutputGeometry g =
+    nvi::ComputeGeometry(ext, input->GetOrigin(), input->GetSpacing(), cells, this->OutputResolution);
   const int64_t dims[3] = { g.SourceDims[0], g.SourceDims[1], g.SourceDims[2] };
   if (dims[0] * dims[1] * dims[2] <= 0)
   {
@@ -333,9 +300,11 @@ bool vtkNeuralCompress::Compress(
     config.encoding.featuresPerLevel = this->FeaturesPerLevel;
     config.encoding.baseResolution = this->BaseResolution;
     config.encoding.perLevelScale = 0.0;
+    // Default finest level: twice the largest dimension (never below the base resolution).
     config.encoding.finestResolution = this->FinestResolution > 0
       ? this->FinestResolution
-      : static_cast<int>(2 * std::max({ dims[0], dims[1], dims[2], int64_t(2) }));
+      : static_cast<int>(std::max<int64_t>(
+          2 * std::max({ dims[0], dims[1], dims[2] }), this->BaseResolution));
     config.network.width = this->NetworkWidth;
     config.network.hiddenLayers = this->HiddenLayers;
     config.encoding.log2TableSize = this->Log2TableSize > 0 ? this->Log2TableSize : 10;
@@ -450,9 +419,18 @@ bool vtkNeuralCompress::Compress(
     const std::vector<uint8_t> bytes = nv::serialize(model);
     const int64_t modelBytes = model.parameterBytes();
     const double ratio = static_cast<double>(field.RawBytes) / static_cast<double>(modelBytes);
+    if (this->Log2TableSize <= 0 && ratio < this->TargetCompressionRatio)
+    {
+      vtkWarningMacro("Neural Compress: the target compression ratio "
+        << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
+        << "(the smallest hash table gives " << ratio << ":1); use fewer Levels, "
+        << "FeaturesPerLevel, a narrower network or Float16 storage.");
+    }
 
     // Output image.
-    output->SetExtent(g.Extent);
+    int outExtent[6];
+    std::copy(g.Extent, g.Extent + 6, outExtent);
+    output->SetExtent(outExtent);
     output->SetOrigin(g.Origin);
     output->SetSpacing(g.Spacing);
     output->SetDirectionMatrix(input->GetDirectionMatrix());

@@ -23,6 +23,10 @@
  * when the algorithm's AbortExecute flag is set; the output is then built from the steps done.
  *
  * Only vtkImageData input is supported in this version; other dataset types produce an error.
+ * Inputs that cannot be trained (no array, all values NaN/Inf, empty extent, a configuration
+ * the engine rejects) produce an error, an output 0 without arrays (an image input keeps its
+ * geometry so the pipeline does not execute again) and an empty log. NaN/Inf values are left
+ * out of training with a warning; a constant field is represented exactly without training.
  */
 #ifndef vtkNeuralCompress_h
 #define vtkNeuralCompress_h
@@ -192,6 +196,9 @@ private:
   vtkNeuralCompress(const vtkNeuralCompress&) = delete;
   void operator=(const vtkNeuralCompress&) = delete;
 
+  /// Validates the input and selected array, then Compress(); false after reporting an error.
+  bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
+    vtkImageData* output, vtkTable* log);
   /// Trains on `array` of `input` and fills both outputs; returns false (outputs emptied by the
   /// caller) after reporting an error.
   bool Compress(vtkImageData* input, vtkDataArray* array, int association, vtkImageData* output,

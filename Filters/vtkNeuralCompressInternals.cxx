@@ -73,6 +73,48 @@ double Seconds(std::chrono::steady_clock::time_point since)
 
 } // namespace
 
+OutputGeometry ComputeGeometry(
+  const int ext[6], const double origin[3], const double spacing[3], bool cells, const int res[3])
+{
+  OutputGeometry g;
+  g.OnSourceGrid = true;
+  std::copy(ext, ext + 6, g.Extent);
+  std::copy(origin, origin + 3, g.Origin);
+  std::copy(spacing, spacing + 3, g.Spacing);
+  for (int d = 0; d < 3; ++d)
+  {
+    const int points = std::max(ext[2 * d + 1] - ext[2 * d] + 1, 0);
+    g.SourceDims[d] = cells ? std::max(points - 1, points > 0 ? 1 : 0) : points;
+    int r = res[d] > 0 ? res[d] : g.SourceDims[d];
+    if (cells && points == 1)
+    {
+      r = 1; // a flat axis keeps its single layer of cells
+    }
+    g.DecodedDims[d] = r;
+    if (r == g.SourceDims[d])
+    {
+      continue;
+    }
+    g.OnSourceGrid = false;
+    const double b0 = origin[d] + ext[2 * d] * spacing[d];
+    const double length = (points - 1) * spacing[d];
+    g.Extent[2 * d] = 0;
+    if (cells)
+    {
+      g.Extent[2 * d + 1] = r;
+      g.Spacing[d] = length / r;
+      g.Origin[d] = b0;
+    }
+    else
+    {
+      g.Extent[2 * d + 1] = r - 1;
+      g.Spacing[d] = r > 1 ? length / (r - 1) : spacing[d];
+      g.Origin[d] = r > 1 ? b0 : b0 + 0.5 * length;
+    }
+  }
+  return g;
+}
+
 bool MakeSourceField(vtkDataArray* array, int vectorMode, int component, const int64_t dims[3],
   SourceField& field, std::string& error)
 {

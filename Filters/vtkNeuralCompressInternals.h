@@ -32,6 +32,21 @@ struct SourceField
 bool MakeSourceField(vtkDataArray* array, int vectorMode, int component, const int64_t dims[3],
   SourceField& field, std::string& error);
 
+/// Geometry of the decoded output for an input of extent/origin/spacing and a requested
+/// resolution (samples per axis; 0 = the source's). For a point array the samples are the
+/// output's points; for a cell array they are its cells.
+struct OutputGeometry
+{
+  int Extent[6];
+  double Origin[3];
+  double Spacing[3];
+  int SourceDims[3];  ///< samples per axis of the trained field (points or cells)
+  int DecodedDims[3]; ///< samples per axis of the decoded output
+  bool OnSourceGrid;  ///< decoded samples coincide with the source samples
+};
+OutputGeometry ComputeGeometry(
+  const int ext[6], const double origin[3], const double spacing[3], bool cells, const int res[3]);
+
 struct LogRow
 {
   int64_t Step;
