@@ -322,11 +322,14 @@ bool vtkNeuralCompress::Compress(
     train.optimizer.learningRate = this->LearningRate;
     train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
     train.threads = this->Threads;
+    train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
     nv::validate(train);
 
     std::string deviceNote;
-    const nv::Device device = nv::resolveDevice(
-      this->Device == DEVICE_CPU ? nv::Device::Cpu : nv::Device::Auto, &deviceNote);
+    const nv::Device device = nv::resolveDevice(this->Device == DEVICE_CPU ? nv::Device::Cpu
+        : this->Device == DEVICE_CUDA                                      ? nv::Device::Cuda
+                                                                           : nv::Device::Auto,
+      &deviceNote);
 
     nv::Model model(config);
     model.initialize(train.seed);
@@ -455,6 +458,7 @@ bool vtkNeuralCompress::Compress(
     AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", ratio);
     AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", modelBytes);
     AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", stats.invalid);
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralGpuMemoryBytes", result.DeviceMemoryBytes);
     vtkNew<vtkStringArray> deviceArray;
     deviceArray->SetName("NeuralDevice");
     deviceArray->InsertNextValue(nv::deviceName(device));
@@ -543,6 +547,7 @@ void vtkNeuralCompress::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "StoragePrecision: " << this->StoragePrecision << "\n"
      << indent << "Device: " << this->Device << "\n"
      << indent << "Threads: " << this->Threads << "\n"
+     << indent << "TrainingStrategy: " << this->TrainingStrategy << "\n"
      << indent << "OutputResolution: " << this->OutputResolution[0] << " "
      << this->OutputResolution[1] << " " << this->OutputResolution[2] << "\n"
      << indent << "PSNRInterval: " << this->PSNRInterval << "\n";

@@ -68,7 +68,14 @@ public:
   enum Devices
   {
     DEVICE_AUTO = 0,
-    DEVICE_CPU = 1
+    DEVICE_CPU = 1,
+    DEVICE_CUDA = 2
+  };
+  enum Strategies
+  {
+    STRATEGY_AUTO = 0,
+    STRATEGY_GPU_RESIDENT = 1,
+    STRATEGY_HOST_SAMPLED = 2
   };
 
   ///@{
@@ -137,12 +144,20 @@ public:
   ///@}
 
   ///@{
-  /// Compute device (DEVICE_AUTO picks CUDA when a GPU is usable, else the CPU) and number of
-  /// CPU threads (0 = all cores).
-  vtkSetClampMacro(Device, int, DEVICE_AUTO, DEVICE_CPU);
+  /// Compute device (DEVICE_AUTO picks CUDA when a GPU is usable, else the CPU with a message;
+  /// DEVICE_CUDA without a usable GPU is an error) and number of CPU threads (0 = all cores).
+  vtkSetClampMacro(Device, int, DEVICE_AUTO, DEVICE_CUDA);
   vtkGetMacro(Device, int);
   vtkSetClampMacro(Threads, int, 0, 4096);
   vtkGetMacro(Threads, int);
+  ///@}
+
+  ///@{
+  /// GPU training strategy: GPU-resident (volume uploaded once, targets sampled on the GPU),
+  /// host-sampled (CPU threads sample the next batch while the GPU trains), or Auto (resident
+  /// when the volume fits in GPU memory). Ignored on the CPU.
+  vtkSetClampMacro(TrainingStrategy, int, STRATEGY_AUTO, STRATEGY_HOST_SAMPLED);
+  vtkGetMacro(TrainingStrategy, int);
   ///@}
 
   ///@{
@@ -189,6 +204,7 @@ protected:
   int StoragePrecision = FLOAT16;
   int Device = DEVICE_AUTO;
   int Threads = 0;
+  int TrainingStrategy = STRATEGY_AUTO;
   int OutputResolution[3] = { 0, 0, 0 };
   int PSNRInterval = 100;
 

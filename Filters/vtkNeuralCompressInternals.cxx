@@ -255,6 +255,7 @@ TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::Tra
   TrainingResult result;
   const auto start = std::chrono::steady_clock::now();
   auto trainer = nv::createTrainer(request.Device, model, view, config);
+  result.DeviceMemoryBytes = trainer->deviceMemoryBytes();
   double lastProgress = -1.0;
   for (int64_t step = 1; step <= request.MaxSteps; ++step)
   {

@@ -86,6 +86,7 @@ struct TrainingResult
   double FinalLoss = 0.0;
   bool Aborted = false;
   bool TimedOut = false;
+  int64_t DeviceMemoryBytes = 0; ///< GPU memory held by the trainer (0 on the CPU)
   std::vector<LogRow> Log;
 };
 

@@ -151,6 +151,22 @@ check("vtkUnstructuredGrid" in text and "later version" in text,
       "unstructured grid: the message names the type and says it comes later")
 Delete(filt)
 
+# --- device selection ----------------------------------------------------------------------------
+# CPU: no GPU memory; the GPU training strategy is ignored there.
+filt, out, table, text = run(image_source(smooth.ravel()), Device="CPU", TrainingStrategy="Host-sampled")
+check(nvtest.field_value(out, "NeuralDevice") == "CPU", "Device=CPU trains on the CPU")
+check(nvtest.field_value(out, "NeuralGpuMemoryBytes") == 0, "CPU run reports 0 bytes of GPU memory")
+Delete(filt)
+# CUDA: an error naming the reason where no GPU is usable; a GPU run reporting its memory otherwise.
+filt, out, table, text = run(image_source(smooth.ravel()), Device="CUDA")
+if "not usable" in text:
+    expect_empty("CUDA without a GPU", out, table, text, "CUDA device requested but not usable")
+    log("Device=CUDA without a GPU: %s" % text.strip().splitlines()[-1])
+else:
+    check(nvtest.field_value(out, "NeuralDevice") == "CUDA", "Device=CUDA trains on the GPU (%r)" % text)
+    check(nvtest.field_value(out, "NeuralGpuMemoryBytes") > 0, "GPU run reports its GPU memory")
+Delete(filt)
+
 # --- the session is still usable after all that ------------------------------------------------
 filt, out, table, text = run(image_source(smooth.ravel()))
 check(out.GetNumberOfPoints() == 16 ** 3 and nvtest.field_value(out, "NeuralSteps") == 40,

@@ -67,7 +67,7 @@ expected_types = {"NeuralNetwork": "vtkUnsignedCharArray", "NeuralTrainingSecond
                   "NeuralSteps": "vtkTypeInt64Array", "NeuralPSNR": "vtkDoubleArray",
                   "NeuralMaxError": "vtkDoubleArray", "NeuralCompressionRatio": "vtkDoubleArray",
                   "NeuralModelBytes": "vtkTypeInt64Array", "NeuralInvalidSamples": "vtkTypeInt64Array",
-                  "NeuralDevice": "vtkStringArray"}
+                  "NeuralGpuMemoryBytes": "vtkTypeInt64Array", "NeuralDevice": "vtkStringArray"}
 for name, cls in expected_types.items():
     array = fd.GetAbstractArray(name)
     check(array is not None and array.IsA(cls), "field data %s (%s)" % (name, cls))
