@@ -1,0 +1,511 @@
+// NeuralVolume engine: CUDA device queries, parameter packing, fused inference (encoding + MLP in one kernel),
+// batched inference and grid decoding entry points, and test/benchmark hooks.
+#include "Core/Model.h"
+#include "Cpu/ThreadPool.h"
+#include "GpuEngine.h"
+#include "GpuInternal.cuh"
+#include "GpuTesting.h"
+
+#include <algorithm>
+#include <cstring>
+#include <mutex>
+#include <sstream>
+#include <vector>
+
+namespace nv
+{
+namespace gpu
+{
+
+void throwCuda(cudaError_t e, const char* call, const char* file, int line)
+{
+  std::ostringstream os;
+  os << "CUDA error " << cudaGetErrorName(e) << " (" << cudaGetErrorString(e) << ") in " << call;
+  cudaGetLastError(); // clear a non-sticky error
+  throwError(file, line, os.str());
+}
+
+void* deviceAlloc(size_t bytes, const char* what)
+{
+  void* p = nullptr;
+  const cudaError_t e = cudaMalloc(&p, bytes);
+  if (e == cudaErrorMemoryAllocation)
+  {
+    cudaGetLastError();
+    size_t freeB = 0, totalB = 0;
+    cudaMemGetInfo(&freeB, &totalB);
+    std::ostringstream os;
+    os << "out of GPU memory: cannot allocate " << bytes / 1048576.0 << " MiB for " << what << " ("
+       << freeB / 1048576.0 << " MiB free of " << totalB / 1048576.0 << " MiB)";
+    NV_THROW(os.str());
+  }
+  NV_CUDA(e);
+  return p;
+}
+
+namespace
+{
+__global__ void probeKernel(int* p)
+{
+  if (p)
+    *p = 1;
+}
+
+struct Usable
+{
+  bool ok = false;
+  std::string why;
+};
+
+const Usable& usable()
+{
+  static Usable u;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    int count = 0;
+    cudaError_t e = cudaGetDeviceCount(&count);
+    if (e != cudaSuccess)
+    {
+      u.why = std::string("CUDA runtime reports ") + cudaGetErrorString(e);
+      cudaGetLastError();
+      return;
+    }
+    if (count == 0)
+    {
+      u.why = "no CUDA device found";
+      return;
+    }
+    cudaDeviceProp p;
+    if (cudaGetDeviceProperties(&p, 0) != cudaSuccess)
+    {
+      cudaGetLastError();
+      u.why = "cannot query CUDA device 0";
+      return;
+    }
+    if (p.major != 9)
+    {
+      std::ostringstream os;
+      os << "GPU '" << p.name << "' has compute capability " << p.major << "." << p.minor
+         << "; this build of NeuralVolume supports compute capability 9.x (sm_90, Hopper) only";
+      u.why = os.str();
+      return;
+    }
+    cudaFuncAttributes fa;
+    e = cudaFuncGetAttributes(&fa, probeKernel);
+    if (e != cudaSuccess)
+    {
+      u.why = std::string("the CUDA kernels cannot run on '") + p.name + "': " + cudaGetErrorString(e);
+      cudaGetLastError();
+      return;
+    }
+    u.ok = true;
+  });
+  return u;
+}
+
+__global__ void toHalfKernel(const float* __restrict__ src, __half* __restrict__ dst, int64_t n)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    dst[i] = __float2half_rn(src[i]);
+}
+
+__global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half* __restrict__ w16, float* __restrict__ wout,
+  int64_t count)
+{
+  for (int64_t j = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; j < count; j += int64_t(gridDim.x) * blockDim.x)
+  {
+    int64_t r = j;
+    int l = 0;
+    for (; l < s.H; ++l)
+    {
+      const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
+      if (r < sz)
+        break;
+      r -= sz;
+    }
+    if (l == s.H)
+    {
+      wout[r] = mlp[j];
+      continue;
+    }
+    const int K = l == 0 ? s.D : s.W;
+    const int o = static_cast<int>(r / K), i = static_cast<int>(r % K);
+    w16[s.off[l] + o * s.inDim(l) + i] = __float2half_rn(mlp[j]);
+  }
+}
+
+struct InferArgs
+{
+  GridLayout grid;
+  MlpShape shape;
+  SmemPlan plan;
+  const __half* table16;
+  const __half* w16;
+  const float* wout;
+  const float* xyz;
+  int64_t nx, ny, nz, z0, first, n;
+  float* out;
+  int tiles;
+};
+
+template <int W, int F>
+__global__ void __launch_bounds__(256) inferKernel(const __grid_constant__ InferArgs a)
+{
+  extern __shared__ __align__(128) unsigned char smem[];
+  const SmemPlan& p = a.plan;
+  const MlpShape& s = a.shape;
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T;
+  float* sx = reinterpret_cast<float*>(smem + p.xyz);
+  __half* enc = reinterpret_cast<__half*>(smem + p.enc);
+  __half* act = reinterpret_cast<__half*>(smem + p.acts);
+  float* stage = reinterpret_cast<float*>(smem + p.stage) + warp * 256;
+  const float* sw = reinterpret_cast<const float*>(smem + p.wout);
+  const __half* wl[kMaxHidden];
+  int ldw[kMaxHidden];
+  stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
+  const int pad = s.Dp - s.D;
+  for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
+    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
+  __syncthreads();
+  const int row0 = warp * 16;
+  for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
+  {
+    const int64_t base = int64_t(tile) * T;
+    for (int t = threadIdx.x; t < T; t += blockDim.x)
+    {
+      const int64_t gi = base + t;
+      float x = 0.0f, y = 0.0f, z = 0.0f;
+      if (gi < a.n)
+      {
+        if (a.xyz)
+        {
+          x = a.xyz[3 * gi];
+          y = a.xyz[3 * gi + 1];
+          z = a.xyz[3 * gi + 2];
+        }
+        else
+        {
+          const int64_t li = a.first + gi;
+          const int64_t row = li / a.nx;
+          x = gridCoord(li - row * a.nx, a.nx);
+          y = gridCoord(row % a.ny, a.ny);
+          z = gridCoord(a.z0 + row / a.ny, a.nz);
+        }
+      }
+      sx[3 * t] = x;
+      sx[3 * t + 1] = y;
+      sx[3 * t + 2] = z;
+    }
+    __syncthreads();
+    encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
+    __syncthreads();
+    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], act, p.ldA, stage, row0, lane);
+    for (int l = 1; l < s.H; ++l)
+      forwardLayer<W>(act, p.ldA, W, wl[l], ldw[l], act, p.ldA, stage, row0, lane);
+    {
+      const int t = row0 + (lane >> 1), h = lane & 1;
+      float o = 0.0f;
+      const __half* r = act + t * p.ldA + h * (W / 2);
+#pragma unroll 8
+      for (int i = 0; i < W / 2; ++i)
+        o += __half2float(r[i]) * sw[h * (W / 2) + i];
+      o += __shfl_xor_sync(0xffffffffu, o, 1);
+      const int64_t gi = base + t;
+      if (h == 0 && gi < a.n)
+        a.out[gi] = o;
+    }
+    __syncthreads();
+  }
+}
+
+using InferFn = void (*)(InferArgs);
+
+InferFn pickInfer(int W, int F)
+{
+#define NV_CASE(w, f)                                                                              \
+  if (W == w && F == f)                                                                            \
+    return inferKernel<w, f>;
+  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
+  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
+  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
+  NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
+#undef NV_CASE
+  NV_THROW("unsupported network width / features per level on the GPU");
+}
+
+__global__ void encodeTestKernel(GridLayout g, const __half* __restrict__ table, const float* __restrict__ xyz,
+  int64_t n, float* __restrict__ out)
+{
+  const int64_t items = n * g.levels;
+  for (int64_t it = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; it < items; it += int64_t(gridDim.x) * blockDim.x)
+  {
+    const int64_t s = it / g.levels;
+    const int l = static_cast<int>(it % g.levels);
+    const LevelInfo& lv = g.level[l];
+    const float x[3] = { xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2] };
+    uint32_t corner[3];
+    float frac[3];
+    gridPosition(lv, x, corner, frac);
+    float acc[kMaxFeatures] = {};
+    for (int c = 0; c < 8; ++c)
+    {
+      const float w = cornerWeight(c, frac);
+      const __half* e = table + size_t(cornerIndex(lv, c, corner)) * g.features;
+      for (int f = 0; f < g.features; ++f)
+        acc[f] += w * __half2float(e[f]);
+    }
+    for (int f = 0; f < g.features; ++f)
+      out[s * g.levels * g.features + l * g.features + f] = acc[f];
+  }
+}
+
+__global__ void randomPointsKernel(float* xyz, int64_t n)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    randomPoint(12345, 1, static_cast<uint64_t>(i), xyz + 3 * i);
+}
+
+int gridFor(int64_t n, int threads = 256)
+{
+  const int64_t b = (n + threads - 1) / threads;
+  return static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(b, int64_t(deviceInfo().sms) * 32)));
+}
+
+} // namespace
+
+const DeviceInfo& deviceInfo()
+{
+  static DeviceInfo info;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    NV_CUDA(cudaGetDevice(&info.device));
+    cudaDeviceProp p;
+    NV_CUDA(cudaGetDeviceProperties(&p, info.device));
+    info.sms = p.multiProcessorCount;
+    info.maxSmemOptin = static_cast<int>(p.sharedMemPerBlockOptin);
+    info.totalMem = p.totalGlobalMem;
+    info.name = p.name;
+    info.major = p.major;
+    info.minor = p.minor;
+  });
+  return info;
+}
+
+bool deviceUsable(std::string* why)
+{
+  const Usable& u = usable();
+  if (!u.ok && why)
+    *why = u.why;
+  return u.ok;
+}
+
+std::string deviceDescription()
+{
+  const DeviceInfo& d = deviceInfo();
+  std::ostringstream os;
+  os << d.name << " (sm_" << d.major << d.minor << ", " << d.sms << " SMs, " << d.totalMem / 1048576 << " MiB)";
+  return os.str();
+}
+
+SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm)
+{
+  // First plan that fits: weights in shared memory and the largest tile (8 warps). Measured on an H100 (see
+  // Testing/Benchmarks/results/gpu_notes.md): choosing the plan with the most resident warps instead (smaller
+  // tiles, weights through L1) was slower for training (0.94 vs 0.82 ms), inference and decode.
+  const int limit = deviceInfo().maxSmemOptin;
+  NV_CUDA(cudaFuncSetAttribute(fn, cudaFuncAttributeMaxDynamicSharedMemorySize, limit));
+  SmemPlan best{};
+  int bestWarps = 0, bestBlocks = 0;
+  for (int w : { 1, 0 })
+    for (int warps : { 8, 4, 2, 1 })
+    {
+      const SmemPlan p = makeSmemPlan(s, warps, training, w == 1);
+      if (bestWarps > 0 || p.total > limit)
+        continue;
+      int perSm = 0;
+      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fn, warps * 32, p.total));
+      if (perSm > 0)
+      {
+        best = p;
+        bestWarps = perSm * warps;
+        bestBlocks = perSm;
+      }
+    }
+  NV_CHECK(bestWarps > 0, "network too large for the GPU's shared memory");
+  if (blocksPerSm)
+    *blocksPerSm = bestBlocks;
+  return best;
+}
+
+void allocateDeviceModel(const Model& model, DeviceModel& dm)
+{
+  dm.grid = model.layout();
+  dm.shape = makeMlpShape(model.config());
+  dm.table16.allocate(model.encodingParamCount(), "fp16 hash table");
+  dm.w16.allocate(dm.shape.total, "fp16 MLP weights");
+  dm.wout.allocate(dm.shape.W, "output layer");
+}
+
+void packParams(const float* dParams, DeviceModel& dm, cudaStream_t stream)
+{
+  const int64_t ne = static_cast<int64_t>(dm.table16.size());
+  toHalfKernel<<<gridFor(ne), 256, 0, stream>>>(dParams, dm.table16.get(), ne);
+  NV_CUDA_LAUNCH();
+  NV_CUDA(cudaMemsetAsync(dm.w16.get(), 0, dm.w16.bytes(), stream));
+  const MlpShape& s = dm.shape;
+  const int64_t nm = int64_t(s.W) * s.D + int64_t(s.H - 1) * s.W * s.W + s.W;
+  packMlpKernel<<<gridFor(nm), 256, 0, stream>>>(dParams + ne, s, dm.w16.get(), dm.wout.get(), nm);
+  NV_CUDA_LAUNCH();
+}
+
+void uploadModel(const Model& model, DeviceModel& dm, cudaStream_t stream)
+{
+  allocateDeviceModel(model, dm);
+  DeviceBuffer<float> p(model.paramCount(), "parameters");
+  NV_CUDA(cudaMemcpyAsync(p.get(), model.params().data(), p.bytes(), cudaMemcpyHostToDevice, stream));
+  packParams(p.get(), dm, stream);
+  NV_CUDA(cudaStreamSynchronize(stream)); // p is freed on return
+}
+
+void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
+  int64_t first, int64_t n, float* out, cudaStream_t stream)
+{
+  if (n <= 0)
+    return;
+  InferArgs a;
+  a.grid = dm.grid;
+  a.shape = dm.shape;
+  const InferFn fn = pickInfer(dm.shape.W, dm.grid.features);
+  int perSm = 0;
+  a.plan = choosePlan(dm.shape, false, reinterpret_cast<const void*>(fn), &perSm);
+  a.table16 = dm.table16.get();
+  a.w16 = dm.w16.get();
+  a.wout = dm.wout.get();
+  a.xyz = xyz;
+  a.nx = nx;
+  a.ny = ny;
+  a.nz = nz;
+  a.z0 = z0;
+  a.first = first;
+  a.n = n;
+  a.out = out;
+  const int64_t tiles = (n + a.plan.T - 1) / a.plan.T;
+  NV_CHECK(tiles < (int64_t(1) << 31), "too many samples in one launch");
+  a.tiles = static_cast<int>(tiles);
+  const int blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms * 4));
+  fn<<<blocks, a.plan.warps * 32, a.plan.total, stream>>>(a);
+  NV_CUDA_LAUNCH();
+}
+
+void inferPoints(const Model& model, const float* xyz, int64_t n, float* out)
+{
+  Stream st;
+  DeviceModel dm;
+  uploadModel(model, dm, st.get());
+  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 24);
+  DeviceBuffer<float> dx(3 * chunk, "points"), dy(chunk, "outputs");
+  for (int64_t b = 0; b < n; b += chunk)
+  {
+    const int64_t m = std::min(chunk, n - b);
+    NV_CUDA(cudaMemcpyAsync(dx.get(), xyz + 3 * b, 3 * m * sizeof(float), cudaMemcpyHostToDevice, st.get()));
+    launchInference(dm, dx.get(), 0, 0, 0, 0, 0, m, dy.get(), st.get());
+    NV_CUDA(cudaMemcpyAsync(out + b, dy.get(), m * sizeof(float), cudaMemcpyDeviceToHost, st.get()));
+  }
+  st.sync();
+}
+
+void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out)
+{
+  Stream st;
+  DeviceModel dm;
+  uploadModel(model, dm, st.get());
+  const int64_t n = nx * ny * (z1 - z0);
+  // Pipeline: the kernel fills chunk k while chunk k-1 is copied to pinned memory and chunk k-2 to `out`.
+  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 23);
+  DeviceBuffer<float> dy[2] = { DeviceBuffer<float>(chunk, "decode"), DeviceBuffer<float>(chunk, "decode") };
+  PinnedBuffer<float> hy[2] = { PinnedBuffer<float>(chunk), PinnedBuffer<float>(chunk) };
+  Event done[2];
+  ThreadPool pool(std::min(8, ThreadPool::defaultThreads()));
+  const int64_t chunks = (n + chunk - 1) / chunk;
+  auto drain = [&](int64_t k) {
+    const int slot = static_cast<int>(k % 2);
+    NV_CUDA(cudaEventSynchronize(done[slot].get()));
+    const int64_t b = k * chunk, m = std::min(chunk, n - b);
+    const float* src = hy[slot].get();
+    pool.parallelFor(m, [&](int64_t s, int64_t e, int) { std::memcpy(out + b + s, src + s, (e - s) * sizeof(float)); });
+  };
+  for (int64_t k = 0; k < chunks; ++k)
+  {
+    const int slot = static_cast<int>(k % 2);
+    if (k >= 2)
+      drain(k - 2);
+    const int64_t b = k * chunk, m = std::min(chunk, n - b);
+    launchInference(dm, nullptr, nx, ny, nz, z0, b, m, dy[slot].get(), st.get());
+    NV_CUDA(cudaMemcpyAsync(hy[slot].get(), dy[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost, st.get()));
+    NV_CUDA(cudaEventRecord(done[slot].get(), st.get()));
+  }
+  for (int64_t k = std::max<int64_t>(0, chunks - 2); k < chunks; ++k)
+    drain(k);
+}
+
+void testEncode(const Model& model, const float* xyz, int64_t n, float* out)
+{
+  Stream st;
+  DeviceModel dm;
+  uploadModel(model, dm, st.get());
+  const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
+  DeviceBuffer<float> dx(3 * n), dy(n * D);
+  NV_CUDA(cudaMemcpyAsync(dx.get(), xyz, dx.bytes(), cudaMemcpyHostToDevice, st.get()));
+  encodeTestKernel<<<gridFor(n * dm.grid.levels), 256, 0, st.get()>>>(dm.grid, dm.table16.get(), dx.get(), n, dy.get());
+  NV_CUDA_LAUNCH();
+  NV_CUDA(cudaMemcpyAsync(out, dy.get(), dy.bytes(), cudaMemcpyDeviceToHost, st.get()));
+  st.sync();
+}
+
+namespace
+{
+template <typename Fn>
+double medianMs(int reps, cudaStream_t st, Fn&& fn)
+{
+  Event a, b;
+  std::vector<float> ts;
+  fn(); // warm-up
+  fn();
+  for (int r = 0; r < reps; ++r)
+  {
+    NV_CUDA(cudaEventRecord(a.get(), st));
+    fn();
+    NV_CUDA(cudaEventRecord(b.get(), st));
+    NV_CUDA(cudaEventSynchronize(b.get()));
+    float ms = 0;
+    NV_CUDA(cudaEventElapsedTime(&ms, a.get(), b.get()));
+    ts.push_back(ms);
+  }
+  std::sort(ts.begin(), ts.end());
+  return ts[ts.size() / 2];
+}
+} // namespace
+
+double benchInferKernel(const Model& model, int64_t n, int reps)
+{
+  Stream st;
+  DeviceModel dm;
+  uploadModel(model, dm, st.get());
+  DeviceBuffer<float> dx(3 * n), dy(n);
+  randomPointsKernel<<<gridFor(n), 256, 0, st.get()>>>(dx.get(), n);
+  NV_CUDA_LAUNCH();
+  return medianMs(reps, st.get(), [&] { launchInference(dm, dx.get(), 0, 0, 0, 0, 0, n, dy.get(), st.get()); });
+}
+
+double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz, int reps)
+{
+  Stream st;
+  DeviceModel dm;
+  uploadModel(model, dm, st.get());
+  const int64_t n = nx * ny * nz;
+  DeviceBuffer<float> dy(n);
+  return medianMs(reps, st.get(), [&] { launchInference(dm, nullptr, nx, ny, nz, 0, 0, n, dy.get(), st.get()); });
+}
+
+} // namespace gpu
+} // namespace nv

@@ -1,0 +1,55 @@
+// NeuralVolume engine: host-side helpers shared by the CUDA translation units.
+#pragma once
+
+#include "Core/Model.h"
+#include "GpuCommon.cuh"
+#include "GpuNetwork.cuh"
+
+#include <string>
+
+namespace nv
+{
+namespace gpu
+{
+
+struct DeviceInfo
+{
+  int device = 0;
+  int sms = 0;
+  int maxSmemOptin = 0;
+  size_t totalMem = 0;
+  std::string name;
+  int major = 0, minor = 0;
+};
+/// Properties of the current device (queried once).
+const DeviceInfo& deviceInfo();
+
+/// The parameters in the form the kernels read: fp16 table, padded fp16 MLP, fp32 output row.
+struct DeviceModel
+{
+  GridLayout grid{};
+  MlpShape shape{};
+  DeviceBuffer<__half> table16;
+  DeviceBuffer<__half> w16;
+  DeviceBuffer<float> wout;
+  size_t bytes() const { return table16.bytes() + w16.bytes() + wout.bytes(); }
+};
+
+/// Allocate the fp16 copies for a configuration.
+void allocateDeviceModel(const Model& model, DeviceModel& dm);
+/// Fill dm's fp16 copies from the full fp32 parameter vector on the device (Model::params layout).
+void packParams(const float* dParams, DeviceModel& dm, cudaStream_t stream);
+/// Upload a host model.
+void uploadModel(const Model& model, DeviceModel& dm, cudaStream_t stream);
+
+/// Shared-memory plan for kernel fn: weights in shared memory and the largest tile that fit (else weights through
+/// L1); blocksPerSm receives its occupancy.
+SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm);
+
+/// Run the inference kernel: xyz (device, n x 3) or, when xyz is null, the grid points
+/// [first, first + n) of slices starting at z0 of an nx*ny*nz grid. out: device, n floats.
+void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
+  int64_t first, int64_t n, float* out, cudaStream_t stream);
+
+} // namespace gpu
+} // namespace nv

@@ -1,0 +1,422 @@
+// NeuralVolume engine: device code shared by training and inference — hash-grid encoding of a tile of samples
+// into shared memory (fp16), and the bias-free ReLU MLP on tensor cores (WMMA m16n16k16, fp16 operands, fp32
+// accumulation). A block processes tiles of T = 16 * warps samples; warp w owns rows [16w, 16w+16) of each tile.
+#pragma once
+
+#include "Core/HashGridMath.h"
+#include "Core/Model.h"
+#include "GpuCommon.cuh"
+
+#include <mma.h>
+
+#include <cstdint>
+
+namespace nv
+{
+namespace gpu
+{
+
+constexpr int kMaxHidden = 8;
+
+/// Padded MLP layout used on the GPU (fp16 weights and fp32 gradients): layer 0 is W x Dp (inputs padded to a
+/// multiple of 16 with zero weights), hidden layers W x W, then the output row (W).
+struct MlpShape
+{
+  int W;
+  int H;
+  int D;  ///< encoding outputs (levels * features)
+  int Dp; ///< D rounded up to 16
+  int off[kMaxHidden + 1]; ///< padded offset of layer l; off[H] = output row
+  int total;               ///< padded size, multiple of 64
+  __host__ __device__ int inDim(int l) const { return l == 0 ? Dp : W; }
+};
+
+inline MlpShape makeMlpShape(const ModelConfig& c)
+{
+  MlpShape s{};
+  s.W = c.network.width;
+  s.H = c.network.hiddenLayers;
+  s.D = c.encoding.levels * c.encoding.featuresPerLevel;
+  s.Dp = (s.D + 15) / 16 * 16;
+  int o = 0;
+  for (int l = 0; l < s.H; ++l)
+  {
+    s.off[l] = o;
+    o += s.W * (l == 0 ? s.Dp : s.W);
+  }
+  s.off[s.H] = o;
+  o += s.W;
+  s.total = (o + 63) / 64 * 64;
+  return s;
+}
+
+inline size_t roundUp128(size_t x)
+{
+  return (x + 127) / 128 * 128;
+}
+
+/// Shared-memory plan of a block (bytes offsets). Training keeps every hidden activation for the backward pass.
+struct SmemPlan
+{
+  int T, warps;
+  int ldE, ldA, ldDE; ///< leading dimensions: enc (halves), activations (halves), dEnc (floats)
+  int xyz, tgt, g, enc, acts, dz0, dz1, stage, w, wout;
+  int wOff[kMaxHidden]; ///< smem weight layer offsets (halves, relative to w)
+  int total;
+  bool wInSmem;
+};
+
+inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool wInSmem)
+{
+  SmemPlan p{};
+  p.warps = warps;
+  p.T = 16 * warps;
+  p.ldE = s.Dp + 8;
+  p.ldA = s.W + 8;
+  p.ldDE = s.Dp + 4;
+  p.wInSmem = wInSmem;
+  size_t o = 0;
+  auto take = [&](size_t bytes) {
+    const size_t at = o;
+    o += roundUp128(bytes);
+    return static_cast<int>(at);
+  };
+  const size_t T = p.T;
+  p.xyz = take(T * 3 * 4);
+  p.tgt = take(T * 4);
+  p.g = take(T * 4);
+  p.enc = take(T * p.ldE * 2);
+  if (training)
+  {
+    const size_t actsBytes = static_cast<size_t>(s.H) * T * p.ldA * 2;
+    const size_t dEncBytes = T * p.ldDE * 4; // aliases the activations (dead when dEnc is written)
+    p.acts = take(actsBytes > dEncBytes ? actsBytes : dEncBytes);
+    p.dz0 = take(T * p.ldA * 2);
+    p.dz1 = take(T * p.ldA * 2);
+  }
+  else
+  {
+    p.acts = take(T * p.ldA * 2);
+    p.dz0 = p.dz1 = 0;
+  }
+  p.stage = take(static_cast<size_t>(warps) * 256 * 4);
+  p.wout = take(s.W * 4);
+  size_t wh = 0;
+  for (int l = 0; l < s.H; ++l)
+  {
+    p.wOff[l] = static_cast<int>(wh);
+    wh += static_cast<size_t>(s.W) * (s.inDim(l) + 8);
+  }
+  p.w = wInSmem ? take(wh * 2) : 0;
+  p.total = static_cast<int>(o);
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Device helpers
+
+template <int F>
+struct HalfVec;
+template <>
+struct HalfVec<1>
+{
+  using T = __half;
+};
+template <>
+struct HalfVec<2>
+{
+  using T = __half2;
+};
+template <>
+struct HalfVec<4>
+{
+  using T = uint2;
+};
+template <>
+struct HalfVec<8>
+{
+  using T = uint4;
+};
+
+/// Gather F fp16 features of entry idx and add w * features to acc.
+template <int F>
+__device__ __forceinline__ void gatherAdd(const __half* __restrict__ table, uint32_t idx, float w, float* acc)
+{
+  using V = typename HalfVec<F>::T;
+  const V v = __ldg(reinterpret_cast<const V*>(table) + idx);
+  const __half* h = reinterpret_cast<const __half*>(&v);
+#pragma unroll
+  for (int f = 0; f < F; ++f)
+    acc[f] += w * __half2float(h[f]);
+}
+
+/// Encode the tile's T points (sx: T x 3) into enc (T x ldE halves, columns l*F+f). Two (sample, level) items per
+/// thread and iteration: 16 independent gathers in flight.
+template <int F>
+__device__ __forceinline__ void encodeOne(const GridLayout& g, const __half* __restrict__ table, const float* sx,
+  int it, int T, uint32_t* idx, float* frac)
+{
+  const int t = it % T, l = it / T;
+  const LevelInfo& lv = g.level[l];
+  const float x[3] = { sx[3 * t], sx[3 * t + 1], sx[3 * t + 2] };
+  uint32_t corner[3];
+  gridPosition(lv, x, corner, frac);
+#pragma unroll
+  for (int c = 0; c < 8; ++c)
+    idx[c] = cornerIndex(lv, c, corner);
+}
+
+template <int F>
+__device__ __forceinline__ void encodeTile(const GridLayout& g, const __half* __restrict__ table, const float* sx,
+  __half* enc, int ldE, int T)
+{
+  using V = typename HalfVec<F>::T;
+  const int items = T * g.levels;
+  for (int it0 = threadIdx.x; it0 < items; it0 += 2 * blockDim.x)
+  {
+    const int it1 = it0 + blockDim.x;
+    const bool two = it1 < items;
+    uint32_t idx[2][8];
+    float frac[2][3];
+    encodeOne<F>(g, table, sx, it0, T, idx[0], frac[0]);
+    encodeOne<F>(g, table, sx, two ? it1 : it0, T, idx[1], frac[1]);
+    V v[2][8];
+#pragma unroll
+    for (int k = 0; k < 2; ++k)
+#pragma unroll
+      for (int c = 0; c < 8; ++c)
+        v[k][c] = __ldg(reinterpret_cast<const V*>(table) + idx[k][c]);
+#pragma unroll
+    for (int k = 0; k < 2; ++k)
+    {
+      if (k == 1 && !two)
+        break;
+      float acc[F];
+#pragma unroll
+      for (int f = 0; f < F; ++f)
+        acc[f] = 0.0f;
+#pragma unroll
+      for (int c = 0; c < 8; ++c)
+      {
+        const float w = cornerWeight(c, frac[k]);
+        const __half* h = reinterpret_cast<const __half*>(&v[k][c]);
+#pragma unroll
+        for (int f = 0; f < F; ++f)
+          acc[f] += w * __half2float(h[f]);
+      }
+      const int it = k == 0 ? it0 : it1;
+      __half* o = enc + (it % T) * ldE + (it / T) * F;
+#pragma unroll
+      for (int f = 0; f < F; ++f)
+        o[f] = __float2half_rn(acc[f]);
+    }
+  }
+}
+
+template <int F>
+__device__ __forceinline__ void atomicAddVec(float* p, const float* v)
+{
+  if constexpr (F == 1)
+  {
+    atomicAdd(p, v[0]);
+  }
+  else if constexpr (F == 2)
+  {
+    atomicAdd(reinterpret_cast<float2*>(p), make_float2(v[0], v[1]));
+  }
+  else
+  {
+#pragma unroll
+    for (int q = 0; q < F / 4; ++q)
+      atomicAdd(reinterpret_cast<float4*>(p) + q, make_float4(v[4 * q], v[4 * q + 1], v[4 * q + 2], v[4 * q + 3]));
+  }
+}
+
+/// grad += d(loss)/d(table) for the tile, from dEnc (T x ldDE floats). Samples t >= valid are skipped.
+template <int F>
+__device__ __forceinline__ void scatterTile(const GridLayout& g, float* __restrict__ grad, const float* sx,
+  const float* dEnc, int ldDE, int T, int valid)
+{
+  const int items = T * g.levels;
+  for (int it = threadIdx.x; it < items; it += blockDim.x)
+  {
+    const int t = it % T, l = it / T;
+    if (t >= valid)
+      continue;
+    float d[F];
+    bool any = false;
+#pragma unroll
+    for (int f = 0; f < F; ++f)
+    {
+      d[f] = dEnc[t * ldDE + l * F + f];
+      any |= d[f] != 0.0f;
+    }
+    if (!any)
+      continue;
+    const LevelInfo& lv = g.level[l];
+    const float x[3] = { sx[3 * t], sx[3 * t + 1], sx[3 * t + 2] };
+    uint32_t corner[3];
+    float frac[3];
+    gridPosition(lv, x, corner, frac);
+#pragma unroll
+    for (int c = 0; c < 8; ++c)
+    {
+      const float w = cornerWeight(c, frac);
+      float v[F];
+#pragma unroll
+      for (int f = 0; f < F; ++f)
+        v[f] = w * d[f];
+      atomicAddVec<F>(grad + static_cast<size_t>(cornerIndex(lv, c, corner)) * F, v);
+    }
+  }
+}
+
+namespace wm = nvcuda::wmma;
+using FragA = wm::fragment<wm::matrix_a, 16, 16, 16, __half, wm::row_major>;
+using FragAc = wm::fragment<wm::matrix_a, 16, 16, 16, __half, wm::col_major>;
+using FragBc = wm::fragment<wm::matrix_b, 16, 16, 16, __half, wm::col_major>;
+using FragBr = wm::fragment<wm::matrix_b, 16, 16, 16, __half, wm::row_major>;
+using FragC = wm::fragment<wm::accumulator, 16, 16, 16, float>;
+
+/// Y[rows] = relu(X[rows] . Wl^T) for the warp's 16 rows. X: ld ldX, K inputs; Wl row-major [W][K] (ld ldw).
+/// Y may alias X (all reads finish before the first write).
+template <int W>
+__device__ __forceinline__ void forwardLayer(const __half* X, int ldX, int K, const __half* Wl, int ldw, __half* Y,
+  int ldY, float* stage, int row0, int lane)
+{
+  FragC c[W / 16];
+#pragma unroll
+  for (int j = 0; j < W / 16; ++j)
+    wm::fill_fragment(c[j], 0.0f);
+  for (int k = 0; k < K; k += 16)
+  {
+    FragA a;
+    wm::load_matrix_sync(a, X + row0 * ldX + k, ldX);
+#pragma unroll
+    for (int j = 0; j < W / 16; ++j)
+    {
+      FragBc b;
+      wm::load_matrix_sync(b, Wl + j * 16 * ldw + k, ldw);
+      wm::mma_sync(c[j], a, b, c[j]);
+    }
+  }
+  __syncwarp();
+  const int r = lane >> 1, c0 = (lane & 1) * 8;
+#pragma unroll
+  for (int j = 0; j < W / 16; ++j)
+  {
+    wm::store_matrix_sync(stage, c[j], 16, wm::mem_row_major);
+    __syncwarp();
+    __align__(16) __half2 h[4];
+#pragma unroll
+    for (int q = 0; q < 4; ++q)
+    {
+      const float v0 = fmaxf(stage[r * 16 + c0 + 2 * q], 0.0f);
+      const float v1 = fmaxf(stage[r * 16 + c0 + 2 * q + 1], 0.0f);
+      h[q] = __floats2half2_rn(v0, v1);
+    }
+    *reinterpret_cast<uint4*>(Y + (row0 + r) * ldY + j * 16 + c0) = *reinterpret_cast<const uint4*>(h);
+    __syncwarp();
+  }
+}
+
+/// dA = dZ[rows] . Wl (Wl row-major [W][K], ld ldw). If dEnc: stored there in fp32; else
+/// dZout = (mask > 0) * dA in fp16 (mask, dZout: ld ldA).
+template <int W>
+__device__ __forceinline__ void backwardInput(const __half* dZ, int ldZ, const __half* Wl, int ldw, int K, int row0,
+  int lane, float* stage, const __half* mask, __half* dZout, int ldA, float* dEnc, int ldDE)
+{
+  const int r = lane >> 1, c0 = (lane & 1) * 8;
+  for (int j = 0; j < K / 16; ++j)
+  {
+    FragC c;
+    wm::fill_fragment(c, 0.0f);
+#pragma unroll
+    for (int k = 0; k < W / 16; ++k)
+    {
+      FragA a;
+      wm::load_matrix_sync(a, dZ + row0 * ldZ + k * 16, ldZ);
+      FragBr b;
+      wm::load_matrix_sync(b, Wl + k * 16 * ldw + j * 16, ldw);
+      wm::mma_sync(c, a, b, c);
+    }
+    if (dEnc)
+    {
+      wm::store_matrix_sync(dEnc + row0 * ldDE + j * 16, c, ldDE, wm::mem_row_major);
+      continue;
+    }
+    wm::store_matrix_sync(stage, c, 16, wm::mem_row_major);
+    __syncwarp();
+    const __half* m = mask + (row0 + r) * ldA + j * 16 + c0;
+    __align__(16) __half h[8];
+#pragma unroll
+    for (int q = 0; q < 8; ++q)
+      h[q] = __hgt(m[q], __float2half(0.0f)) ? __float2half_rn(stage[r * 16 + c0 + q]) : __float2half(0.0f);
+    *reinterpret_cast<uint4*>(dZout + (row0 + r) * ldA + j * 16 + c0) = *reinterpret_cast<const uint4*>(h);
+    __syncwarp();
+  }
+}
+
+/// dWl (+)= dZ^T . X over the T samples of the tile; dst: fp32 [W][K] row-major in global memory.
+template <int W>
+__device__ __forceinline__ void weightGrad(const __half* dZ, int ldZ, const __half* X, int ldX, int K, int T,
+  float* dst, bool first, int warp, int warps)
+{
+  const int nt = K / 16;
+  for (int tile = warp; tile < (W / 16) * nt; tile += warps)
+  {
+    const int mi = tile / nt, ni = tile % nt;
+    float* d = dst + mi * 16 * K + ni * 16;
+    FragC c;
+    if (first)
+      wm::fill_fragment(c, 0.0f);
+    else
+      wm::load_matrix_sync(c, d, K, wm::mem_row_major);
+    for (int kc = 0; kc < T; kc += 16)
+    {
+      FragAc a;
+      wm::load_matrix_sync(a, dZ + kc * ldZ + mi * 16, ldZ);
+      FragBr b;
+      wm::load_matrix_sync(b, X + kc * ldX + ni * 16, ldX);
+      wm::mma_sync(c, a, b, c);
+    }
+    wm::store_matrix_sync(d, c, K, wm::mem_row_major);
+  }
+}
+
+/// Copy the padded fp16 weights (and fp32 output row) into shared memory when the plan says so; returns the
+/// layer pointers / leading dimensions to use.
+__device__ __forceinline__ void stageWeights(const MlpShape& s, const SmemPlan& p, unsigned char* smem,
+  const __half* __restrict__ w16, const float* __restrict__ wout, const __half** wl, int* ldw)
+{
+  float* sw = reinterpret_cast<float*>(smem + p.wout);
+  for (int i = threadIdx.x; i < s.W; i += blockDim.x)
+    sw[i] = wout[i];
+  for (int l = 0; l < s.H; ++l)
+  {
+    const int K = s.inDim(l);
+    if (p.wInSmem)
+    {
+      __half* dst = reinterpret_cast<__half*>(smem + p.w) + p.wOff[l];
+      const __half* src = w16 + s.off[l];
+      for (int i = threadIdx.x; i < s.W * K; i += blockDim.x)
+        dst[(i / K) * (K + 8) + i % K] = src[i];
+      wl[l] = dst;
+      ldw[l] = K + 8;
+    }
+    else
+    {
+      wl[l] = w16 + s.off[l];
+      ldw[l] = K;
+    }
+  }
+}
+
+/// Coordinate of sample i of n along an axis: i/(n-1), 0.5 when n == 1 (as gridCoordinate on the CPU).
+__device__ __forceinline__ float gridCoord(int64_t i, int64_t n)
+{
+  return n <= 1 ? 0.5f : static_cast<float>(static_cast<double>(i) / static_cast<double>(n - 1));
+}
+
+} // namespace gpu
+} // namespace nv

@@ -1,0 +1,32 @@
+// NeuralVolume engine: test and benchmark hooks of the CUDA implementation (plain C++; NV_WITH_CUDA builds only).
+#pragma once
+
+#include "Core/Engine.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nv
+{
+namespace gpu
+{
+
+/// Hash-grid encoding on the GPU as training and inference compute it (fp16 copy of the table, fp32
+/// interpolation): out is n x (levels*features), same layout as CpuHashGrid::encode.
+void testEncode(const Model& model, const float* xyz, int64_t n, float* out);
+
+/// Loss and dL/dparams (layout of Model::params) of the GPU trainer for one given batch, without an update
+/// (the GPU counterpart of CpuTrainer::lossAndGradient).
+float testLossAndGradient(const Model& model, const TrainConfig& config, const float* xyz, const float* targets,
+  const uint8_t* valid, int64_t n, std::vector<float>& grad);
+
+/// Kernel-only timings (device-resident inputs and outputs, CUDA events, median of `reps`), milliseconds.
+double benchInferKernel(const Model& model, int64_t n, int reps);
+double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz, int reps);
+
+/// Name and memory of the device, for reports.
+std::string deviceDescription();
+
+} // namespace gpu
+} // namespace nv

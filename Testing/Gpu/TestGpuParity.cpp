@@ -1,0 +1,381 @@
+// GPU engine parity tests (ctest label gpu): the CUDA kernels against the CPU engine on random inputs.
+// Exits with kSkip (registered as SKIP_RETURN_CODE) when no usable GPU is present.
+#include "Core/Engine.h"
+#include "Cpu/CpuHashGrid.h"
+#include "Cpu/CpuInference.h"
+#include "Cpu/CpuTrainer.h"
+#include "Gpu/GpuEngine.h"
+#include "Gpu/GpuTesting.h"
+#include "TestHarness.h"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace nv;
+
+namespace
+{
+constexpr int kSkip = 77;
+
+// Tolerances (relative error ||gpu - cpu|| / ||cpu||). The GPU keeps an fp16 copy of the table and runs the MLP
+// on fp16 tensor cores with fp32 accumulation; the CPU is fp32 throughout.
+constexpr double kTolEncoding = 2e-3; // fp16 rounding of table entries (2^-11 relative)
+constexpr double kTolOutput = 1e-2;   // + fp16 activations and weights through up to 8 layers
+constexpr double kTolLoss = 1e-2;
+// Gradients: fp16 forward activations flip the ReLU mask of the rare pre-activations within rounding of 0; each
+// flip is a full-size difference, so the error grows with depth: 4% + 0.6% per hidden layer.
+double tolGrad(int hidden)
+{
+  return 0.04 + 0.006 * hidden;
+}
+
+struct Shape
+{
+  int F, W, H, L, log2T, base, finest;
+};
+
+const Shape kShapes[] = {
+  { 1, 16, 1, 8, 12, 4, 64 },      // small, mostly dense
+  { 2, 32, 2, 16, 14, 16, 512 },   // stent configuration family
+  { 4, 64, 4, 16, 19, 16, 4096 },  // the paper configuration
+  { 8, 128, 8, 32, 16, 8, 2048 },  // widest: 256 inputs, 8 layers
+  { 4, 128, 3, 12, 22, 16, 1024 }, // big table
+  { 2, 64, 8, 5, 13, 2, 40 },      // D=10 (padded to 16), dense only
+  { 8, 16, 5, 3, 12, 16, 300 },    // narrow, D=24
+};
+
+ModelConfig configOf(const Shape& s)
+{
+  ModelConfig c;
+  c.encoding.featuresPerLevel = s.F;
+  c.encoding.levels = s.L;
+  c.encoding.log2TableSize = s.log2T;
+  c.encoding.baseResolution = s.base;
+  c.encoding.finestResolution = s.finest;
+  c.network.width = s.W;
+  c.network.hiddenLayers = s.H;
+  return c;
+}
+
+std::string name(const Shape& s)
+{
+  char b[128];
+  std::snprintf(b, sizeof b, "F%d W%d H%d L%d T2^%d", s.F, s.W, s.H, s.L, s.log2T);
+  return b;
+}
+
+/// A model with a table of O(0.1) values so that encodings and outputs are far from zero.
+Model randomModel(const ModelConfig& c, uint64_t seed)
+{
+  Model m(c);
+  m.initialize(seed);
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  for (size_t i = 0; i < m.encodingParamCount(); ++i)
+    m.params()[i] = u(rng);
+  for (size_t i = m.encodingParamCount(); i < m.paramCount(); ++i)
+    m.params()[i] *= 2.0f;
+  return m;
+}
+
+std::vector<float> randomPoints(int64_t n, uint64_t seed)
+{
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<float> x(3 * n);
+  for (float& v : x)
+    v = u(rng);
+  // A few points on the boundary.
+  for (int k = 0; k < 3 && 3 * k + 2 < 3 * n; ++k)
+  {
+    x[3 * k] = k == 0 ? 0.0f : 1.0f;
+    x[3 * k + 1] = k == 1 ? 0.0f : 1.0f;
+    x[3 * k + 2] = 1.0f;
+  }
+  return x;
+}
+
+double relErr(const float* a, const float* b, size_t n)
+{
+  double num = 0, den = 0;
+  for (size_t i = 0; i < n; ++i)
+  {
+    if (!std::isfinite(a[i]))
+      return INFINITY;
+    const double d = double(a[i]) - double(b[i]);
+    num += d * d;
+    den += double(b[i]) * b[i];
+  }
+  return den > 0 ? std::sqrt(num / den) : std::sqrt(num);
+}
+
+#define EXPECT_REL(err, tol, what)                                                                 \
+  do                                                                                               \
+  {                                                                                                \
+    const double e_ = (err);                                                                       \
+    std::printf("    %-40s rel err %.3e (tol %.0e)\n", (what).c_str(), e_, double(tol));           \
+    if (!(e_ <= (tol)))                                                                            \
+      nvtest::fail(__FILE__, __LINE__, (what) + ": relative error too large");                     \
+  } while (0)
+
+} // namespace
+
+NV_TEST(encoding_matches_cpu)
+{
+  for (const Shape& s : kShapes)
+  {
+    const Model m = randomModel(configOf(s), 7);
+    const int64_t n = 3000;
+    const auto xyz = randomPoints(n, 11);
+    const size_t D = size_t(s.L) * s.F;
+    std::vector<float> cpu(n * D), gpu(n * D, NAN);
+    CpuHashGrid::encode(m.layout(), m.params().data(), xyz.data(), n, cpu.data());
+    gpu::testEncode(m, xyz.data(), n, gpu.data());
+    EXPECT_REL(relErr(gpu.data(), cpu.data(), cpu.size()), kTolEncoding, "encoding " + name(s));
+  }
+}
+
+NV_TEST(inference_matches_cpu)
+{
+  for (const Shape& s : kShapes)
+  {
+    const Model m = randomModel(configOf(s), 3);
+    const int64_t n = 5001; // not a multiple of the tile
+    const auto xyz = randomPoints(n, 5);
+    std::vector<float> cpu(n), gpu(n, NAN);
+    cpuInferPoints(m, xyz.data(), n, cpu.data(), 0);
+    inferPoints(m, xyz.data(), n, gpu.data(), Device::Cuda);
+    EXPECT_REL(relErr(gpu.data(), cpu.data(), n), kTolOutput, "MLP output " + name(s));
+  }
+}
+
+NV_TEST(gradients_match_cpu)
+{
+  const float dummy[8] = {};
+  VolumeView v;
+  v.data = dummy;
+  v.dims[0] = v.dims[1] = v.dims[2] = 2;
+  for (const Shape& s : kShapes)
+  {
+    for (LossType loss : { LossType::L1, LossType::L2 })
+    {
+      const Model m = randomModel(configOf(s), 21);
+      const int n = 3000;
+      const auto xyz = randomPoints(n, 9);
+      std::vector<float> cpuOut(n);
+      cpuInferPoints(m, xyz.data(), n, cpuOut.data(), 0);
+      std::mt19937 rng(5);
+      std::normal_distribution<float> nd(0.0f, 0.3f);
+      std::vector<float> targets(n);
+      std::vector<uint8_t> valid(n, 1);
+      for (int i = 0; i < n; ++i)
+      {
+        targets[i] = cpuOut[i] + nd(rng); // residuals of both signs, well away from 0
+        if (i % 17 == 3)
+          valid[i] = 0;
+      }
+      TrainConfig tc;
+      tc.batchSize = n;
+      tc.loss = loss;
+      CpuTrainer cpu(m, v, tc);
+      std::vector<float> gc, gg;
+      const float lc = cpu.lossAndGradient(xyz.data(), targets.data(), valid.data(), n, gc);
+      const float lg = gpu::testLossAndGradient(m, tc, xyz.data(), targets.data(), valid.data(), n, gg);
+      const std::string tag = name(s) + (loss == LossType::L1 ? " L1" : " L2");
+      EXPECT_REL(std::fabs(double(lg) - lc) / std::fabs(lc), kTolLoss, "loss " + tag);
+      EXPECT_TRUE(gg.size() == gc.size());
+      if (gg.size() != gc.size())
+        continue;
+      EXPECT_REL(relErr(gg.data(), gc.data(), m.encodingParamCount()), tolGrad(s.H), "table grad " + tag);
+      for (int l = 0; l <= s.H; ++l)
+      {
+        const size_t off = m.layerOffset(l), cnt = size_t(m.layerInputs(l)) * m.layerOutputs(l);
+        EXPECT_REL(relErr(gg.data() + off, gc.data() + off, cnt), tolGrad(s.H),
+          "layer " + std::to_string(l) + " grad " + tag);
+      }
+    }
+  }
+}
+
+NV_TEST(decode_equals_batched_inference)
+{
+  const Shape s = kShapes[2];
+  const Model m = randomModel(configOf(s), 4);
+  const int64_t grids[2][3] = { { 37, 19, 11 }, { 1, 5, 1 } };
+  for (const auto& g : grids)
+  {
+    const int64_t nx = g[0], ny = g[1], nz = g[2], z0 = nz > 2 ? 2 : 0, z1 = nz;
+    const int64_t n = nx * ny * (z1 - z0);
+    std::vector<float> dec(n, NAN), inf(n, NAN), xyz(3 * n), cpu(n);
+    decodeGridNormalized(m, nx, ny, nz, z0, z1, dec.data(), Device::Cuda);
+    for (int64_t z = z0, i = 0; z < z1; ++z)
+      for (int64_t y = 0; y < ny; ++y)
+        for (int64_t x = 0; x < nx; ++x, ++i)
+        {
+          xyz[3 * i] = gridCoordinate(x, nx);
+          xyz[3 * i + 1] = gridCoordinate(y, ny);
+          xyz[3 * i + 2] = gridCoordinate(z, nz);
+        }
+    inferPoints(m, xyz.data(), n, inf.data(), Device::Cuda);
+    cpuDecodeGrid(m, nx, ny, nz, z0, z1, cpu.data(), 0);
+    int mismatches = 0;
+    for (int64_t i = 0; i < n; ++i)
+      mismatches += dec[i] == inf[i] ? 0 : 1;
+    std::printf("    grid %lldx%lldx%lld: %d mismatches decode vs inference; rel err vs CPU decode %.3e\n",
+      (long long)nx, (long long)ny, (long long)nz, mismatches, relErr(dec.data(), cpu.data(), n));
+    EXPECT_TRUE(mismatches == 0);
+    EXPECT_TRUE(relErr(dec.data(), cpu.data(), n) < kTolOutput);
+  }
+}
+
+namespace
+{
+std::vector<float> testVolume(int n, bool withNaN)
+{
+  std::vector<float> v(size_t(n) * n * n);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        v[(size_t(z) * n + y) * n + x] =
+          float(std::sin(0.3 * x) * std::cos(0.2 * y) + 0.5 * std::sin(0.15 * z + 0.02 * x * y));
+  if (withNaN)
+    for (int y = 0; y < n / 2; ++y)
+      for (int x = 0; x < n / 3; ++x)
+        v[(size_t(n / 2) * n + y) * n + x] = NAN;
+  return v;
+}
+} // namespace
+
+NV_TEST(training_curve_matches_cpu)
+{
+  const int n = 40;
+  const auto data = testVolume(n, true);
+  VolumeView vol;
+  vol.data = data.data();
+  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
+  const VolumeStats st = computeStats(vol);
+  vol.valueMin = st.min;
+  vol.valueMax = st.max;
+  ModelConfig c;
+  c.encoding.log2TableSize = 14;
+  c.encoding.finestResolution = 80;
+  Model m(c);
+  m.initialize(3);
+  m.source.valueMin = st.min;
+  m.source.valueMax = st.max;
+  TrainConfig tc;
+  tc.batchSize = 16384;
+  tc.seed = 9;
+  tc.optimizer.decayInterval = 100; // decays to 0.24x by step 400: less step-to-step noise to compare
+  tc.optimizer.decayFactor = 0.7;
+  auto cpu = createTrainer(Device::Cpu, m, vol, tc);
+  auto gpuT = createTrainer(Device::Cuda, m, vol, tc);
+  EXPECT_TRUE(gpuT->device() == Device::Cuda);
+  EXPECT_TRUE(gpuT->deviceMemoryBytes() > 0);
+  double lc = 0, lg = 0;
+  for (int i = 1; i <= 400; ++i)
+  {
+    const float a = cpu->step(), b = gpuT->step();
+    if (i == 1)
+      EXPECT_NEAR_REL(b, a, 1e-3, 1e-6); // same parameters, same batch: same loss before the first update
+    if (i > 300)
+    {
+      lc += a;
+      lg += b;
+    }
+    if (i % 100 == 0)
+    {
+      Model mc = m, mg = m;
+      cpu->syncTo(mc);
+      gpuT->syncTo(mg);
+      const double pc = compareToSource(mc, vol, Device::Cpu).psnr, pg = compareToSource(mg, vol, Device::Cpu).psnr;
+      std::printf("    step %d loss cpu %.5f gpu %.5f  PSNR cpu %.2f gpu %.2f dB\n", i, a, b, pc, pg);
+      // L1 + Adam at lr 1e-2 on this small volume is chaotic: fp16 rounding sends the two runs on different
+      // trajectories whose PSNR differs by up to ~4 dB mid-way (either sign, seen on an H100); the curves meet
+      // again once the learning rate has decayed. Checked at the end of the curve.
+      if (i == 400)
+        EXPECT_TRUE(std::fabs(pc - pg) < 1.0);
+    }
+  }
+  std::printf("    mean loss of steps 301-400: cpu %.5f gpu %.5f\n", lc / 100, lg / 100);
+  EXPECT_NEAR_REL(lg, lc, 0.05, 0.0);
+}
+
+NV_TEST(host_sampled_equals_gpu_resident)
+{
+  const int n = 33;
+  const auto data = testVolume(n, true);
+  std::vector<int16_t> q(data.size());
+  for (size_t i = 0; i < data.size(); ++i)
+    q[i] = std::isfinite(data[i]) ? int16_t(std::lround(data[i] * 1000)) : int16_t(0);
+  for (const ScalarType type : { ScalarType::Float32, ScalarType::Int16 })
+  {
+    VolumeView vol;
+    vol.type = type;
+    vol.data = type == ScalarType::Float32 ? static_cast<const void*>(data.data()) : q.data();
+    vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
+    const VolumeStats st = computeStats(vol);
+    vol.valueMin = st.min;
+    vol.valueMax = st.max;
+    ModelConfig c;
+    c.encoding.log2TableSize = 12;
+    c.encoding.finestResolution = 64;
+    c.network.width = 32;
+    c.network.hiddenLayers = 2;
+    Model m(c);
+    m.initialize(1);
+    TrainConfig tc;
+    tc.batchSize = 5000;
+    tc.strategy = TrainingStrategy::GpuResident;
+    auto a = createTrainer(Device::Cuda, m, vol, tc);
+    tc.strategy = TrainingStrategy::HostSampled;
+    auto b = createTrainer(Device::Cuda, m, vol, tc);
+    double maxRel = 0;
+    for (int i = 0; i < 30; ++i)
+    {
+      const float la = a->step(), lb = b->step();
+      maxRel = std::max(maxRel, std::fabs(double(la) - lb) / std::max(1e-12, std::fabs(double(la))));
+    }
+    std::printf("    %s: max relative loss difference over 30 steps %.3e\n", scalarTypeName(type), maxRel);
+    EXPECT_TRUE(maxRel < 1e-3);
+    EXPECT_TRUE(a->stepsDone() == 30 && b->stepsDone() == 30);
+  }
+}
+
+int main(int argc, char** argv)
+{
+  std::string why;
+  if (!gpu::deviceUsable(&why))
+  {
+    std::printf("SKIPPED: no usable GPU (%s)\n", why.c_str());
+    return kSkip;
+  }
+  std::printf("GPU: %s\n", gpu::deviceDescription().c_str());
+  int ran = 0;
+  for (auto& c : nvtest::cases())
+  {
+    if (argc > 1 && std::string(argv[1]) != c.name)
+      continue;
+    const int before = nvtest::failures();
+    try
+    {
+      c.fn();
+    }
+    catch (const std::exception& e)
+    {
+      nvtest::fail(__FILE__, __LINE__, std::string("exception: ") + e.what());
+    }
+    std::printf("%s %s\n", nvtest::failures() == before ? "PASS" : "FAIL", c.name);
+    std::fflush(stdout);
+    ++ran;
+  }
+  if (ran == 0)
+  {
+    std::printf("no test matched\n");
+    return 1;
+  }
+  return nvtest::failures() == 0 ? 0 : 1;
+}
