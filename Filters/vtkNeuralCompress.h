@@ -186,7 +186,7 @@ protected:
 
   int VectorMode = MAGNITUDE;
   int VectorComponent = 0;
-  int TrainingSteps = 1000;
+  int TrainingSteps = 2000;
   double TimeBudget = 60.0;
   int BatchSize = 65536;
   double LearningRate = 0.01;

@@ -37,11 +37,16 @@ view = CreateRenderView()
 view.ViewSize = [800, 800]
 view.OrientationAxesVisibility = 0
 view.Background = [0.1, 0.1, 0.15]
+if hasattr(view, "UseColorPaletteForBackground"):
+    view.UseColorPaletteForBackground = 0
 rep = Show(nc, view)
 rep.SetRepresentationType("Neural Volume")
 ColorBy(rep, ("POINTS", "RTData"))
 lut = GetColorTransferFunction("RTData")
 lut.ApplyPreset("Cool to Warm", True)
+lo, hi = nc.PointData["RTData"].GetRange()
+pwf = GetOpacityTransferFunction("RTData")  # show the high values, let the low ones through
+pwf.Points = [lo, 0.0, 0.5, 0.0, lo + 0.55 * (hi - lo), 0.0, 0.5, 0.0, hi, 0.8, 0.5, 0.0]
 view.ResetCamera()
 view.CameraPosition = [180, -260, 200]
 view.CameraFocalPoint = [0, 0, 0]
