@@ -128,10 +128,13 @@ void decodeDenormalized(const Model& model, int64_t nx, int64_t ny, int64_t nz, 
   }
   decodeGridNormalized(model, nx, ny, nz, z0, z1, norm, device, threads);
   const double lo = model.source.valueMin, range = model.source.valueMax - model.source.valueMin;
-  for (int64_t i = 0; i < n; ++i)
-  {
-    out[i] = static_cast<T>(lo + range * static_cast<double>(norm[i]));
-  }
+  ThreadPool pool(threads);
+  pool.parallelFor(n, [&](int64_t b, int64_t e, int) {
+    for (int64_t i = b; i < e; ++i)
+    {
+      out[i] = static_cast<T>(lo + range * static_cast<double>(norm[i]));
+    }
+  });
 }
 
 template <typename T>

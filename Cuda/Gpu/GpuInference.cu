@@ -1,5 +1,6 @@
-// NeuralVolume engine: CUDA device queries, parameter packing, fused inference (encoding + MLP in one kernel),
-// batched inference and grid decoding entry points, and test/benchmark hooks.
+// NeuralVolume engine: CUDA device queries, parameter packing, the general WMMA inference kernel (encoding + MLP
+// in one kernel; used where the register-resident fast path of GpuForward.cu does not apply: W = 128, weights
+// larger than shared memory), batched inference and grid decoding entry points, and test/benchmark hooks.
 #include "Core/Model.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
@@ -66,7 +67,10 @@ const Usable& usable()
     cudaError_t e = cudaGetDeviceCount(&count);
     if (e != cudaSuccess)
     {
-      u.why = std::string("CUDA runtime reports ") + cudaGetErrorString(e);
+      if (e == cudaErrorInsufficientDriver || e == cudaErrorNoDevice)
+        u.why = "no NVIDIA GPU driver for CUDA 13 found (" + std::string(cudaGetErrorString(e)) + ")";
+      else
+        u.why = std::string("CUDA runtime reports ") + cudaGetErrorString(e);
       cudaGetLastError();
       return;
     }
@@ -372,6 +376,8 @@ void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_
 {
   if (n <= 0)
     return;
+  if (launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream))
+    return;
   InferArgs a;
   a.grid = dm.grid;
   a.shape = dm.shape;
@@ -416,19 +422,26 @@ void inferPoints(const Model& model, const float* xyz, int64_t n, float* out)
 
 void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out)
 {
-  Stream st;
+  Stream st, copy;
   DeviceModel dm;
   uploadModel(model, dm, st.get());
   const int64_t n = nx * ny * (z1 - z0);
-  // Pipeline: the kernel fills chunk k while chunk k-1 is copied to pinned memory and chunk k-2 to `out`.
-  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 23);
-  DeviceBuffer<float> dy[2] = { DeviceBuffer<float>(chunk, "decode"), DeviceBuffer<float>(chunk, "decode") };
-  PinnedBuffer<float> hy[2] = { PinnedBuffer<float>(chunk), PinnedBuffer<float>(chunk) };
-  Event done[2];
-  ThreadPool pool(std::min(8, ThreadPool::defaultThreads()));
+  // Pipeline over 3 slots: the kernel fills chunk k (stream st) while chunk k-1 is copied to pinned memory (stream
+  // copy, own copy engine) and host threads move chunk k-2 into `out`.
+  constexpr int S = 3;
+  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 22);
+  DeviceBuffer<float> dy[S];
+  PinnedBuffer<float> hy[S];
+  Event filled[S], done[S];
+  for (int k = 0; k < S; ++k)
+  {
+    dy[k].allocate(chunk, "decode");
+    hy[k].allocate(chunk);
+  }
+  ThreadPool pool(std::min(16, ThreadPool::defaultThreads()));
   const int64_t chunks = (n + chunk - 1) / chunk;
   auto drain = [&](int64_t k) {
-    const int slot = static_cast<int>(k % 2);
+    const int slot = static_cast<int>(k % S);
     NV_CUDA(cudaEventSynchronize(done[slot].get()));
     const int64_t b = k * chunk, m = std::min(chunk, n - b);
     const float* src = hy[slot].get();
@@ -436,15 +449,17 @@ void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t 
   };
   for (int64_t k = 0; k < chunks; ++k)
   {
-    const int slot = static_cast<int>(k % 2);
-    if (k >= 2)
-      drain(k - 2);
+    const int slot = static_cast<int>(k % S); // chunk k-S was drained in iteration k-1
     const int64_t b = k * chunk, m = std::min(chunk, n - b);
     launchInference(dm, nullptr, nx, ny, nz, z0, b, m, dy[slot].get(), st.get());
-    NV_CUDA(cudaMemcpyAsync(hy[slot].get(), dy[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost, st.get()));
-    NV_CUDA(cudaEventRecord(done[slot].get(), st.get()));
+    NV_CUDA(cudaEventRecord(filled[slot].get(), st.get()));
+    NV_CUDA(cudaStreamWaitEvent(copy.get(), filled[slot].get(), 0));
+    NV_CUDA(cudaMemcpyAsync(hy[slot].get(), dy[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost, copy.get()));
+    NV_CUDA(cudaEventRecord(done[slot].get(), copy.get()));
+    if (k >= S - 1)
+      drain(k - (S - 1));
   }
-  for (int64_t k = std::max<int64_t>(0, chunks - 2); k < chunks; ++k)
+  for (int64_t k = std::max<int64_t>(0, chunks - (S - 1)); k < chunks; ++k)
     drain(k);
 }
 

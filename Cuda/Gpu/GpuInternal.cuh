@@ -32,6 +32,7 @@ struct DeviceModel
   DeviceBuffer<__half> table16;
   DeviceBuffer<__half> w16;
   DeviceBuffer<float> wout;
+  mutable DeviceBuffer<__half> encScratch; ///< two-pass inference: encodings of a chunk (GpuForward.cu)
   size_t bytes() const { return table16.bytes() + w16.bytes() + wout.bytes(); }
 };
 
@@ -45,6 +46,10 @@ void uploadModel(const Model& model, DeviceModel& dm, cudaStream_t stream);
 /// Shared-memory plan for kernel fn: weights in shared memory and the largest tile that fit (else weights through
 /// L1); blocksPerSm receives its occupancy.
 SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm);
+
+/// Register-resident fast path of launchInference (GpuForward.cu); false when it does not cover the shape.
+bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
+  int64_t first, int64_t n, float* out, cudaStream_t stream);
 
 /// Run the inference kernel: xyz (device, n x 3) or, when xyz is null, the grid points
 /// [first, first + n) of slices starting at z0 of an nx*ny*nz grid. out: device, n floats.

@@ -1,16 +1,21 @@
 // NeuralVolume engine: training on the GPU. One step = sample targets (GPU-resident volume) or upload the batch
 // the CPU threads sampled (host-sampled), one fused kernel (encoding forward, MLP forward on tensor cores, loss,
-// MLP backward, weight gradients, encoding-gradient scatter with vector atomics), one memory-bound Adam pass over
-// the hash table (also writes the fp16 copy and zeroes the gradient) and a small Adam kernel for the MLP.
+// MLP backward, weight gradients, encoding-gradient scatter with vector atomics) -- or, for large tables, the same
+// kernel between a level-major encode pass and a level-major scatter pass (GpuLevels.cuh) --, one memory-bound
+// Adam pass over the hash table (also writes the fp16 copy and zeroes the gradient) and a small Adam kernel for
+// the MLP (GpuStep.cuh).
 #include "Core/Config.h"
 #include "Cpu/CpuSampler.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
+#include "GpuStep.cuh"
 #include "GpuInternal.cuh"
+#include "GpuLevels.cuh"
 #include "GpuTesting.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <future>
 #include <memory>
@@ -22,13 +27,6 @@ namespace gpu
 {
 namespace
 {
-
-struct Counters
-{
-  double lossSum;
-  int nValid;
-  int pad;
-};
 
 struct TrainArgs
 {
@@ -48,9 +46,11 @@ struct TrainArgs
   int tiles;
   int l1;
   Counters* counters;
+  const __half* encG; ///< two-pass: encodings from encodeLevelsKernel (level-major)
+  float* dEncG;       ///< two-pass: dL/d(encoding) for scatterLevelsKernel (level-major, fp32)
 };
 
-template <int W, int F>
+template <int W, int F, bool TwoPass>
 __global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ TrainArgs a)
 {
   extern __shared__ __align__(128) unsigned char smem[];
@@ -89,7 +89,11 @@ __global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ Train
       if (t < valid)
       {
         const int64_t gi = base + t;
-        if (a.xyz)
+        if (TwoPass)
+        {
+          // no coordinates needed: the level-major encode and scatter passes regenerate them
+        }
+        else if (a.xyz)
         {
           x[0] = a.xyz[3 * gi];
           x[1] = a.xyz[3 * gi + 1];
@@ -106,8 +110,24 @@ __global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ Train
       sx[3 * t + 2] = x[2];
       stgt[t] = tg;
     }
-    __syncthreads();
-    encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
+    if constexpr (TwoPass)
+    {
+      using V = typename HalfVec<F>::T;
+      const V* src = reinterpret_cast<const V*>(a.encG);
+      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
+      {
+        const int t = it % T, l = it / T;
+        V v{};
+        if (t < valid)
+          v = __ldcs(src + l * a.n + base + t);
+        *reinterpret_cast<V*>(enc + t * p.ldE + l * F) = v;
+      }
+    }
+    else
+    {
+      __syncthreads();
+      encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
+    }
     __syncthreads();
     // Forward: rows are private to the warp.
     forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], acts, p.ldA, stage, row0, lane);
@@ -175,7 +195,24 @@ __global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ Train
       cur ^= 1;
     }
     __syncthreads();
-    scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
+    if constexpr (TwoPass)
+    {
+      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
+      {
+        const int t = it % T, l = it / T;
+        if (t < valid)
+        {
+          float* d = a.dEncG + (l * a.n + base + t) * F;
+#pragma unroll
+          for (int f = 0; f < F; ++f)
+            d[f] = dEnc[t * p.ldDE + l * F + f];
+        }
+      }
+    }
+    else
+    {
+      scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
+    }
     __syncthreads();
     first = false;
   }
@@ -195,131 +232,29 @@ __global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ Train
 
 using TrainFn = void (*)(TrainArgs);
 
-TrainFn pickTrain(int W, int F)
+/// Two-pass training (level-major encode -> MLP kernel -> level-major scatter) or the single fused kernel. Measured
+/// on an H100 at batch 65536 (gpu_notes.md): two passes win when the table does not fit L2 comfortably (2^18: 0.557
+/// vs 0.612 ms, 2^19: 0.754 vs 0.820) and lose on small tables (2^16: 0.388 vs 0.358, 2^14: 0.350 vs 0.322) and
+/// small batches (16384 at 2^19: 0.501 vs 0.479; 32768: equal). NV_GPU_TRAIN_TWOPASS=0/1 forces a path.
+bool trainTwoPass(size_t table16Bytes, int64_t batch)
+{
+  const char* e = std::getenv("NV_GPU_TRAIN_TWOPASS");
+  if (e && *e)
+    return std::atoi(e) != 0;
+  return table16Bytes > (size_t(16) << 20) && batch > 32768;
+}
+
+TrainFn pickTrain(int W, int F, bool two)
 {
 #define NV_CASE(w, f)                                                                              \
   if (W == w && F == f)                                                                            \
-    return trainKernel<w, f>;
+    return two ? trainKernel<w, f, true> : trainKernel<w, f, false>;
   NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
   NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
   NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
   NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
 #undef NV_CASE
   NV_THROW("unsupported network width / features per level on the GPU");
-}
-
-template <typename T>
-__global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, double lo, double inv,
-  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters)
-{
-  const int64_t dims[3] = { d0, d1, d2 };
-  int local = 0;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-  {
-    float x[3];
-    randomPoint(seed, step, static_cast<uint64_t>(i), x);
-    auto get = [&](int64_t k) { return static_cast<float>((static_cast<double>(vol[k]) - lo) * inv); };
-    float t = 0.0f;
-    const bool ok = sampleTrilinear(get, dims, 0.0f, 1.0f, x, t);
-    targets[i] = ok ? t : __int_as_float(0x7fc00000);
-    local += ok ? 1 : 0;
-  }
-  for (int o = 16; o > 0; o >>= 1)
-    local += __shfl_xor_sync(0xffffffffu, local, o);
-  if ((threadIdx.x & 31) == 0 && local)
-    atomicAdd(&counters->nValid, local);
-}
-
-struct AdamArgs
-{
-  float b1, b2, a1, a2, eps, stepSize, invSqrtBc2;
-};
-
-__device__ __forceinline__ void adamOne(float& p, float& g, float& m, float& v, float scale, const AdamArgs& a)
-{
-  const float gi = g * scale;
-  g = 0.0f;
-  m = a.b1 * m + a.a1 * gi;
-  v = a.b2 * v + a.a2 * gi * gi;
-  p -= a.stepSize * m / (sqrtf(v) * a.invSqrtBc2 + a.eps);
-}
-
-/// One pass over the hash table: read p, g, m, v; write p, m, v, fp16 p; zero g.
-__global__ void __launch_bounds__(256) adamTableKernel(float* __restrict__ p, float* __restrict__ g,
-  float* __restrict__ m, float* __restrict__ v, __half* __restrict__ p16, int64_t n, AdamArgs a,
-  const Counters* __restrict__ counters)
-{
-  const int cnt = counters->nValid;
-  if (cnt == 0)
-    return;
-  const float scale = 1.0f / static_cast<float>(cnt);
-  const int64_t n4 = n / 4;
-  const int64_t stride = int64_t(gridDim.x) * blockDim.x;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n4; i += stride)
-  {
-    float4 P = reinterpret_cast<float4*>(p)[i];
-    float4 G = reinterpret_cast<float4*>(g)[i];
-    float4 M = reinterpret_cast<float4*>(m)[i];
-    float4 V = reinterpret_cast<float4*>(v)[i];
-    adamOne(P.x, G.x, M.x, V.x, scale, a);
-    adamOne(P.y, G.y, M.y, V.y, scale, a);
-    adamOne(P.z, G.z, M.z, V.z, scale, a);
-    adamOne(P.w, G.w, M.w, V.w, scale, a);
-    reinterpret_cast<float4*>(p)[i] = P;
-    reinterpret_cast<float4*>(g)[i] = G;
-    reinterpret_cast<float4*>(m)[i] = M;
-    reinterpret_cast<float4*>(v)[i] = V;
-    __align__(8) __half2 h[2] = { __floats2half2_rn(P.x, P.y), __floats2half2_rn(P.z, P.w) };
-    reinterpret_cast<uint2*>(p16)[i] = *reinterpret_cast<const uint2*>(h);
-  }
-  for (int64_t i = n4 * 4 + blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += stride)
-  {
-    adamOne(p[i], g[i], m[i], v[i], scale, a);
-    p16[i] = __float2half_rn(p[i]);
-  }
-}
-
-/// MLP parameters (unpadded, Model layout): gradients from the padded accumulator, fp16 padded copy out.
-__global__ void adamMlpKernel(float* __restrict__ p, float* __restrict__ m, float* __restrict__ v,
-  float* __restrict__ gradPad, __half* __restrict__ w16, float* __restrict__ wout, MlpShape s, int64_t count,
-  AdamArgs a, const Counters* __restrict__ counters)
-{
-  const int cnt = counters->nValid;
-  if (cnt == 0)
-    return;
-  const float scale = 1.0f / static_cast<float>(cnt);
-  for (int64_t j = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; j < count; j += int64_t(gridDim.x) * blockDim.x)
-  {
-    int64_t r = j;
-    int l = 0;
-    for (; l < s.H; ++l)
-    {
-      const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
-      if (r < sz)
-        break;
-      r -= sz;
-    }
-    int pi;
-    if (l == s.H)
-    {
-      pi = s.off[s.H] + static_cast<int>(r);
-    }
-    else
-    {
-      const int K = l == 0 ? s.D : s.W;
-      pi = s.off[l] + static_cast<int>(r / K) * s.inDim(l) + static_cast<int>(r % K);
-    }
-    float pj = p[j], mj = m[j], vj = v[j], gj = gradPad[pi];
-    adamOne(pj, gj, mj, vj, scale, a);
-    p[j] = pj;
-    m[j] = mj;
-    v[j] = vj;
-    gradPad[pi] = 0.0f;
-    if (l == s.H)
-      wout[r] = pj;
-    else
-      w16[pi] = __float2half_rn(pj);
-  }
 }
 
 int gridFor(int64_t n, int threads = 256)
@@ -348,9 +283,15 @@ public:
     GradPad.allocate(Dm.shape.total, "MLP gradient");
     const int64_t B = config.batchSize;
     Targets.allocate(B, "targets");
+    if (trainTwoPass(Dm.table16.bytes(), B))
+    {
+      const int64_t D = int64_t(Dm.grid.levels) * Dm.grid.features;
+      EncG.allocate(size_t(B * D), "encodings");
+      DEncG.allocate(size_t(B * D), "encoding gradients");
+    }
     Cnt.allocate(1, "counters");
     HCnt.allocate(1);
-    Fn = pickTrain(Dm.shape.W, Dm.grid.features);
+    Fn = pickTrain(Dm.shape.W, Dm.grid.features, EncG.get() != nullptr);
     int perSm = 0;
     Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), &perSm);
     const int64_t tiles = (B + Plan.T - 1) / Plan.T;
@@ -452,7 +393,7 @@ public:
   int64_t deviceMemoryBytes() const override
   {
     return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
-      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes());
+      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes());
   }
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
@@ -577,9 +518,42 @@ private:
     a.tiles = static_cast<int>(tiles);
     a.l1 = Train.loss == LossType::L1 ? 1 : 0;
     a.counters = Cnt.get();
+    a.encG = EncG.get();
+    a.dEncG = DEncG.get();
     const int blocks = static_cast<int>(std::min<int64_t>(tiles, Blocks));
+    FwdArgs f{};
+    const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
+    if (EncG.get())
+    {
+      f.grid = Dm.grid;
+      f.table16 = Dm.table16.get();
+      f.xyz = xyz;
+      f.random = xyz ? 0 : 1;
+      f.seed = Train.seed;
+      f.step = static_cast<uint64_t>(s);
+      f.n = n;
+      switch (Dm.grid.features)
+      {
+        case 1: encodeLevelsKernel<1><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
+        case 2: encodeLevelsKernel<2><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
+        case 4: encodeLevelsKernel<4><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
+        default: encodeLevelsKernel<8><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
+      }
+      NV_CUDA_LAUNCH();
+    }
     Fn<<<blocks, Plan.warps * 32, Plan.total, St.get()>>>(a);
     NV_CUDA_LAUNCH();
+    if (EncG.get())
+    {
+      switch (Dm.grid.features)
+      {
+        case 1: scatterLevelsKernel<1><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
+        case 2: scatterLevelsKernel<2><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
+        case 4: scatterLevelsKernel<4><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
+        default: scatterLevelsKernel<8><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
+      }
+      NV_CUDA_LAUNCH();
+    }
   }
 
   void launchAdam(int64_t s)
@@ -613,7 +587,8 @@ private:
   size_t NEnc = 0, NMlp = 0;
   mutable Stream St;
   DeviceModel Dm;
-  DeviceBuffer<float> P, G, M, V, GradPad, Slots, Targets, Xyz;
+  DeviceBuffer<float> P, G, M, V, GradPad, Slots, Targets, Xyz, DEncG;
+  DeviceBuffer<__half> EncG;
   DeviceBuffer<unsigned char> Vol;
   DeviceBuffer<Counters> Cnt;
   PinnedBuffer<Counters> HCnt;
