@@ -262,46 +262,55 @@ NV_TEST(training_curve_matches_cpu)
   ModelConfig c;
   c.encoding.log2TableSize = 14;
   c.encoding.finestResolution = 80;
-  Model m(c);
-  m.initialize(3);
-  m.source.valueMin = st.min;
-  m.source.valueMax = st.max;
-  TrainConfig tc;
-  tc.batchSize = 16384;
-  tc.seed = 9;
-  tc.optimizer.decayInterval = 100; // decays to 0.24x by step 400: less step-to-step noise to compare
-  tc.optimizer.decayFactor = 0.7;
-  auto cpu = createTrainer(Device::Cpu, m, vol, tc);
-  auto gpuT = createTrainer(Device::Cuda, m, vol, tc);
-  EXPECT_TRUE(gpuT->device() == Device::Cuda);
-  EXPECT_TRUE(gpuT->deviceMemoryBytes() > 0);
-  double lc = 0, lg = 0;
-  for (int i = 1; i <= 400; ++i)
+  // Same seed, same curve. The loss is L2: with L1 at lr 1e-2 this small over-parameterised volume is chaotic
+  // (each sample's gradient is the sign of its residual, and table entries that few samples touch move by about lr
+  // per step whatever their gradient), so fp16 rounding and the order of float atomics alone move the final PSNR
+  // of one GPU run by up to 5 dB between repeats of the same seed (seen on an H100; the CPU engine is
+  // deterministic). The L1 accuracy bar is checked on real volumes by the benchmark (results/gpu_*.md).
+  // With L2 the two engines follow the same curve up to fp16 rounding: measured on an H100 (3 repeats x 2 seeds)
+  // at most 0.56 dB apart at any mark, in either direction, and the mean loss of steps 301-400 at most 22% apart
+  // (1 dB of MSE is 26%). Tolerances: 1 dB per mark, 30% on the late loss.
+  for (uint64_t seed : { 9, 10 })
   {
-    const float a = cpu->step(), b = gpuT->step();
-    if (i == 1)
-      EXPECT_NEAR_REL(b, a, 1e-3, 1e-6); // same parameters, same batch: same loss before the first update
-    if (i > 300)
+    Model m(c);
+    m.initialize(seed);
+    m.source.valueMin = st.min;
+    m.source.valueMax = st.max;
+    TrainConfig tc;
+    tc.batchSize = 16384;
+    tc.seed = seed;
+    tc.loss = LossType::L2;
+    tc.optimizer.decayInterval = 100;
+    tc.optimizer.decayFactor = 0.7;
+    auto cpu = createTrainer(Device::Cpu, m, vol, tc);
+    auto gpuT = createTrainer(Device::Cuda, m, vol, tc);
+    EXPECT_TRUE(gpuT->device() == Device::Cuda);
+    EXPECT_TRUE(gpuT->deviceMemoryBytes() > 0);
+    double lc = 0, lg = 0;
+    for (int i = 1; i <= 400; ++i)
     {
-      lc += a;
-      lg += b;
-    }
-    if (i % 100 == 0)
-    {
-      Model mc = m, mg = m;
-      cpu->syncTo(mc);
-      gpuT->syncTo(mg);
-      const double pc = compareToSource(mc, vol, Device::Cpu).psnr, pg = compareToSource(mg, vol, Device::Cpu).psnr;
-      std::printf("    step %d loss cpu %.5f gpu %.5f  PSNR cpu %.2f gpu %.2f dB\n", i, a, b, pc, pg);
-      // L1 + Adam at lr 1e-2 on this small volume is chaotic: fp16 rounding sends the two runs on different
-      // trajectories whose PSNR differs by up to ~4 dB mid-way (either sign, seen on an H100); the curves meet
-      // again once the learning rate has decayed. Checked at the end of the curve.
-      if (i == 400)
+      const float a = cpu->step(), b = gpuT->step();
+      if (i == 1)
+        EXPECT_NEAR_REL(b, a, 1e-3, 1e-7); // same parameters, same batch: same loss before the first update
+      if (i > 300)
+      {
+        lc += a;
+        lg += b;
+      }
+      if (i % 100 == 0)
+      {
+        Model mc = m, mg = m;
+        cpu->syncTo(mc);
+        gpuT->syncTo(mg);
+        const double pc = compareToSource(mc, vol, Device::Cpu).psnr;
+        const double pg = compareToSource(mg, vol, Device::Cpu).psnr;
+        std::printf("    seed %llu step %d: loss cpu %.6f gpu %.6f, PSNR cpu %.2f gpu %.2f dB\n",
+          (unsigned long long)seed, i, a, b, pc, pg);
         EXPECT_TRUE(std::fabs(pc - pg) < 1.0);
+      }
     }
+    EXPECT_NEAR_REL(lg, lc, 0.30, 0.0); // mean loss of steps 301-400
   }
-  std::printf("    mean loss of steps 301-400: cpu %.5f gpu %.5f\n", lc / 100, lg / 100);
-  EXPECT_NEAR_REL(lg, lc, 0.05, 0.0);
 }
 
 NV_TEST(host_sampled_equals_gpu_resident)
