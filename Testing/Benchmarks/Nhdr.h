@@ -1,7 +1,11 @@
 // Minimal NRRD detached-header (.nhdr) reader for the benchmarks (raw encoding, little endian).
 #pragma once
 
+#include "Core/Model.h"
 #include "Core/Volume.h"
+
+#include <algorithm>
+#include <cstdlib>
 
 #include <cstdint>
 #include <fstream>
@@ -71,5 +75,30 @@ inline RawVolume loadNhdr(const std::string& path)
   r.view.valueMin = s.min;
   r.view.valueMax = s.max;
   return r;
+}
+
+/// The method's model for a volume: 16x4 levels, base 16, finest = twice the largest dimension, 64x4 MLP,
+/// initialised with `seed`, source range from the volume.
+inline nv::Model modelFor(const RawVolume& raw, int log2T, uint64_t seed)
+{
+  nv::ModelConfig c;
+  c.encoding.log2TableSize = log2T;
+  c.encoding.finestResolution =
+    int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+  nv::Model m(c);
+  m.initialize(seed);
+  m.source.valueMin = raw.view.valueMin;
+  m.source.valueMax = raw.view.valueMax;
+  return m;
+}
+
+/// "250,500,1000" -> {250, 500, 1000}
+inline std::vector<int> parseSteps(const std::string& list)
+{
+  std::vector<int> marks;
+  std::stringstream ss(list);
+  for (std::string t; std::getline(ss, t, ',');)
+    marks.push_back(std::atoi(t.c_str()));
+  return marks;
 }
 } // namespace nvbench

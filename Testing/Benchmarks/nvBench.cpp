@@ -120,15 +120,9 @@ int main(int argc, char** argv)
     if (mode == "budget")
     {
       const nvbench::RawVolume raw = nvbench::loadNhdr(argv[3]);
-      ModelConfig c;
-      c.encoding.log2TableSize = std::atoi(argv[4]);
-      c.encoding.finestResolution =
-        int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+      Model m = nvbench::modelFor(raw, std::atoi(argv[4]), 1);
+      const ModelConfig& c = m.config();
       const double budget = std::atof(argv[5]);
-      Model m(c);
-      m.initialize(1);
-      m.source.valueMin = raw.view.valueMin;
-      m.source.valueMax = raw.view.valueMax;
       TrainConfig tc;
       tc.batchSize = std::atoi(argv[6]);
       const auto a = Clock::now();
@@ -149,19 +143,10 @@ int main(int argc, char** argv)
     {
       const nvbench::RawVolume raw = nvbench::loadNhdr(argv[3]);
       const int log2T = std::atoi(argv[4]);
-      std::vector<int> marks;
-      std::stringstream ss(argv[5]);
-      for (std::string t; std::getline(ss, t, ',');)
-        marks.push_back(std::atoi(t.c_str()));
-      ModelConfig c;
-      c.encoding.log2TableSize = log2T;
-      c.encoding.finestResolution =
-        int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
+      const std::vector<int> marks = nvbench::parseSteps(argv[5]);
       const uint64_t seed = argc > 7 ? std::strtoull(argv[7], nullptr, 10) : 1;
-      Model m(c);
-      m.initialize(seed);
-      m.source.valueMin = raw.view.valueMin;
-      m.source.valueMax = raw.view.valueMax;
+      Model m = nvbench::modelFor(raw, log2T, seed);
+      const ModelConfig& c = m.config();
       TrainConfig tc;
       tc.seed = seed;
       tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;

@@ -88,18 +88,9 @@ int main(int argc, char** argv)
     {
       const nvbench::RawVolume raw = nvbench::loadNhdr(argv[2]);
       const int log2T = std::atoi(argv[3]);
-      std::vector<int> marks;
-      std::stringstream ss(argv[4]);
-      for (std::string t; std::getline(ss, t, ',');)
-        marks.push_back(std::atoi(t.c_str()));
-      ModelConfig c;
-      c.encoding.log2TableSize = log2T;
-      c.encoding.finestResolution =
-        int(2 * std::max(raw.view.dims[0], std::max(raw.view.dims[1], raw.view.dims[2])));
-      Model m(c);
-      m.initialize(1);
-      m.source.valueMin = raw.view.valueMin;
-      m.source.valueMax = raw.view.valueMax;
+      const std::vector<int> marks = nvbench::parseSteps(argv[4]);
+      Model m = nvbench::modelFor(raw, log2T, 1);
+      const ModelConfig& c = m.config();
       TrainConfig tc;
       tc.batchSize = argc > 5 ? std::atoi(argv[5]) : 65536;
       const auto a = Clock::now();
