@@ -33,6 +33,17 @@ public:
 
   /// One optimisation step on a fresh random batch; returns the batch loss (before the update).
   virtual float step() = 0;
+  /// `count` steps back to back; losses[i] (may be null) receives the loss of the i-th. Same result as `count`
+  /// calls of step(); the GPU trainer queues them all and reads the losses back once.
+  virtual void steps(int64_t count, float* losses)
+  {
+    for (int64_t i = 0; i < count; ++i)
+    {
+      const float l = step();
+      if (losses)
+        losses[i] = l;
+    }
+  }
   /// Steps completed so far.
   virtual int64_t stepsDone() const = 0;
   /// Learning rate the next step will use.

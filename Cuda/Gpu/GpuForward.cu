@@ -70,7 +70,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   if (!fn || dm.shape.H > kMaxHidden)
     return false;
   constexpr int warps = 8;
-  FwdArgs a;
+  FwdArgs a{};
   a.grid = dm.grid;
   a.shape = dm.shape;
   const int bytes = fwdLayout(dm.shape, warps, a);

@@ -76,10 +76,11 @@ __device__ __forceinline__ void mmaChunk(float (&C)[W / 8][4], const uint32_t (&
 
 /// Encode the warp's 16 samples (this lane: sample lane & 15 at x) into enc (16 x ldE halves). Lane half h
 /// takes levels h, h+2, ...; two levels per iteration (16 gathers in flight).
-template <int F>
-__device__ __forceinline__ void encodeWarp(const GridLayout& g, const __half* __restrict__ table, const float x[3],
+template <int F, typename T = __half>
+__device__ __forceinline__ void encodeWarp(const GridLayout& g, const T* __restrict__ table, const float x[3],
   __half* enc, int ldE, int lane)
 {
+  using E = Entry<T, F>;
   using V = typename HalfVec<F>::T;
   const int r = lane & 15;
   for (int l0 = lane >> 4; l0 < g.levels; l0 += 4)
@@ -98,12 +99,12 @@ __device__ __forceinline__ void encodeWarp(const GridLayout& g, const __half* __
       for (int c = 0; c < 8; ++c)
         idx[k][c] = fastCornerIndex(lv, c, corner);
     }
-    V v[2][8];
+    typename E::V v[2][8];
 #pragma unroll
     for (int k = 0; k < 2; ++k)
 #pragma unroll
       for (int c = 0; c < 8; ++c)
-        v[k][c] = __ldg(reinterpret_cast<const V*>(table) + idx[k][c]);
+        v[k][c] = E::load(table, idx[k][c]);
 #pragma unroll
     for (int k = 0; k < 2; ++k)
     {
@@ -117,10 +118,9 @@ __device__ __forceinline__ void encodeWarp(const GridLayout& g, const __half* __
       for (int c = 0; c < 8; ++c)
       {
         const float w = cornerWeight(c, frac[k]);
-        const __half* h = reinterpret_cast<const __half*>(&v[k][c]);
 #pragma unroll
         for (int f = 0; f < F; ++f)
-          acc[f] += w * __half2float(h[f]);
+          acc[f] += w * E::get(v[k][c], f);
       }
       __align__(16) __half o[F];
 #pragma unroll

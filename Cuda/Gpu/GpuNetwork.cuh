@@ -138,6 +138,54 @@ struct HalfVec<8>
   using T = uint4;
 };
 
+/// One table entry (F features) as loaded by the encoders: fp16 (inference, the fp16 copy) or fp32 (training on
+/// the fp32 master parameters: no fp16 copy to write per step; an entry is still one 32-byte sector or less).
+template <typename T, int F>
+struct Entry;
+template <int F>
+struct Entry<__half, F>
+{
+  using V = typename HalfVec<F>::T;
+  static __device__ __forceinline__ V load(const __half* t, uint32_t i) { return __ldg(reinterpret_cast<const V*>(t) + i); }
+  static __device__ __forceinline__ float get(const V& v, int f) { return __half2float(reinterpret_cast<const __half*>(&v)[f]); }
+};
+template <int F>
+struct FloatVec;
+template <>
+struct FloatVec<1>
+{
+  using T = float;
+};
+template <>
+struct FloatVec<2>
+{
+  using T = float2;
+};
+template <>
+struct FloatVec<4>
+{
+  using T = float4;
+};
+template <int F>
+struct Entry<float, F>
+{
+  struct alignas(F >= 4 ? 16 : 4 * F) V
+  {
+    typename FloatVec<(F > 4 ? 4 : F)>::T part[F > 4 ? F / 4 : 1];
+  };
+  static __device__ __forceinline__ V load(const float* t, uint32_t i)
+  {
+    using P = typename FloatVec<(F > 4 ? 4 : F)>::T;
+    const P* q = reinterpret_cast<const P*>(t + size_t(i) * F);
+    V v;
+#pragma unroll
+    for (int k = 0; k < (F > 4 ? F / 4 : 1); ++k)
+      v.part[k] = __ldg(q + k);
+    return v;
+  }
+  static __device__ __forceinline__ float get(const V& v, int f) { return reinterpret_cast<const float*>(&v)[f]; }
+};
+
 /// Gather F fp16 features of entry idx and add w * features to acc.
 template <int F>
 __device__ __forceinline__ void gatherAdd(const __half* __restrict__ table, uint32_t idx, float w, float* acc)
@@ -232,9 +280,42 @@ __device__ __forceinline__ void atomicAddVec(float* p, const float* v)
   }
 }
 
+__device__ __forceinline__ uint32_t halves2(float x, float y)
+{
+  const __half2 h = __floats2half2_rn(x, y);
+  return *reinterpret_cast<const uint32_t*>(&h);
+}
+
+/// p[0..F) += v for an fp16 gradient table: packed f16x2 vector reductions (sm_90), one instruction per entry for
+/// F <= 8 (half the L2 atomic work of fp32 float4 reductions).
+template <int F>
+__device__ __forceinline__ void atomicAddVec(__half* p, const float* v)
+{
+  if constexpr (F == 1)
+  {
+    atomicAdd(p, __float2half_rn(v[0]));
+  }
+  else if constexpr (F == 2)
+  {
+    asm volatile("red.global.add.noftz.f16x2 [%0], %1;\n" ::"l"(p), "r"(halves2(v[0], v[1])) : "memory");
+  }
+  else if constexpr (F == 4)
+  {
+    asm volatile("red.global.add.noftz.v2.f16x2 [%0], {%1, %2};\n" ::"l"(p), "r"(halves2(v[0], v[1])),
+      "r"(halves2(v[2], v[3]))
+                 : "memory");
+  }
+  else
+  {
+    asm volatile("red.global.add.noftz.v4.f16x2 [%0], {%1, %2, %3, %4};\n" ::"l"(p), "r"(halves2(v[0], v[1])),
+      "r"(halves2(v[2], v[3])), "r"(halves2(v[4], v[5])), "r"(halves2(v[6], v[7]))
+                 : "memory");
+  }
+}
+
 /// grad += d(loss)/d(table) for the tile, from dEnc (T x ldDE floats). Samples t >= valid are skipped.
 template <int F>
-__device__ __forceinline__ void scatterTile(const GridLayout& g, float* __restrict__ grad, const float* sx,
+__device__ __forceinline__ void scatterTile(const GridLayout& g, __half* __restrict__ grad, const float* sx,
   const float* dEnc, int ldDE, int T, int valid)
 {
   const int items = T * g.levels;

@@ -1,17 +1,17 @@
-// NeuralVolume engine: training on the GPU. One step = sample targets (GPU-resident volume) or upload the batch
-// the CPU threads sampled (host-sampled), one fused kernel (encoding forward, MLP forward on tensor cores, loss,
-// MLP backward, weight gradients, encoding-gradient scatter with vector atomics) -- or, for large tables, the same
-// kernel between a level-major encode pass and a level-major scatter pass (GpuLevels.cuh) --, one memory-bound
-// Adam pass over the hash table (also writes the fp16 copy and zeroes the gradient) and a small Adam kernel for
-// the MLP (GpuStep.cuh).
+// NeuralVolume engine: training on the GPU. One step = sample the targets (GPU-resident volume) or upload the batch
+// the CPU threads sampled (host-sampled); the MLP training kernel -- register-resident mma.sync (GpuBackward.cuh)
+// for widths up to 64, WMMA otherwise (GpuTrainWmma.cuh) -- which either encodes and scatters the table gradient
+// itself (small tables) or sits between a level-major encode pass and a level-major scatter pass (GpuLevels.cuh);
+// then one memory-bound Adam kernel for the table (fp16 gradient, 16-bit moments) and the MLP (GpuStep.cuh).
+// Trainer::steps queues many steps with one read-back of their losses.
 #include "Core/Config.h"
 #include "Cpu/CpuSampler.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
-#include "GpuStep.cuh"
+#include "GpuBackward.cuh"
 #include "GpuInternal.cuh"
-#include "GpuLevels.cuh"
 #include "GpuTesting.h"
+#include "GpuTrainWmma.cuh"
 
 #include <algorithm>
 #include <cmath>
@@ -27,208 +27,6 @@ namespace gpu
 {
 namespace
 {
-
-struct TrainArgs
-{
-  GridLayout grid;
-  MlpShape shape;
-  SmemPlan plan;
-  const __half* table16;
-  const __half* w16;
-  const float* wout;
-  float* gradTable;
-  float* slots;
-  float* gradPad;
-  const float* xyz; ///< null: randomPoint(seed, step, i)
-  uint64_t seed, step;
-  const float* targets; ///< NaN = invalid sample
-  int64_t n;
-  int tiles;
-  int l1;
-  Counters* counters;
-  const __half* encG; ///< two-pass: encodings from encodeLevelsKernel (level-major)
-  float* dEncG;       ///< two-pass: dL/d(encoding) for scatterLevelsKernel (level-major, fp32)
-};
-
-template <int W, int F, bool TwoPass>
-__global__ void __launch_bounds__(256) trainKernel(const __grid_constant__ TrainArgs a)
-{
-  extern __shared__ __align__(128) unsigned char smem[];
-  const SmemPlan& p = a.plan;
-  const MlpShape& s = a.shape;
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T, warps = p.warps;
-  float* sx = reinterpret_cast<float*>(smem + p.xyz);
-  float* stgt = reinterpret_cast<float*>(smem + p.tgt);
-  float* sg = reinterpret_cast<float*>(smem + p.g);
-  __half* enc = reinterpret_cast<__half*>(smem + p.enc);
-  __half* acts = reinterpret_cast<__half*>(smem + p.acts);
-  float* dEnc = reinterpret_cast<float*>(smem + p.acts); // alias: written when the activations are dead
-  __half* dzBuf[2] = { reinterpret_cast<__half*>(smem + p.dz0), reinterpret_cast<__half*>(smem + p.dz1) };
-  float* stage = reinterpret_cast<float*>(smem + p.stage) + warp * 256;
-  const float* sw = reinterpret_cast<const float*>(smem + p.wout);
-  const __half* wl[kMaxHidden];
-  int ldw[kMaxHidden];
-  stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
-  const int pad = s.Dp - s.D;
-  for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
-    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
-  __syncthreads();
-  float* slot = a.slots + size_t(blockIdx.x) * s.total;
-  const int row0 = warp * 16;
-  const int actStride = T * p.ldA;
-  bool first = true;
-  float lossAcc = 0.0f;
-  for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
-  {
-    const int64_t base = int64_t(tile) * T;
-    const int valid = static_cast<int>(min(int64_t(T), a.n - base));
-    for (int t = threadIdx.x; t < T; t += blockDim.x)
-    {
-      float x[3] = { 0.0f, 0.0f, 0.0f };
-      float tg = __int_as_float(0x7fc00000);
-      if (t < valid)
-      {
-        const int64_t gi = base + t;
-        if (TwoPass)
-        {
-          // no coordinates needed: the level-major encode and scatter passes regenerate them
-        }
-        else if (a.xyz)
-        {
-          x[0] = a.xyz[3 * gi];
-          x[1] = a.xyz[3 * gi + 1];
-          x[2] = a.xyz[3 * gi + 2];
-        }
-        else
-        {
-          randomPoint(a.seed, a.step, static_cast<uint64_t>(gi), x);
-        }
-        tg = a.targets[gi];
-      }
-      sx[3 * t] = x[0];
-      sx[3 * t + 1] = x[1];
-      sx[3 * t + 2] = x[2];
-      stgt[t] = tg;
-    }
-    if constexpr (TwoPass)
-    {
-      using V = typename HalfVec<F>::T;
-      const V* src = reinterpret_cast<const V*>(a.encG);
-      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
-      {
-        const int t = it % T, l = it / T;
-        V v{};
-        if (t < valid)
-          v = __ldcs(src + l * a.n + base + t);
-        *reinterpret_cast<V*>(enc + t * p.ldE + l * F) = v;
-      }
-    }
-    else
-    {
-      __syncthreads();
-      encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
-    }
-    __syncthreads();
-    // Forward: rows are private to the warp.
-    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], acts, p.ldA, stage, row0, lane);
-    for (int l = 1; l < s.H; ++l)
-      forwardLayer<W>(acts + (l - 1) * actStride, p.ldA, W, wl[l], ldw[l], acts + l * actStride, p.ldA, stage, row0,
-        lane);
-    const __half* AH = acts + (s.H - 1) * actStride;
-    {
-      const int t = row0 + (lane >> 1), h = lane & 1;
-      float o = 0.0f;
-      const __half* r = AH + t * p.ldA + h * (W / 2);
-#pragma unroll 8
-      for (int i = 0; i < W / 2; ++i)
-        o += __half2float(r[i]) * sw[h * (W / 2) + i];
-      o += __shfl_xor_sync(0xffffffffu, o, 1);
-      if (h == 0)
-      {
-        const float tg = stgt[t];
-        float g = 0.0f;
-        if (!isnan(tg))
-        {
-          const float diff = o - tg;
-          if (a.l1)
-          {
-            lossAcc += fabsf(diff);
-            g = diff > 0.0f ? 1.0f : (diff < 0.0f ? -1.0f : 0.0f);
-          }
-          else
-          {
-            lossAcc += diff * diff;
-            g = 2.0f * diff;
-          }
-        }
-        sg[t] = g; // unscaled: the 1/nValid factor is applied by Adam (keeps fp16 gradients in range)
-      }
-    }
-    __syncwarp();
-    for (int e = lane; e < 16 * W; e += 32)
-    {
-      const int t = row0 + e / W, o = e % W;
-      const float av = __half2float(AH[t * p.ldA + o]);
-      dzBuf[0][t * p.ldA + o] = __float2half_rn(av > 0.0f ? sg[t] * sw[o] : 0.0f);
-    }
-    __syncthreads();
-    for (int o = threadIdx.x; o < W; o += blockDim.x)
-    {
-      float acc = 0.0f;
-      for (int t = 0; t < T; ++t)
-        acc += sg[t] * __half2float(AH[t * p.ldA + o]);
-      float* d = slot + s.off[s.H] + o;
-      *d = first ? acc : *d + acc;
-    }
-    int cur = 0;
-    for (int l = s.H - 1; l >= 0; --l)
-    {
-      __syncthreads();
-      const __half* X = l == 0 ? enc : acts + (l - 1) * actStride;
-      const int ldX = l == 0 ? p.ldE : p.ldA;
-      const int K = s.inDim(l);
-      weightGrad<W>(dzBuf[cur], p.ldA, X, ldX, K, T, slot + s.off[l], first, warp, warps);
-      if (l > 0)
-        backwardInput<W>(dzBuf[cur], p.ldA, wl[l], ldw[l], K, row0, lane, stage, X, dzBuf[cur ^ 1], p.ldA, nullptr, 0);
-      else
-        backwardInput<W>(dzBuf[cur], p.ldA, wl[0], ldw[0], K, row0, lane, stage, nullptr, nullptr, 0, dEnc, p.ldDE);
-      cur ^= 1;
-    }
-    __syncthreads();
-    if constexpr (TwoPass)
-    {
-      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
-      {
-        const int t = it % T, l = it / T;
-        if (t < valid)
-        {
-          float* d = a.dEncG + (l * a.n + base + t) * F;
-#pragma unroll
-          for (int f = 0; f < F; ++f)
-            d[f] = dEnc[t * p.ldDE + l * F + f];
-        }
-      }
-    }
-    else
-    {
-      scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
-    }
-    __syncthreads();
-    first = false;
-  }
-  for (int o = 16; o > 0; o >>= 1)
-    lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
-  if (lane == 0 && lossAcc != 0.0f)
-    atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
-  if (!first)
-  {
-    __syncthreads();
-    const float4* src = reinterpret_cast<const float4*>(slot);
-    float4* dst = reinterpret_cast<float4*>(a.gradPad);
-    for (int i = threadIdx.x; i < s.total / 4; i += blockDim.x)
-      atomicAdd(dst + i, src[i]);
-  }
-}
 
 using TrainFn = void (*)(TrainArgs);
 
@@ -248,13 +46,35 @@ TrainFn pickTrain(int W, int F, bool two)
 {
 #define NV_CASE(w, f)                                                                              \
   if (W == w && F == f)                                                                            \
-    return two ? trainKernel<w, f, true> : trainKernel<w, f, false>;
+    return two ? trainWmmaKernel<w, f, true> : trainWmmaKernel<w, f, false>;
   NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
   NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
   NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
   NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
 #undef NV_CASE
   NV_THROW("unsupported network width / features per level on the GPU");
+}
+
+constexpr int kRegWarps = 8;
+
+/// Register-resident kernel for W <= 64 (GpuBackward.cuh); null for other widths.
+TrainFn pickReg(int W, int F, bool two)
+{
+#define NV_CASE(w, f)                                                                              \
+  if (W == w && F == f)                                                                            \
+    return two ? trainRegKernel<w, f, kRegWarps, true> : trainRegKernel<w, f, kRegWarps, false>;
+  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
+  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
+  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
+#undef NV_CASE
+  return nullptr;
+}
+
+/// NV_GPU_TRAIN_REG=0 forces the WMMA kernel (benchmarks, tests).
+bool regAllowed()
+{
+  const char* e = std::getenv("NV_GPU_TRAIN_REG");
+  return !(e && *e && std::atoi(e) == 0);
 }
 
 int gridFor(int64_t n, int threads = 256)
@@ -278,8 +98,9 @@ public:
     allocateDeviceModel(model, Dm);
     P.allocate(np, "parameters");
     G.allocate(NEnc, "hash-table gradient");
-    M.allocate(np, "Adam first moments");
-    V.allocate(np, "Adam second moments");
+    MV.allocate(NEnc, "hash-table Adam moments");
+    M.allocate(NMlp, "MLP Adam first moments");
+    V.allocate(NMlp, "MLP Adam second moments");
     GradPad.allocate(Dm.shape.total, "MLP gradient");
     const int64_t B = config.batchSize;
     Targets.allocate(B, "targets");
@@ -289,21 +110,21 @@ public:
       EncG.allocate(size_t(B * D), "encodings");
       DEncG.allocate(size_t(B * D), "encoding gradients");
     }
-    Cnt.allocate(1, "counters");
-    HCnt.allocate(1);
-    Fn = pickTrain(Dm.shape.W, Dm.grid.features, EncG.get() != nullptr);
-    int perSm = 0;
-    Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), &perSm);
-    const int64_t tiles = (B + Plan.T - 1) / Plan.T;
-    Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
-    Slots.allocate(size_t(Blocks) * Dm.shape.total, "per-block MLP gradients");
+    Cnt.allocate(kSlots, "step counters");
+    NV_CUDA(cudaMemsetAsync(Cnt.get(), 0, Cnt.bytes(), St.get()));
+    HCnt.allocate(kSlots);
+    const bool two = EncG.get() != nullptr;
+    chooseKernel(two, B);
     NV_CUDA(cudaMemcpyAsync(P.get(), model.params().data(), np * sizeof(float), cudaMemcpyHostToDevice, St.get()));
     NV_CUDA(cudaMemsetAsync(G.get(), 0, G.bytes(), St.get()));
+    NV_CUDA(cudaMemsetAsync(MV.get(), 0, MV.bytes(), St.get()));
     NV_CUDA(cudaMemsetAsync(M.get(), 0, M.bytes(), St.get()));
     NV_CUDA(cudaMemsetAsync(V.get(), 0, V.bytes(), St.get()));
     NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), St.get()));
     packParams(P.get(), Dm, St.get());
     St.sync();
+    if (Reg.warps > 0)
+      Dm.table16.release(); // the register-resident kernel encodes from the fp32 parameters
 
     if (forTest)
     {
@@ -352,31 +173,53 @@ public:
 
   float step() override
   {
-    const int64_t s = Steps + 1;
+    float loss = 0.0f;
+    steps(1, &loss);
+    return loss;
+  }
+
+  /// GPU-resident: up to kSlots - 1 steps are queued at a time (each with its own counters slot, the previous
+  /// step's slot left intact for the loss-gradient scale) and their losses read back once. Host-sampled: one step
+  /// at a time, the CPU threads sampling the next batch while the GPU trains on this one.
+  void steps(int64_t count, float* losses) override
+  {
     const int64_t B = Train.batchSize;
     cudaStream_t st = St.get();
-    NV_CUDA(cudaMemsetAsync(Cnt.get(), 0, sizeof(Counters), st));
-    if (Strategy == TrainingStrategy::GpuResident)
+    for (int64_t done = 0; done < count;)
     {
-      launchSample(s);
+      const int64_t m = Strategy == TrainingStrategy::GpuResident ? std::min<int64_t>(count - done, kSlots - 1) : 1;
+      const int64_t s0 = Steps + 1;
+      forSlots(s0, m, [&](Counters* d, Counters*, size_t k) { NV_CUDA(cudaMemsetAsync(d, 0, k * sizeof(Counters), st)); });
+      for (int64_t s = s0; s < s0 + m; ++s)
+      {
+        if (Strategy == TrainingStrategy::GpuResident)
+        {
+          launchSample(s);
+        }
+        else
+        {
+          const int k = static_cast<int>(s % 2);
+          HCounts[k] = static_cast<int>(Next.get());
+          NV_CUDA(cudaMemcpyAsync(&slot(s)->nValid, &HCounts[k], sizeof(int), cudaMemcpyHostToDevice, st));
+          NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
+          Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
+        }
+        launchTrain(nullptr, B, s);
+        launchAdam(s);
+      }
+      forSlots(s0, m, [&](Counters* d, Counters* h, size_t k) {
+        NV_CUDA(cudaMemcpyAsync(h, d, k * sizeof(Counters), cudaMemcpyDeviceToHost, st));
+      });
+      St.sync();
+      for (int64_t s = s0; s < s0 + m; ++s)
+      {
+        const Counters& c = HCnt.get()[s % kSlots];
+        if (losses)
+          losses[done + (s - s0)] = c.nValid > 0 ? static_cast<float>(c.lossSum / c.nValid) : 0.0f;
+      }
+      Steps += m;
+      done += m;
     }
-    else
-    {
-      const int k = static_cast<int>(s % 2);
-      const int nValid = static_cast<int>(Next.get());
-      HCounts[k] = nValid;
-      NV_CUDA(cudaMemcpyAsync(&Cnt.get()->nValid, &HCounts[k], sizeof(int), cudaMemcpyHostToDevice, st));
-      NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
-      // The CPU threads sample the next batch while the GPU trains on this one.
-      Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
-    }
-    launchTrain(nullptr, B, s);
-    launchAdam(s);
-    NV_CUDA(cudaMemcpyAsync(HCnt.get(), Cnt.get(), sizeof(Counters), cudaMemcpyDeviceToHost, st));
-    St.sync();
-    Steps = s;
-    const Counters c = *HCnt.get();
-    return c.nValid > 0 ? static_cast<float>(c.lossSum / c.nValid) : 0.0f;
   }
 
   int64_t stepsDone() const override { return Steps; }
@@ -392,7 +235,7 @@ public:
 
   int64_t deviceMemoryBytes() const override
   {
-    return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
+    return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
       Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes());
   }
 
@@ -409,22 +252,24 @@ public:
       t[i] = valid[i] ? targets[i] : std::nanf("");
       nValid += valid[i] ? 1 : 0;
     }
-    Counters c{ 0.0, nValid, 0 };
+    Counters c{};
+    c.nValid = nValid;
     NV_CUDA(cudaMemcpyAsync(Xyz.get(), xyz, 3 * n * sizeof(float), cudaMemcpyHostToDevice, st));
     NV_CUDA(cudaMemcpyAsync(Targets.get(), t.data(), n * sizeof(float), cudaMemcpyHostToDevice, st));
-    NV_CUDA(cudaMemcpyAsync(Cnt.get(), &c, sizeof(c), cudaMemcpyHostToDevice, st));
+    NV_CUDA(cudaMemcpyAsync(slot(1), &c, sizeof(c), cudaMemcpyHostToDevice, st));
     launchTrain(Xyz.get(), n, 1);
-    std::vector<float> gt(NEnc), gp(Dm.shape.total);
+    std::vector<__half> gt(NEnc);
+    std::vector<float> gp(Dm.shape.total);
     NV_CUDA(cudaMemcpyAsync(gt.data(), G.get(), G.bytes(), cudaMemcpyDeviceToHost, st));
     NV_CUDA(cudaMemcpyAsync(gp.data(), GradPad.get(), GradPad.bytes(), cudaMemcpyDeviceToHost, st));
-    NV_CUDA(cudaMemcpyAsync(&c, Cnt.get(), sizeof(c), cudaMemcpyDeviceToHost, st));
+    NV_CUDA(cudaMemcpyAsync(&c, slot(1), sizeof(c), cudaMemcpyDeviceToHost, st));
     NV_CUDA(cudaMemsetAsync(G.get(), 0, G.bytes(), st));
     NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), st));
     St.sync();
     const float scale = 1.0f / static_cast<float>(std::max(nValid, 1));
     grad.assign(NEnc + NMlp, 0.0f);
     for (size_t i = 0; i < NEnc; ++i)
-      grad[i] = gt[i] * scale;
+      grad[i] = __half2float(gt[i]) * scale;
     const MlpShape& s = Dm.shape;
     size_t j = NEnc;
     for (int l = 0; l < s.H; ++l)
@@ -480,7 +325,7 @@ private:
 #define NV_SAMPLE(E, T)                                                                            \
   case ScalarType::E:                                                                              \
     sampleKernel<T><<<blocks, 256, 0, st>>>(reinterpret_cast<const T*>(Vol.get()), d[0], d[1], d[2],           \
-      Volume.valueMin, inv, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), Cnt.get());    \
+      Volume.valueMin, inv, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s));      \
     break;
       NV_SAMPLE(Int8, int8_t)
       NV_SAMPLE(UInt8, uint8_t)
@@ -497,66 +342,34 @@ private:
     NV_CUDA_LAUNCH();
   }
 
-  void launchTrain(const float* xyz, int64_t n, int64_t s)
+  /// Register-resident kernel when the shape and shared memory allow, else the WMMA kernel.
+  void chooseKernel(bool two, int64_t B)
   {
-    TrainArgs a;
-    a.grid = Dm.grid;
-    a.shape = Dm.shape;
-    a.plan = Plan;
-    a.table16 = Dm.table16.get();
-    a.w16 = Dm.w16.get();
-    a.wout = P.get() + NEnc + (NMlp - Dm.shape.W); // fp32 output row (last MLP layer)
-    a.gradTable = G.get();
-    a.slots = Slots.get();
-    a.gradPad = GradPad.get();
-    a.xyz = xyz;
-    a.seed = Train.seed;
-    a.step = static_cast<uint64_t>(s);
-    a.targets = Targets.get();
-    a.n = n;
-    const int64_t tiles = (n + Plan.T - 1) / Plan.T;
-    a.tiles = static_cast<int>(tiles);
-    a.l1 = Train.loss == LossType::L1 ? 1 : 0;
-    a.counters = Cnt.get();
-    a.encG = EncG.get();
-    a.dEncG = DEncG.get();
-    const int blocks = static_cast<int>(std::min<int64_t>(tiles, Blocks));
-    FwdArgs f{};
-    const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
-    if (EncG.get())
+    const int maxSmem = deviceInfo().maxSmemOptin - 1024; // static shared memory of the kernel
+    Reg = makeRegPlan(Dm.shape, kRegWarps, !two);
+    Fn = regAllowed() && Reg.warps > 0 && Reg.total <= maxSmem ? pickReg(Dm.shape.W, Dm.grid.features, two) : nullptr;
+    int perSm = 0;
+    if (Fn)
     {
-      f.grid = Dm.grid;
-      f.table16 = Dm.table16.get();
-      f.xyz = xyz;
-      f.random = xyz ? 0 : 1;
-      f.seed = Train.seed;
-      f.step = static_cast<uint64_t>(s);
-      f.n = n;
-      switch (Dm.grid.features)
+      const void* fp = reinterpret_cast<const void*>(Fn);
+      NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, Reg.total));
+      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, kRegWarps * 32, Reg.total));
+      if (perSm >= 1)
       {
-        case 1: encodeLevelsKernel<1><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
-        case 2: encodeLevelsKernel<2><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
-        case 4: encodeLevelsKernel<4><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
-        default: encodeLevelsKernel<8><<<lg, 256, 0, St.get()>>>(f, EncG.get()); break;
+        const int64_t iters = (B + 16 * kRegWarps - 1) / (16 * kRegWarps);
+        Blocks = static_cast<int>(std::min<int64_t>(iters, int64_t(perSm) * deviceInfo().sms));
+        return;
       }
-      NV_CUDA_LAUNCH();
     }
-    Fn<<<blocks, Plan.warps * 32, Plan.total, St.get()>>>(a);
-    NV_CUDA_LAUNCH();
-    if (EncG.get())
-    {
-      switch (Dm.grid.features)
-      {
-        case 1: scatterLevelsKernel<1><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
-        case 2: scatterLevelsKernel<2><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
-        case 4: scatterLevelsKernel<4><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
-        default: scatterLevelsKernel<8><<<lg, 256, 0, St.get()>>>(f, DEncG.get(), G.get()); break;
-      }
-      NV_CUDA_LAUNCH();
-    }
+    Reg = RegPlan{};
+    Fn = pickTrain(Dm.shape.W, Dm.grid.features, two);
+    Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), &perSm);
+    const int64_t tiles = (B + Plan.T - 1) / Plan.T;
+    Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
+    Slots.allocate(size_t(Blocks) * Dm.shape.total, "per-block MLP gradients");
   }
 
-  void launchAdam(int64_t s)
+  AdamArgs adamArgs(int64_t s) const
   {
     const OptimizerConfig& o = Train.optimizer;
     const double bc1 = 1.0 - std::pow(o.beta1, static_cast<double>(s));
@@ -570,14 +383,124 @@ private:
     a.eps = static_cast<float>(o.epsilon);
     a.stepSize = static_cast<float>(lr / bc1);
     a.invSqrtBc2 = static_cast<float>(1.0 / std::sqrt(bc2));
+    a.stateScale = static_cast<float>(Train.batchSize);
+    a.noise = static_cast<uint32_t>(mix64(Train.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(s)));
+    return a;
+  }
+
+  /// Forward/backward of step s on n samples (xyz null: random points). Two-pass mode: level-major encode, MLP
+  /// kernel, level-major scatter of the table gradient.
+  void launchTrain(const float* xyz, int64_t n, int64_t s)
+  {
     cudaStream_t st = St.get();
+    TrainArgs a{};
+    a.grid = Dm.grid;
+    a.shape = Dm.shape;
+    a.plan = Plan;
+    a.reg = Reg;
+    a.table16 = Dm.table16.get();
+    a.table32 = P.get();
+    a.w16 = Dm.w16.get();
+    a.wout = P.get() + NEnc + (NMlp - Dm.shape.W); // fp32 output row (last MLP layer)
+    a.gradTable = G.get();
+    a.slots = Slots.get();
+    a.gradPad = GradPad.get();
+    a.xyz = xyz;
+    a.seed = Train.seed;
+    a.step = static_cast<uint64_t>(s);
+    a.targets = Targets.get();
+    a.n = n;
+    a.l1 = Train.loss == LossType::L1 ? 1 : 0;
+    a.counters = slot(s);
+    a.prev = s > 1 ? slot(s - 1) : nullptr;
+    a.encG = EncG.get();
+    a.dEncG = DEncG.get();
+    int blocks = Blocks, threads = 0, smem = 0;
+    if (Reg.warps > 0)
+    {
+      blocks = static_cast<int>(std::min<int64_t>((n + 16 * Reg.warps - 1) / (16 * Reg.warps), Blocks));
+      threads = Reg.warps * 32;
+      smem = Reg.total;
+    }
+    else
+    {
+      const int64_t tiles = (n + Plan.T - 1) / Plan.T;
+      a.tiles = static_cast<int>(tiles);
+      blocks = static_cast<int>(std::min<int64_t>(tiles, Blocks));
+      threads = Plan.warps * 32;
+      smem = Plan.total;
+    }
+    FwdArgs f{};
+    f.grid = Dm.grid;
+    f.table16 = Dm.table16.get();
+    f.table32 = Reg.warps > 0 ? P.get() : nullptr;
+    f.xyz = xyz;
+    f.random = xyz ? 0 : 1;
+    f.seed = Train.seed;
+    f.step = static_cast<uint64_t>(s);
+    f.n = n;
+    if (EncG.get())
+    {
+      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
+      const bool fp32 = f.table32 != nullptr;
+      switch (Dm.grid.features)
+      {
+        case 1: (fp32 ? encodeLevelsKernel<1, float> : encodeLevelsKernel<1>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
+        case 2: (fp32 ? encodeLevelsKernel<2, float> : encodeLevelsKernel<2>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
+        case 4: (fp32 ? encodeLevelsKernel<4, float> : encodeLevelsKernel<4>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
+        default: (fp32 ? encodeLevelsKernel<8, float> : encodeLevelsKernel<8>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
+      }
+      NV_CUDA_LAUNCH();
+    }
+    Fn<<<blocks, threads, smem, st>>>(a);
+    NV_CUDA_LAUNCH();
+    if (EncG.get())
+    {
+      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
+      switch (Dm.grid.features)
+      {
+        case 1: scatterLevelsKernel<1><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
+        case 2: scatterLevelsKernel<2><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
+        case 4: scatterLevelsKernel<4><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
+        default: scatterLevelsKernel<8><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
+      }
+      NV_CUDA_LAUNCH();
+    }
+  }
+
+  /// Adam over the hash table and the MLP, one kernel.
+  void launchAdam(int64_t s)
+  {
+    const AdamArgs a = adamArgs(s);
     const int64_t n = static_cast<int64_t>(NEnc);
-    const int blocks = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>((n / 4 + 255) / 256, int64_t(deviceInfo().sms) * 8)));
-    adamTableKernel<<<blocks, 256, 0, st>>>(P.get(), G.get(), M.get(), V.get(), Dm.table16.get(), n, a, Cnt.get());
+    MlpAdam q;
+    q.p = P.get() + NEnc;
+    q.m = M.get();
+    q.v = V.get();
+    q.gradPad = GradPad.get();
+    q.w16 = Dm.w16.get();
+    q.wout = Dm.wout.get();
+    q.s = Dm.shape;
+    q.count = static_cast<int64_t>(NMlp);
+    const int64_t work = std::max<int64_t>(n / 4, q.count);
+    const int blocks = static_cast<int>(
+      std::max<int64_t>(1, std::min<int64_t>((work + 255) / 256, int64_t(deviceInfo().sms) * 8)));
+    adamKernel<<<blocks, 256, 0, St.get()>>>(P.get(), G.get(), MV.get(), Dm.table16.get(), n, q, a, slot(s));
     NV_CUDA_LAUNCH();
-    adamMlpKernel<<<gridFor(NMlp), 256, 0, st>>>(P.get() + NEnc, M.get() + NEnc, V.get() + NEnc, GradPad.get(),
-      Dm.w16.get(), Dm.wout.get(), Dm.shape, static_cast<int64_t>(NMlp), a, Cnt.get());
-    NV_CUDA_LAUNCH();
+  }
+
+  static constexpr int64_t kSlots = 256; ///< counters ring: one slot per queued step
+
+  Counters* slot(int64_t s) const { return Cnt.get() + s % kSlots; }
+
+  /// f(device, host, count) for the ring slots of steps [s0, s0 + m) (two calls when they wrap).
+  template <typename Fn>
+  void forSlots(int64_t s0, int64_t m, Fn f)
+  {
+    const int64_t a = s0 % kSlots, first = std::min(m, kSlots - a);
+    f(Cnt.get() + a, HCnt.get() + a, static_cast<size_t>(first));
+    if (m > first)
+      f(Cnt.get(), HCnt.get(), static_cast<size_t>(m - first));
   }
 
   ModelConfig Config;
@@ -587,8 +510,9 @@ private:
   size_t NEnc = 0, NMlp = 0;
   mutable Stream St;
   DeviceModel Dm;
-  DeviceBuffer<float> P, G, M, V, GradPad, Slots, Targets, Xyz, DEncG;
-  DeviceBuffer<__half> EncG;
+  DeviceBuffer<float> P, M, V, GradPad, Slots, Targets, Xyz, DEncG;
+  DeviceBuffer<__half> G, EncG;
+  DeviceBuffer<uint32_t> MV;
   DeviceBuffer<unsigned char> Vol;
   DeviceBuffer<Counters> Cnt;
   PinnedBuffer<Counters> HCnt;
@@ -597,6 +521,7 @@ private:
   std::unique_ptr<ThreadPool> Pool;
   std::future<int64_t> Next;
   SmemPlan Plan{};
+  RegPlan Reg{};
   TrainFn Fn = nullptr;
   int Blocks = 1;
   int64_t Steps = 0;

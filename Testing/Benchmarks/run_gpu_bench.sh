@@ -2,7 +2,7 @@
 # GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
 # Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvBenchGpu nvBench; data/: .nhdr+.raw;
 # ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
-#   parity | memcheck | racecheck | step | infer | quality | cpucurves | torch
+#   parity | memcheck | racecheck | step | infer | quality | seeds | cpucurves | torch
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -15,32 +15,43 @@ for s in "$@"; do
       nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv | tee "$O/gpu.txt"
       $B/nvTestGpuParity 2>&1 | tee "$O/parity.log"
       # the two-pass training path on every test shape (auto picks it for tables > 16 MiB only)
-      for t in gradients_match_cpu training_curve_matches_cpu host_sampled_equals_gpu_resident; do
-        NV_GPU_TRAIN_TWOPASS=1 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_twopass.log" ;;
+      for t in gradients_match_cpu training_curve_matches_cpu host_sampled_equals_gpu_resident queued_steps_equal_single_steps; do
+        NV_GPU_TRAIN_TWOPASS=1 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_twopass.log"
+      # the WMMA training kernel (used for widths > 64 or shapes whose staging does not fit) on every test shape
+      for t in gradients_match_cpu training_curve_matches_cpu; do
+        NV_GPU_TRAIN_REG=0 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_wmma.log" ;;
     memcheck)
       compute-sanitizer --tool memcheck --leak-check full $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity host_sampled_equals_gpu_resident 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity decode_equals_batched_inference 2>&1 | tail -6 | tee -a "$O/memcheck.log"
+      compute-sanitizer --tool memcheck $B/nvTestGpuParity queued_steps_equal_single_steps 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       # two-pass training (level-major encode/scatter) is chosen for large tables only: force it on the test shapes
       NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool memcheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/memcheck.log" ;;
     racecheck)
       compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/racecheck.log"
       compute-sanitizer --tool racecheck $B/nvTestGpuParity inference_matches_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
-      NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
+      NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
+      NV_GPU_TRAIN_REG=0 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
     step)
       for b in 16384 32768 65536 131072 262144 524288 1048576; do $B/nvBench step cuda $b 19 4096 200; done 2>&1 | tee "$O/step_batch.log"
       for t in 14 16 18 19 20 22; do $B/nvBench step cuda 65536 $t 4096 200; done 2>&1 | tee "$O/step_table.log"
-      for p in 0 1; do for t in 16 18 19; do NV_GPU_TRAIN_TWOPASS=$p $B/nvBench step cuda 65536 $t 4096 200; done; done 2>&1 | sed 's/^/forced /' | tee "$O/step_twopass.log" ;;
+      for p in 0 1; do for t in 16 18 19; do NV_GPU_TRAIN_TWOPASS=$p $B/nvBench step cuda 65536 $t 4096 200; done; done 2>&1 | sed 's/^/forced /' | tee "$O/step_twopass.log"
+      NV_GPU_TRAIN_REG=0 $B/nvBench step cuda 65536 19 4096 200 2>&1 | sed 's/^/wmma /' | tee -a "$O/step_twopass.log" ;;
     infer)
       for n in 2097152 8388608; do $B/nvBenchGpu infer $n 19 4096; done 2>&1 | tee "$O/infer.log"
       $B/nvBenchGpu decode 512 19 4096 2>&1 | tee -a "$O/infer.log"
       # NV_GPU_FWD_MODE: 0 fused encode+MLP everywhere, 2 two passes for decoding too (default 1: two passes for points)
       for m in 0 2; do NV_GPU_FWD_MODE=$m $B/nvBenchGpu infer 2097152 19 4096; NV_GPU_FWD_MODE=$m $B/nvBenchGpu decode 512 19 4096; done 2>&1 | sed 's/^/mode /' | tee -a "$O/infer.log" ;;
+    seeds)
+      # GPU curves over six seeds (the accuracy bar compares means: single runs spread +-0.5 dB at 500 steps)
+      for sd in 1 2 3 4 5 6; do for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do
+        $B/nvBench curve cuda $D/$v.nhdr 14 500,1000,2000,4000 65536 $sd; done; done 2>&1 | tee "$O/seeds.log" ;;
     quality)
-      $B/nvBenchGpu ttq $D/stent_128x128x256_int16.nhdr 14 250,500,750,1000,1500,2000,4000 2>&1 | tee "$O/quality.log"
-      $B/nvBenchGpu ttq $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log"
-      $B/nvBench curve cuda $D/stent_128x128x256_int16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log"
-      $B/nvBench curve cuda $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000 2>&1 | tee -a "$O/quality.log" ;;
+      # time to quality: wall from trainer creation (upload included), steps queued back to back between marks
+      for r in 1 2 3; do
+        $B/nvBenchGpu ttq $D/stent_128x128x256_int16.nhdr 14 500,1000,1500,2000,2250,2500,3000,4000
+        $B/nvBenchGpu ttq $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000
+      done 2>&1 | tee "$O/quality.log" ;;
     cpucurves)
       # The CPU engine's curves (the accuracy reference), 16 threads of the device machine.
       for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do

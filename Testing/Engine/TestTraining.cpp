@@ -102,6 +102,33 @@ NV_TEST(deterministic_for_seed_and_threads)
   EXPECT_NEAR_REL(ea.psnr, ed.psnr, 0.02, 0.0);
 }
 
+NV_TEST(steps_equal_repeated_step)
+{
+  // Trainer::steps(k, losses) is k steps with their losses: the same parameters and losses as k calls of step().
+  const int n = 16;
+  const auto data = analyticVolume(n);
+  const VolumeView vol = view(data, n);
+  Model m(smallConfig());
+  m.initialize(5);
+  m.source.valueMin = vol.valueMin;
+  m.source.valueMax = vol.valueMax;
+  TrainConfig tc;
+  tc.batchSize = 2048;
+  tc.threads = 2;
+  auto a = createTrainer(Device::Cpu, m, vol, tc), b = createTrainer(Device::Cpu, m, vol, tc);
+  std::vector<float> la(12);
+  a->steps(12, la.data());
+  for (int i = 0; i < 12; ++i)
+    EXPECT_TRUE(b->step() == la[i]);
+  EXPECT_TRUE(a->stepsDone() == 12);
+  Model ma = m, mb = m;
+  a->syncTo(ma);
+  b->syncTo(mb);
+  EXPECT_TRUE(ma.params() == mb.params());
+  a->steps(3, nullptr);
+  EXPECT_TRUE(a->stepsDone() == 15);
+}
+
 NV_TEST(nan_and_inf_are_excluded)
 {
   const int n = 24;

@@ -1,0 +1,48 @@
+// NeuralVolume engine: arguments of the GPU training kernels (GpuTrainWmma.cuh, GpuBackward.cuh).
+#pragma once
+
+#include "GpuStep.cuh"
+
+namespace nv
+{
+namespace gpu
+{
+
+/// Shared-memory plan of the register-resident training kernel (GpuBackward.cuh); warps == 0: not usable.
+struct RegPlan
+{
+  int warps;
+  int ldX0, ldA, ldDE;  ///< leading dimensions: X_0 (halves), X_l / dZ_l (halves), fused dEnc (floats)
+  int w[kMaxHidden];    ///< layer weights, offsets in halves
+  int x[kMaxHidden];    ///< staging of each layer's input X_l (T rows), halves
+  int dz[kMaxHidden];   ///< staging of each layer's output gradient dZ_l (T rows), halves
+  int wout, de, total;  ///< bytes: fp32 output row, fused-mode dEnc (16 rows per warp), block total
+};
+
+struct TrainArgs
+{
+  GridLayout grid;
+  MlpShape shape;
+  SmemPlan plan; ///< WMMA kernel
+  RegPlan reg;   ///< register-resident kernel
+  const __half* table16; ///< WMMA kernel: the fp16 copy of the table
+  const float* table32;  ///< register-resident kernel: the fp32 parameters (fused mode encodes from them)
+  const __half* w16;
+  const float* wout;
+  __half* gradTable; ///< fp16, unscaled (Adam applies 1 / valid samples)
+  float* slots;
+  float* gradPad;
+  const float* xyz; ///< null: randomPoint(seed, step, i)
+  uint64_t seed, step;
+  const float* targets; ///< NaN = invalid sample
+  int64_t n;
+  int tiles;
+  int l1;
+  Counters* counters;     ///< this step's
+  const Counters* prev;   ///< the previous step's (loss-gradient scale), or null
+  const __half* encG; ///< two-pass: encodings from encodeLevelsKernel (level-major)
+  float* dEncG;       ///< two-pass: dL/d(encoding), level-major fp32 (scatter pass)
+};
+
+} // namespace gpu
+} // namespace nv

@@ -1,0 +1,199 @@
+// NeuralVolume engine: the general training kernel (WMMA m16n16k16 through shared memory; any width up to 128,
+// weights in shared memory or read through L1). One block takes T = 16 * warps samples per tile: encoding (or the
+// level-major encodings), forward, loss, backward, weight gradients into a per-block slot, and the table-gradient
+// scatter (or dEnc out for the level-major scatter). The register-resident kernel (GpuBackward.cuh) replaces it
+// where the shape allows.
+#pragma once
+
+#include "GpuTrainArgs.cuh"
+
+namespace nv
+{
+namespace gpu
+{
+
+template <int W, int F, bool TwoPass>
+__global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ TrainArgs a)
+{
+  extern __shared__ __align__(128) unsigned char smem[];
+  const SmemPlan& p = a.plan;
+  const MlpShape& s = a.shape;
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T, warps = p.warps;
+  float* sx = reinterpret_cast<float*>(smem + p.xyz);
+  float* stgt = reinterpret_cast<float*>(smem + p.tgt);
+  float* sg = reinterpret_cast<float*>(smem + p.g);
+  __half* enc = reinterpret_cast<__half*>(smem + p.enc);
+  __half* acts = reinterpret_cast<__half*>(smem + p.acts);
+  float* dEnc = reinterpret_cast<float*>(smem + p.acts); // alias: written when the activations are dead
+  __half* dzBuf[2] = { reinterpret_cast<__half*>(smem + p.dz0), reinterpret_cast<__half*>(smem + p.dz1) };
+  float* stage = reinterpret_cast<float*>(smem + p.stage) + warp * 256;
+  const float* sw = reinterpret_cast<const float*>(smem + p.wout);
+  const __half* wl[kMaxHidden];
+  int ldw[kMaxHidden];
+  stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
+  const int pad = s.Dp - s.D;
+  for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
+    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
+  __syncthreads();
+  float* slot = a.slots + size_t(blockIdx.x) * s.total;
+  const int row0 = warp * 16;
+  const int actStride = T * p.ldA;
+  bool first = true;
+  float lossAcc = 0.0f;
+  const float gradScale = lossGradScale(a.prev, a.l1);
+  if (blockIdx.x == 0 && threadIdx.x == 0)
+    a.counters->gradScale = gradScale;
+  for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
+  {
+    const int64_t base = int64_t(tile) * T;
+    const int valid = static_cast<int>(min(int64_t(T), a.n - base));
+    for (int t = threadIdx.x; t < T; t += blockDim.x)
+    {
+      float x[3] = { 0.0f, 0.0f, 0.0f };
+      float tg = __int_as_float(0x7fc00000);
+      if (t < valid)
+      {
+        const int64_t gi = base + t;
+        if (TwoPass)
+        {
+          // no coordinates needed: the level-major encode and scatter passes regenerate them
+        }
+        else if (a.xyz)
+        {
+          x[0] = a.xyz[3 * gi];
+          x[1] = a.xyz[3 * gi + 1];
+          x[2] = a.xyz[3 * gi + 2];
+        }
+        else
+        {
+          randomPoint(a.seed, a.step, static_cast<uint64_t>(gi), x);
+        }
+        tg = a.targets[gi];
+      }
+      sx[3 * t] = x[0];
+      sx[3 * t + 1] = x[1];
+      sx[3 * t + 2] = x[2];
+      stgt[t] = tg;
+    }
+    if constexpr (TwoPass)
+    {
+      using V = typename HalfVec<F>::T;
+      const V* src = reinterpret_cast<const V*>(a.encG);
+      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
+      {
+        const int t = it % T, l = it / T;
+        V v{};
+        if (t < valid)
+          v = __ldcs(src + l * a.n + base + t);
+        *reinterpret_cast<V*>(enc + t * p.ldE + l * F) = v;
+      }
+    }
+    else
+    {
+      __syncthreads();
+      encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
+    }
+    __syncthreads();
+    // Forward: rows are private to the warp.
+    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], acts, p.ldA, stage, row0, lane);
+    for (int l = 1; l < s.H; ++l)
+      forwardLayer<W>(acts + (l - 1) * actStride, p.ldA, W, wl[l], ldw[l], acts + l * actStride, p.ldA, stage, row0,
+        lane);
+    const __half* AH = acts + (s.H - 1) * actStride;
+    {
+      const int t = row0 + (lane >> 1), h = lane & 1;
+      float o = 0.0f;
+      const __half* r = AH + t * p.ldA + h * (W / 2);
+#pragma unroll 8
+      for (int i = 0; i < W / 2; ++i)
+        o += __half2float(r[i]) * sw[h * (W / 2) + i];
+      o += __shfl_xor_sync(0xffffffffu, o, 1);
+      if (h == 0)
+      {
+        const float tg = stgt[t];
+        float g = 0.0f;
+        if (!isnan(tg))
+        {
+          const float diff = o - tg;
+          if (a.l1)
+          {
+            lossAcc += fabsf(diff);
+            g = diff > 0.0f ? 1.0f : (diff < 0.0f ? -1.0f : 0.0f);
+          }
+          else
+          {
+            lossAcc += diff * diff;
+            g = 2.0f * diff * gradScale;
+          }
+        }
+        sg[t] = g; // unscaled: the 1/nValid factor is applied by Adam (keeps fp16 gradients in range)
+      }
+    }
+    __syncwarp();
+    for (int e = lane; e < 16 * W; e += 32)
+    {
+      const int t = row0 + e / W, o = e % W;
+      const float av = __half2float(AH[t * p.ldA + o]);
+      dzBuf[0][t * p.ldA + o] = __float2half_rn(av > 0.0f ? sg[t] * sw[o] : 0.0f);
+    }
+    __syncthreads();
+    for (int o = threadIdx.x; o < W; o += blockDim.x)
+    {
+      float acc = 0.0f;
+      for (int t = 0; t < T; ++t)
+        acc += sg[t] * __half2float(AH[t * p.ldA + o]);
+      float* d = slot + s.off[s.H] + o;
+      *d = first ? acc : *d + acc;
+    }
+    int cur = 0;
+    for (int l = s.H - 1; l >= 0; --l)
+    {
+      __syncthreads();
+      const __half* X = l == 0 ? enc : acts + (l - 1) * actStride;
+      const int ldX = l == 0 ? p.ldE : p.ldA;
+      const int K = s.inDim(l);
+      weightGrad<W>(dzBuf[cur], p.ldA, X, ldX, K, T, slot + s.off[l], first, warp, warps);
+      if (l > 0)
+        backwardInput<W>(dzBuf[cur], p.ldA, wl[l], ldw[l], K, row0, lane, stage, X, dzBuf[cur ^ 1], p.ldA, nullptr, 0);
+      else
+        backwardInput<W>(dzBuf[cur], p.ldA, wl[0], ldw[0], K, row0, lane, stage, nullptr, nullptr, 0, dEnc, p.ldDE);
+      cur ^= 1;
+    }
+    __syncthreads();
+    if constexpr (TwoPass)
+    {
+      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
+      {
+        const int t = it % T, l = it / T;
+        if (t < valid)
+        {
+          float* d = a.dEncG + (l * a.n + base + t) * F;
+#pragma unroll
+          for (int f = 0; f < F; ++f)
+            d[f] = dEnc[t * p.ldDE + l * F + f];
+        }
+      }
+    }
+    else
+    {
+      scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
+    }
+    __syncthreads();
+    first = false;
+  }
+  for (int o = 16; o > 0; o >>= 1)
+    lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
+  if (lane == 0 && lossAcc != 0.0f)
+    atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
+  if (!first)
+  {
+    __syncthreads();
+    const float4* src = reinterpret_cast<const float4*>(slot);
+    float4* dst = reinterpret_cast<float4*>(a.gradPad);
+    for (int i = threadIdx.x; i < s.total / 4; i += blockDim.x)
+      atomicAdd(dst + i, src[i]);
+  }
+}
+
+} // namespace gpu
+} // namespace nv
