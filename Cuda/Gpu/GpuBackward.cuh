@@ -20,15 +20,6 @@ namespace gpu
 
 constexpr int kRegTiles = 16; ///< weight-gradient tiles (16 x 8) per warp held in registers
 
-__device__ __forceinline__ void ldsm4t(uint32_t (&r)[4], const void* p)
-{
-  const uint32_t a = static_cast<uint32_t>(__cvta_generic_to_shared(p));
-  asm volatile("ldmatrix.sync.aligned.m8n8.x4.trans.shared.b16 {%0,%1,%2,%3}, [%4];\n"
-               : "=r"(r[0]), "=r"(r[1]), "=r"(r[2]), "=r"(r[3])
-               : "r"(a)
-               : "memory");
-}
-
 /// C[:, n0 + 8j] += A(16 x 16, k = o0..o0+15) . Wl[o0:o0+16, n0 + 8j : +8] for j < nt (nt even, <= NT): the
 /// backward product dZ . W with Wl row-major [o][i] in shared memory (ld ldw), B fragments by ldmatrix.trans.
 template <int NT>
@@ -43,7 +34,7 @@ __device__ __forceinline__ void mmaChunkT(float (&C)[NT][4], const uint32_t (&A)
     if (j < nt)
     {
       uint32_t b[4];
-      ldsm4t(b, p + j * 8);
+      ldsm4<true>(b, p + j * 8);
       mma16816(C[j], A, b[0], b[1]);
       mma16816(C[j + 1], A, b[2], b[3]);
     }
@@ -139,10 +130,7 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
 #pragma unroll
     for (int kc = 0; kc < W / 16; ++kc)
     {
-      A[kc][0] = packRelu(C[2 * kc][0], C[2 * kc][1]);
-      A[kc][1] = packRelu(C[2 * kc][2], C[2 * kc][3]);
-      A[kc][2] = packRelu(C[2 * kc + 1][0], C[2 * kc + 1][1]);
-      A[kc][3] = packRelu(C[2 * kc + 1][2], C[2 * kc + 1][3]);
+      reluFragment(C, kc, A[kc]);
       storeFrag(A[kc], Xl, p.ldA, kc, lane);
     }
 #pragma unroll
@@ -401,13 +389,13 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
           for (int k0 = 0; k0 < T; k0 += 32)
           {
             uint32_t a0[4], a1[4];
-            ldsm4t(a0, dz + k0 * p.ldA);
-            ldsm4t(a1, dz + (k0 + 16) * p.ldA);
+            ldsm4<true>(a0, dz + k0 * p.ldA);
+            ldsm4<true>(a1, dz + (k0 + 16) * p.ldA);
 #pragma unroll
             for (int j = 0; j < W / 8; ++j)
             {
               uint32_t b[4];
-              ldsm4t(b, X + k0 * p.ldA + 8 * j);
+              ldsm4<true>(b, X + k0 * p.ldA + 8 * j);
               mma16816(acc[r * (W / 8) + j], a0, b[0], b[1]);
               mma16816(acc[r * (W / 8) + j], a1, b[2], b[3]);
             }
@@ -430,13 +418,13 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
             if (rg != rgPrev)
             {
               const __half* dz = sh + p.dz[l] + m0 + (q8 & 1) * 8;
-              ldsm4t(a0, dz + (k0 + (q8 >> 1) * 8 + r8) * p.ldA);
-              ldsm4t(a1, dz + (k0 + 16 + (q8 >> 1) * 8 + r8) * p.ldA);
+              ldsm4<true>(a0, dz + (k0 + (q8 >> 1) * 8 + r8) * p.ldA);
+              ldsm4<true>(a1, dz + (k0 + 16 + (q8 >> 1) * 8 + r8) * p.ldA);
               rgPrev = rg;
             }
             const int ldx = l == 0 ? p.ldX0 : p.ldA;
             uint32_t b[4];
-            ldsm4t(b, sh + p.x[l] + (k0 + q8 * 8 + r8) * ldx + n0);
+            ldsm4<true>(b, sh + p.x[l] + (k0 + q8 * 8 + r8) * ldx + n0);
             mma16816(acc[q], a0, b[0], b[1]);
             mma16816(acc[q], a1, b[2], b[3]);
           }

@@ -35,13 +35,21 @@ inline int fwdLayout(const MlpShape& s, int warps, FwdArgs& a)
   return static_cast<int>(o);
 }
 
+/// ldmatrix x4 (Trans: the transposed 8 x 8 tiles) from shared memory.
+template <bool Trans = false>
 __device__ __forceinline__ void ldsm4(uint32_t (&r)[4], const void* p)
 {
   const uint32_t a = static_cast<uint32_t>(__cvta_generic_to_shared(p));
-  asm volatile("ldmatrix.sync.aligned.m8n8.x4.shared.b16 {%0,%1,%2,%3}, [%4];\n"
-               : "=r"(r[0]), "=r"(r[1]), "=r"(r[2]), "=r"(r[3])
-               : "r"(a)
-               : "memory");
+  if constexpr (Trans)
+    asm volatile("ldmatrix.sync.aligned.m8n8.x4.trans.shared.b16 {%0,%1,%2,%3}, [%4];\n"
+                 : "=r"(r[0]), "=r"(r[1]), "=r"(r[2]), "=r"(r[3])
+                 : "r"(a)
+                 : "memory");
+  else
+    asm volatile("ldmatrix.sync.aligned.m8n8.x4.shared.b16 {%0,%1,%2,%3}, [%4];\n"
+                 : "=r"(r[0]), "=r"(r[1]), "=r"(r[2]), "=r"(r[3])
+                 : "r"(a)
+                 : "memory");
 }
 
 __device__ __forceinline__ void mma16816(float (&c)[4], const uint32_t (&a)[4], uint32_t b0, uint32_t b1)
@@ -56,6 +64,16 @@ __device__ __forceinline__ uint32_t packRelu(float x, float y)
 {
   const __half2 h = __floats2half2_rn(fmaxf(x, 0.0f), fmaxf(y, 0.0f));
   return *reinterpret_cast<const uint32_t*>(&h);
+}
+
+/// A fragment kc of the next layer from the C fragments of this one: ReLU, fp16 (n-tiles 2kc, 2kc + 1).
+template <int NT>
+__device__ __forceinline__ void reluFragment(const float (&C)[NT][4], int kc, uint32_t (&A)[4])
+{
+  A[0] = packRelu(C[2 * kc][0], C[2 * kc][1]);
+  A[1] = packRelu(C[2 * kc][2], C[2 * kc][3]);
+  A[2] = packRelu(C[2 * kc + 1][0], C[2 * kc + 1][1]);
+  A[3] = packRelu(C[2 * kc + 1][2], C[2 * kc + 1][3]);
 }
 
 /// C += A(16 x 16) . Wl[:, k0:k0+16]^T for all W outputs (W/8 n-tiles); Wl row-major [W][ldw] in shared memory.
@@ -201,12 +219,7 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
       uint32_t A[W / 16][4];
 #pragma unroll
       for (int kc = 0; kc < W / 16; ++kc)
-      {
-        A[kc][0] = packRelu(C[2 * kc][0], C[2 * kc][1]);
-        A[kc][1] = packRelu(C[2 * kc][2], C[2 * kc][3]);
-        A[kc][2] = packRelu(C[2 * kc + 1][0], C[2 * kc + 1][1]);
-        A[kc][3] = packRelu(C[2 * kc + 1][2], C[2 * kc + 1][3]);
-      }
+        reluFragment(C, kc, A[kc]);
 #pragma unroll
       for (int j = 0; j < W / 8; ++j)
         C[j][0] = C[j][1] = C[j][2] = C[j][3] = 0.0f;

@@ -118,23 +118,11 @@ __global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half*
 {
   for (int64_t j = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; j < count; j += int64_t(gridDim.x) * blockDim.x)
   {
-    int64_t r = j;
-    int l = 0;
-    for (; l < s.H; ++l)
-    {
-      const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
-      if (r < sz)
-        break;
-      r -= sz;
-    }
-    if (l == s.H)
-    {
-      wout[r] = mlp[j];
-      continue;
-    }
-    const int K = l == 0 ? s.D : s.W;
-    const int o = static_cast<int>(r / K), i = static_cast<int>(r % K);
-    w16[s.off[l] + o * s.inDim(l) + i] = __float2half_rn(mlp[j]);
+    const MlpSlot m = mlpSlot(s, j);
+    if (m.layer == s.H)
+      wout[m.column] = mlp[j];
+    else
+      w16[m.padded] = __float2half_rn(mlp[j]);
   }
 }
 

@@ -50,6 +50,32 @@ inline MlpShape makeMlpShape(const ModelConfig& c)
   return s;
 }
 
+/// Where unpadded MLP parameter j (Model layout: layer by layer, row-major, then the output row) lives in the
+/// padded layout: padded index, and for the output row (layer == H) its column.
+struct MlpSlot
+{
+  int layer;
+  int padded;
+  int column; ///< output row only
+};
+
+__host__ __device__ inline MlpSlot mlpSlot(const MlpShape& s, int64_t j)
+{
+  int64_t r = j;
+  int l = 0;
+  for (; l < s.H; ++l)
+  {
+    const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
+    if (r < sz)
+      break;
+    r -= sz;
+  }
+  if (l == s.H)
+    return { l, s.off[s.H] + static_cast<int>(r), static_cast<int>(r) };
+  const int K = l == 0 ? s.D : s.W;
+  return { l, s.off[l] + static_cast<int>(r / K) * s.inDim(l) + static_cast<int>(r % K), 0 };
+}
+
 inline size_t roundUp128(size_t x)
 {
   return (x + 127) / 128 * 128;

@@ -152,34 +152,16 @@ struct MlpAdam
 /// Adam for MLP parameter j (fp32 state): gradient from the padded accumulator (zeroed), fp16 padded copy out.
 __device__ __forceinline__ void adamMlpOne(const MlpAdam& q, int64_t j, float scale, const AdamArgs& a)
 {
-  const MlpShape& s = q.s;
-  int64_t r = j;
-  int l = 0;
-  for (; l < s.H; ++l)
-  {
-    const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
-    if (r < sz)
-      break;
-    r -= sz;
-  }
-  int pi;
-  if (l == s.H)
-  {
-    pi = s.off[s.H] + static_cast<int>(r);
-  }
-  else
-  {
-    const int K = l == 0 ? s.D : s.W;
-    pi = s.off[l] + static_cast<int>(r / K) * s.inDim(l) + static_cast<int>(r % K);
-  }
+  const MlpSlot m = mlpSlot(q.s, j);
+  const int pi = m.padded;
   float pj = q.p[j], mj = q.m[j], vj = q.v[j], gj = q.gradPad[pi];
   adamOne(pj, gj, mj, vj, scale, a);
   q.p[j] = pj;
   q.m[j] = mj;
   q.v[j] = vj;
   q.gradPad[pi] = 0.0f;
-  if (l == s.H)
-    q.wout[r] = pj;
+  if (m.layer == q.s.H)
+    q.wout[m.column] = pj;
   else
     q.w16[pi] = __float2half_rn(pj);
 }
