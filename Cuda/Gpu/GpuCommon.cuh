@@ -38,23 +38,25 @@ namespace gpu
 /// Allocates with a readable message when the GPU is out of memory.
 void* deviceAlloc(size_t bytes, const char* what);
 
-template <typename T>
-class DeviceBuffer
+/// Move-only owner of n elements of T in device memory (Pinned = false) or page-locked host memory (Pinned = true,
+/// for asynchronous copies).
+template <typename T, bool Pinned>
+class CudaBuffer
 {
 public:
-  DeviceBuffer() = default;
-  explicit DeviceBuffer(size_t n, const char* what = "buffer") { allocate(n, what); }
-  ~DeviceBuffer() { release(); }
-  DeviceBuffer(const DeviceBuffer&) = delete;
-  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
-  DeviceBuffer(DeviceBuffer&& o) noexcept
+  CudaBuffer() = default;
+  explicit CudaBuffer(size_t n, const char* what = "buffer") { allocate(n, what); }
+  ~CudaBuffer() { release(); }
+  CudaBuffer(const CudaBuffer&) = delete;
+  CudaBuffer& operator=(const CudaBuffer&) = delete;
+  CudaBuffer(CudaBuffer&& o) noexcept
     : Ptr(o.Ptr)
     , Count(o.Count)
   {
     o.Ptr = nullptr;
     o.Count = 0;
   }
-  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept
+  CudaBuffer& operator=(CudaBuffer&& o) noexcept
   {
     if (this != &o)
     {
@@ -69,20 +71,30 @@ public:
   void allocate(size_t n, const char* what = "buffer")
   {
     release();
-    if (n > 0)
+    if (n == 0)
+      return;
+    if constexpr (Pinned)
+    {
+      void* p = nullptr;
+      NV_CUDA(cudaMallocHost(&p, n * sizeof(T)));
+      Ptr = static_cast<T*>(p);
+    }
+    else
     {
       Ptr = static_cast<T*>(deviceAlloc(n * sizeof(T), what));
-      Count = n;
     }
+    Count = n;
   }
   void release()
   {
-    if (Ptr)
-    {
-      cudaFree(Ptr); // never throws from a destructor
-      Ptr = nullptr;
-      Count = 0;
-    }
+    if (!Ptr)
+      return;
+    if constexpr (Pinned) // never throws from a destructor
+      cudaFreeHost(Ptr);
+    else
+      cudaFree(Ptr);
+    Ptr = nullptr;
+    Count = 0;
   }
   T* get() const { return Ptr; }
   size_t size() const { return Count; }
@@ -93,62 +105,10 @@ private:
   size_t Count = 0;
 };
 
-/// Page-locked host memory (for asynchronous copies).
 template <typename T>
-class PinnedBuffer
-{
-public:
-  PinnedBuffer() = default;
-  explicit PinnedBuffer(size_t n) { allocate(n); }
-  ~PinnedBuffer() { release(); }
-  PinnedBuffer(const PinnedBuffer&) = delete;
-  PinnedBuffer& operator=(const PinnedBuffer&) = delete;
-  PinnedBuffer(PinnedBuffer&& o) noexcept
-    : Ptr(o.Ptr)
-    , Count(o.Count)
-  {
-    o.Ptr = nullptr;
-    o.Count = 0;
-  }
-  PinnedBuffer& operator=(PinnedBuffer&& o) noexcept
-  {
-    if (this != &o)
-    {
-      release();
-      Ptr = o.Ptr;
-      Count = o.Count;
-      o.Ptr = nullptr;
-      o.Count = 0;
-    }
-    return *this;
-  }
-  void allocate(size_t n)
-  {
-    release();
-    if (n > 0)
-    {
-      void* p = nullptr;
-      NV_CUDA(cudaMallocHost(&p, n * sizeof(T)));
-      Ptr = static_cast<T*>(p);
-      Count = n;
-    }
-  }
-  void release()
-  {
-    if (Ptr)
-    {
-      cudaFreeHost(Ptr);
-      Ptr = nullptr;
-      Count = 0;
-    }
-  }
-  T* get() const { return Ptr; }
-  size_t size() const { return Count; }
-
-private:
-  T* Ptr = nullptr;
-  size_t Count = 0;
-};
+using DeviceBuffer = CudaBuffer<T, false>;
+template <typename T>
+using PinnedBuffer = CudaBuffer<T, true>;
 
 class Stream
 {

@@ -129,17 +129,7 @@ __device__ __forceinline__ void encodeWarp(const GridLayout& g, const T* __restr
       if (k == 1 && !two)
         break;
       float acc[F];
-#pragma unroll
-      for (int f = 0; f < F; ++f)
-        acc[f] = 0.0f;
-#pragma unroll
-      for (int c = 0; c < 8; ++c)
-      {
-        const float w = cornerWeight(c, frac[k]);
-#pragma unroll
-        for (int f = 0; f < F; ++f)
-          acc[f] += w * E::get(v[k][c], f);
-      }
+      interpolate<F, E>(v[k], frac[k], acc);
       __align__(16) __half o[F];
 #pragma unroll
       for (int f = 0; f < F; ++f)

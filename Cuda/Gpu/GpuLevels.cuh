@@ -168,17 +168,7 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
       v[c] = E::load(table, fastCornerIndex(lv, c, corner));
   }
   float acc[F];
-#pragma unroll
-  for (int f = 0; f < F; ++f)
-    acc[f] = 0.0f;
-#pragma unroll
-  for (int c = 0; c < 8; ++c)
-  {
-    const float w = cornerWeight(c, frac);
-#pragma unroll
-    for (int f = 0; f < F; ++f)
-      acc[f] += w * E::get(v[c], f);
-  }
+  interpolate<F, E>(v, frac, acc);
   __align__(16) __half o[F];
 #pragma unroll
   for (int f = 0; f < F; ++f)

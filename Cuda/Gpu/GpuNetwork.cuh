@@ -212,16 +212,21 @@ struct Entry<float, F>
   static __device__ __forceinline__ float get(const V& v, int f) { return reinterpret_cast<const float*>(&v)[f]; }
 };
 
-/// Gather F fp16 features of entry idx and add w * features to acc.
-template <int F>
-__device__ __forceinline__ void gatherAdd(const __half* __restrict__ table, uint32_t idx, float w, float* acc)
+/// acc = trilinear interpolation of the 8 corner entries v (corner c: bit d = offset along axis d).
+template <int F, typename E>
+__device__ __forceinline__ void interpolate(const typename E::V (&v)[8], const float frac[3], float (&acc)[F])
 {
-  using V = typename HalfVec<F>::T;
-  const V v = __ldg(reinterpret_cast<const V*>(table) + idx);
-  const __half* h = reinterpret_cast<const __half*>(&v);
 #pragma unroll
   for (int f = 0; f < F; ++f)
-    acc[f] += w * __half2float(h[f]);
+    acc[f] = 0.0f;
+#pragma unroll
+  for (int c = 0; c < 8; ++c)
+  {
+    const float w = cornerWeight(c, frac);
+#pragma unroll
+    for (int f = 0; f < F; ++f)
+      acc[f] += w * E::get(v[c], f);
+  }
 }
 
 /// Encode the tile's T points (sx: T x 3) into enc (T x ldE halves, columns l*F+f). Two (sample, level) items per
@@ -244,7 +249,6 @@ template <int F>
 __device__ __forceinline__ void encodeTile(const GridLayout& g, const __half* __restrict__ table, const float* sx,
   __half* enc, int ldE, int T)
 {
-  using V = typename HalfVec<F>::T;
   const int items = T * g.levels;
   for (int it0 = threadIdx.x; it0 < items; it0 += 2 * blockDim.x)
   {
@@ -254,30 +258,20 @@ __device__ __forceinline__ void encodeTile(const GridLayout& g, const __half* __
     float frac[2][3];
     encodeOne<F>(g, table, sx, it0, T, idx[0], frac[0]);
     encodeOne<F>(g, table, sx, two ? it1 : it0, T, idx[1], frac[1]);
-    V v[2][8];
+    using E = Entry<__half, F>;
+    typename E::V v[2][8];
 #pragma unroll
     for (int k = 0; k < 2; ++k)
 #pragma unroll
       for (int c = 0; c < 8; ++c)
-        v[k][c] = __ldg(reinterpret_cast<const V*>(table) + idx[k][c]);
+        v[k][c] = E::load(table, idx[k][c]);
 #pragma unroll
     for (int k = 0; k < 2; ++k)
     {
       if (k == 1 && !two)
         break;
       float acc[F];
-#pragma unroll
-      for (int f = 0; f < F; ++f)
-        acc[f] = 0.0f;
-#pragma unroll
-      for (int c = 0; c < 8; ++c)
-      {
-        const float w = cornerWeight(c, frac[k]);
-        const __half* h = reinterpret_cast<const __half*>(&v[k][c]);
-#pragma unroll
-        for (int f = 0; f < F; ++f)
-          acc[f] += w * __half2float(h[f]);
-      }
+      interpolate<F, E>(v[k], frac[k], acc);
       const int it = k == 0 ? it0 : it1;
       __half* o = enc + (it % T) * ldE + (it / T) * F;
 #pragma unroll
