@@ -117,23 +117,17 @@ __device__ __forceinline__ void encodeWarp(const GridLayout& g, const T* __restr
       for (int c = 0; c < 8; ++c)
         idx[k][c] = fastCornerIndex(lv, c, corner);
     }
-    typename E::V v[2][8];
-#pragma unroll
-    for (int k = 0; k < 2; ++k)
-#pragma unroll
-      for (int c = 0; c < 8; ++c)
-        v[k][c] = E::load(table, idx[k][c]);
+    float acc[2][F];
+    gatherTwo<F, E>(table, idx, frac, acc);
 #pragma unroll
     for (int k = 0; k < 2; ++k)
     {
       if (k == 1 && !two)
         break;
-      float acc[F];
-      interpolate<F, E>(v[k], frac[k], acc);
       __align__(16) __half o[F];
 #pragma unroll
       for (int f = 0; f < F; ++f)
-        o[f] = __float2half_rn(acc[f]);
+        o[f] = __float2half_rn(acc[k][f]);
       *reinterpret_cast<V*>(enc + r * ldE + (k == 0 ? l0 : l1) * F) = *reinterpret_cast<const V*>(o);
     }
   }

@@ -229,6 +229,23 @@ __device__ __forceinline__ void interpolate(const typename E::V (&v)[8], const f
   }
 }
 
+/// acc[k] = interpolated features of item k (k = 0, 1) from its 8 corner indices and fractions; all 16 gathers are
+/// issued before the first is used (the encoders' two items per iteration).
+template <int F, typename E, typename T>
+__device__ __forceinline__ void gatherTwo(const T* __restrict__ table, const uint32_t (&idx)[2][8],
+  const float (&frac)[2][3], float (&acc)[2][F])
+{
+  typename E::V v[2][8];
+#pragma unroll
+  for (int k = 0; k < 2; ++k)
+#pragma unroll
+    for (int c = 0; c < 8; ++c)
+      v[k][c] = E::load(table, idx[k][c]);
+#pragma unroll
+  for (int k = 0; k < 2; ++k)
+    interpolate<F, E>(v[k], frac[k], acc[k]);
+}
+
 /// Encode the tile's T points (sx: T x 3) into enc (T x ldE halves, columns l*F+f). Two (sample, level) items per
 /// thread and iteration: 16 independent gathers in flight.
 template <int F>
@@ -258,25 +275,18 @@ __device__ __forceinline__ void encodeTile(const GridLayout& g, const __half* __
     float frac[2][3];
     encodeOne<F>(g, table, sx, it0, T, idx[0], frac[0]);
     encodeOne<F>(g, table, sx, two ? it1 : it0, T, idx[1], frac[1]);
-    using E = Entry<__half, F>;
-    typename E::V v[2][8];
-#pragma unroll
-    for (int k = 0; k < 2; ++k)
-#pragma unroll
-      for (int c = 0; c < 8; ++c)
-        v[k][c] = E::load(table, idx[k][c]);
+    float acc[2][F];
+    gatherTwo<F, Entry<__half, F>>(table, idx, frac, acc);
 #pragma unroll
     for (int k = 0; k < 2; ++k)
     {
       if (k == 1 && !two)
         break;
-      float acc[F];
-      interpolate<F, E>(v[k], frac[k], acc);
       const int it = k == 0 ? it0 : it1;
       __half* o = enc + (it % T) * ldE + (it / T) * F;
 #pragma unroll
       for (int f = 0; f < F; ++f)
-        o[f] = __float2half_rn(acc[f]);
+        o[f] = __float2half_rn(acc[k][f]);
     }
   }
 }
