@@ -159,8 +159,18 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
 
   const int r = lane & 15, g = lane >> 2, t = lane & 3;
   const int nk0 = s.Dp / 16;
-  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile < a.tiles; tile += int64_t(gridDim.x) * Warps)
+  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile * 16 < a.n; tile += int64_t(gridDim.x) * Warps)
   {
+    const int64_t o0 = tile * 16 + g, o1 = o0 + 8;
+    // Where this lane's two outputs go: binned points carry their original index (loaded here, used at the end).
+    int64_t d0 = o0, d1 = o1;
+    if (a.binned && t == 0)
+    {
+      if (o0 < a.n)
+        d0 = __float_as_uint(a.binned[o0].w);
+      if (o1 < a.n)
+        d1 = __float_as_uint(a.binned[o1].w);
+    }
     __syncwarp(); // the previous tile's ldmatrix reads of enc are done
     if constexpr (Pre)
     {
@@ -228,11 +238,10 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
     hi += __shfl_xor_sync(0xffffffffu, hi, 2);
     if (t == 0)
     {
-      const int64_t o0 = tile * 16 + g, o1 = o0 + 8;
       if (o0 < a.n)
-        a.out[o0] = lo;
+        a.out[d0] = lo;
       if (o1 < a.n)
-        a.out[o1] = hi;
+        a.out[d1] = hi;
     }
   }
 }

@@ -257,13 +257,13 @@ __global__ void randomPointsKernel(float* xyz, int64_t n)
     randomPoint(12345, 1, static_cast<uint64_t>(i), xyz + 3 * i);
 }
 
-int gridFor(int64_t n, int threads = 256)
+} // namespace
+
+int gridFor(int64_t n, int threads)
 {
   const int64_t b = (n + threads - 1) / threads;
   return static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(b, int64_t(deviceInfo().sms) * 32)));
 }
-
-} // namespace
 
 const DeviceInfo& deviceInfo()
 {

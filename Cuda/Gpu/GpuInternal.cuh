@@ -23,6 +23,18 @@ struct DeviceInfo
 };
 /// Properties of the current device (queried once).
 const DeviceInfo& deviceInfo();
+/// Blocks for a grid-stride loop over n items (at most 32 blocks per SM).
+int gridFor(int64_t n, int threads = 256);
+
+/// Scratch of the spatial binning of point arrays (GpuBinning.cuh), grown on demand.
+struct PointBins
+{
+  DeviceBuffer<float4> binned;    ///< the points in bin order, original index in w
+  DeviceBuffer<uint32_t> rank;    ///< per point: rank within its bin
+  DeviceBuffer<uint32_t> counts;  ///< per bin
+  DeviceBuffer<uint32_t> offsets; ///< exclusive scan of counts
+  DeviceBuffer<unsigned char> scanTemp;
+};
 
 /// The parameters in the form the kernels read: fp16 table, padded fp16 MLP, fp32 output row.
 struct DeviceModel
@@ -33,6 +45,7 @@ struct DeviceModel
   DeviceBuffer<__half> w16;
   DeviceBuffer<float> wout;
   mutable DeviceBuffer<__half> encScratch; ///< two-pass inference: encodings of a chunk (GpuForward.cu)
+  mutable PointBins bins;                  ///< two-pass inference on point arrays (GpuForward.cu)
   size_t bytes() const { return table16.bytes() + w16.bytes() + wout.bytes(); }
 };
 

@@ -26,7 +26,7 @@ struct FwdArgs
   uint64_t seed, step;
   int64_t nx, ny, nz, z0, first, n;
   float* out;
-  int64_t tiles; ///< 16-sample tiles
+  const float4* binned; ///< inference on binned points (GpuBinning.cuh): x, y, z and the output index as float bits
   const __half* enc; ///< two-pass mode: encodings, level-major (level l of sample i at (l * n + i) * F)
   int woutOff, encOff, ldE; ///< shared-memory layout (bytes, bytes, halves)
   int wOff[kMaxHidden];     ///< layer offsets in shared memory (halves)
@@ -99,7 +99,14 @@ __device__ __forceinline__ void fwdPoint(const FwdArgs& a, int64_t gi, float x[3
   x[0] = x[1] = x[2] = 0.0f;
   if (gi >= a.n)
     return;
-  if (a.random)
+  if (a.binned)
+  {
+    const float4 q = a.binned[gi];
+    x[0] = q.x;
+    x[1] = q.y;
+    x[2] = q.z;
+  }
+  else if (a.random)
   {
     randomPoint(a.seed, a.step, static_cast<uint64_t>(gi), x);
   }
@@ -119,10 +126,11 @@ __device__ __forceinline__ void fwdPoint(const FwdArgs& a, int64_t gi, float x[3
   }
 }
 
-/// Two-pass mode, pass 1: one (sample, level) per thread, level = blockIdx.y. Blocks run in order of level, so
-/// the GPU works on one level's table (<= 2^log2T entries) at a time: it stays in L2 instead of the whole table
-/// competing for it (the fused kernel on random points is L2/DRAM bound: 49% L2 hit rate, ncu).
-template <int F, typename T = __half>
+/// Two-pass mode, pass 1: one sample and Lpt consecutive levels per thread, levels blockIdx.y * Lpt + k. Blocks
+/// run in order of blockIdx.y, so the GPU works on Lpt levels' tables (<= 2^log2T entries each) at a time: they stay
+/// in L2 instead of the whole table competing for it (the fused kernel on random points is L2/DRAM bound: 49% L2
+/// hits, ncu); Lpt > 1 reads the coordinates once for several levels.
+template <int F, typename T = __half, int Lpt = 1>
 __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant__ FwdArgs a, __half* __restrict__ enc)
 {
   using E = Entry<T, F>;
@@ -130,51 +138,57 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
   const int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
   if (i >= a.n)
     return;
-  const int l = blockIdx.y;
   float x[3];
   fwdPoint(a, i, x);
-  const LevelInfo& lv = a.grid.level[l];
-  uint32_t corner[3];
-  float frac[3];
-  gridPosition(lv, x, corner, frac);
   const T* table = a.table32 ? reinterpret_cast<const T*>(a.table32) : reinterpret_cast<const T*>(a.table16);
-  typename E::V v[8];
-  if constexpr (std::is_same<T, __half>::value && F == 4)
-  {
-    // x-neighbour corners in one aligned pair of entries (2k, 2k + 1; a hashed level's corner with even x) come in
-    // one 16-byte load (measured +2% on random points: the second 8-byte load mostly hits L1 anyway).
 #pragma unroll
-    for (int c = 0; c < 8; c += 2)
+  for (int k = 0; k < Lpt; ++k)
+  {
+    const int l = blockIdx.y * Lpt + k;
+    if (l >= a.grid.levels)
+      break;
+    const LevelInfo& lv = a.grid.level[l];
+    uint32_t corner[3];
+    float frac[3];
+    gridPosition(lv, x, corner, frac);
+    typename E::V v[8];
+    if constexpr (std::is_same<T, __half>::value && F == 4)
     {
-      const uint32_t i0 = fastCornerIndex(lv, c, corner), i1 = fastCornerIndex(lv, c + 1, corner);
-      if ((i0 ^ i1) == 1u)
+      // x-neighbour corners in one aligned pair of entries (2k, 2k + 1; a hashed level's corner with even x) come
+      // in one 16-byte load (measured +2% on random points: the second 8-byte load mostly hits L1 anyway).
+#pragma unroll
+      for (int c = 0; c < 8; c += 2)
       {
-        const uint4 q = __ldg(reinterpret_cast<const uint4*>(table) + (i0 >> 1));
-        const uint2 lo = make_uint2(q.x, q.y), hi = make_uint2(q.z, q.w);
-        v[c] = (i0 & 1u) ? hi : lo;
-        v[c + 1] = (i0 & 1u) ? lo : hi;
-      }
-      else
-      {
-        v[c] = E::load(table, i0);
-        v[c + 1] = E::load(table, i1);
+        const uint32_t i0 = fastCornerIndex(lv, c, corner), i1 = fastCornerIndex(lv, c + 1, corner);
+        if ((i0 ^ i1) == 1u)
+        {
+          const uint4 q = __ldg(reinterpret_cast<const uint4*>(table) + (i0 >> 1));
+          const uint2 lo = make_uint2(q.x, q.y), hi = make_uint2(q.z, q.w);
+          v[c] = (i0 & 1u) ? hi : lo;
+          v[c + 1] = (i0 & 1u) ? lo : hi;
+        }
+        else
+        {
+          v[c] = E::load(table, i0);
+          v[c + 1] = E::load(table, i1);
+        }
       }
     }
-  }
-  else
-  {
+    else
+    {
 #pragma unroll
-    for (int c = 0; c < 8; ++c)
-      v[c] = E::load(table, fastCornerIndex(lv, c, corner));
-  }
-  float acc[F];
-  interpolate<F, E>(v, frac, acc);
-  __align__(16) __half o[F];
+      for (int c = 0; c < 8; ++c)
+        v[c] = E::load(table, fastCornerIndex(lv, c, corner));
+    }
+    float acc[F];
+    interpolate<F, E>(v, frac, acc);
+    __align__(16) __half o[F];
 #pragma unroll
-  for (int f = 0; f < F; ++f)
-    o[f] = __float2half_rn(acc[f]);
-  // Streaming store (evict-first): the encodings are read once by the MLP pass; keep L2 for the level's table.
-  __stcs(reinterpret_cast<V*>(enc) + l * a.n + i, *reinterpret_cast<const V*>(o));
+    for (int f = 0; f < F; ++f)
+      o[f] = __float2half_rn(acc[f]);
+    // Streaming store (evict-first): the encodings are read once by the MLP pass; keep L2 for the level's table.
+    __stcs(reinterpret_cast<V*>(enc) + l * a.n + i, *reinterpret_cast<const V*>(o));
+  }
 }
 
 /// Two-pass training, pass 3: the table gradient (fp16, unscaled) from dEnc (fp32, level-major like the

@@ -21,6 +21,10 @@ void testEncode(const Model& model, const float* xyz, int64_t n, float* out);
 float testLossAndGradient(const Model& model, const TrainConfig& config, const float* xyz, const float* targets,
   const uint8_t* valid, int64_t n, std::vector<float>& grad);
 
+/// Spatial binning of point arrays before inference (GpuBinning.cuh): bits per axis of the Morton bins for every
+/// following call, 0 = never bin, -1 = automatic (the default: 2^16 points and more).
+void setInferenceBinning(int bitsPerAxis);
+
 /// Kernel-only timings (device-resident inputs and outputs, CUDA events, median of `reps`), milliseconds.
 double benchInferKernel(const Model& model, int64_t n, int reps);
 double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz, int reps);

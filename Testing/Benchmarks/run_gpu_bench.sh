@@ -2,7 +2,7 @@
 # GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
 # Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvBenchGpu nvBench; data/: .nhdr+.raw;
 # ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
-#   parity | memcheck | racecheck | step | infer | quality | seeds | cpucurves | torch
+#   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -24,12 +24,14 @@ for s in "$@"; do
       compute-sanitizer --tool memcheck --leak-check full $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity host_sampled_equals_gpu_resident 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity decode_equals_batched_inference 2>&1 | tail -6 | tee -a "$O/memcheck.log"
+      compute-sanitizer --tool memcheck $B/nvTestGpuParity binned_inference_equals_unbinned 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity queued_steps_equal_single_steps 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       # two-pass training (level-major encode/scatter) is chosen for large tables only: force it on the test shapes
       NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool memcheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/memcheck.log" ;;
     racecheck)
       compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/racecheck.log"
       compute-sanitizer --tool racecheck $B/nvTestGpuParity inference_matches_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
+      compute-sanitizer --tool racecheck $B/nvTestGpuParity binned_inference_equals_unbinned 2>&1 | tail -6 | tee -a "$O/racecheck.log"
       NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
       NV_GPU_TRAIN_REG=0 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
     step)
@@ -42,6 +44,15 @@ for s in "$@"; do
       $B/nvBenchGpu decode 512 19 4096 2>&1 | tee -a "$O/infer.log"
       # NV_GPU_FWD_MODE: 0 fused encode+MLP everywhere, 2 two passes for decoding too (default 1: two passes for points)
       for m in 0 2; do NV_GPU_FWD_MODE=$m $B/nvBenchGpu infer 2097152 19 4096; NV_GPU_FWD_MODE=$m $B/nvBenchGpu decode 512 19 4096; done 2>&1 | sed 's/^/mode /' | tee -a "$O/infer.log" ;;
+    infervariants)
+      # Inference design choices (pass 4): Morton binning of the points (NV_GPU_BIN_BITS, 0 = off, unset = auto),
+      # levels per thread in the level-major encode (NV_GPU_ENC_LPT 1/2/4, default 4), encoding scratch
+      # (NV_GPU_FWD_CHUNK_MB, default 128).
+      for n in 2097152 8388608; do for bits in 0 5 6; do for lpt in 1 2 4; do echo "n=$n bits=$bits lpt=$lpt"
+        NV_GPU_BIN_BITS=$bits NV_GPU_ENC_LPT=$lpt $B/nvBenchGpu infer $n 19 4096; done; done; done 2>&1 | tee "$O/infer_variants.log"
+      for c in 64 256; do echo "chunk=$c"; NV_GPU_FWD_CHUNK_MB=$c $B/nvBenchGpu infer 2097152 19 4096; done 2>&1 | tee -a "$O/infer_variants.log"
+      for n in 65536 262144; do for bits in 0 -1; do echo "n=$n bits=$bits"
+        NV_GPU_BIN_BITS=$bits $B/nvBenchGpu infer $n 19 4096; done; done 2>&1 | tee -a "$O/infer_variants.log" ;;
     seeds)
       # GPU curves over six seeds (the accuracy bar compares means: single runs spread +-0.5 dB at 500 steps)
       for sd in 1 2 3 4 5 6; do for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do
