@@ -22,7 +22,7 @@ float testLossAndGradient(const Model& model, const TrainConfig& config, const f
   const uint8_t* valid, int64_t n, std::vector<float>& grad);
 
 /// Spatial binning of point arrays before inference (GpuBinning.cuh): bits per axis of the Morton bins for every
-/// following call, 0 = never bin, -1 = automatic (the default: 2^16 points and more).
+/// following call, 0 = never bin, -1 = automatic (the default: 2^18 points and more).
 void setInferenceBinning(int bitsPerAxis);
 
 /// Kernel-only timings (device-resident inputs and outputs, CUDA events, median of `reps`), milliseconds.

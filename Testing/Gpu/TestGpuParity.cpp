@@ -155,13 +155,13 @@ NV_TEST(inference_matches_cpu)
 
 NV_TEST(binned_inference_equals_unbinned)
 {
-  // Point arrays of 2^16 and more are sorted by Morton bin before the level-major encode and the outputs are put
+  // Point arrays of 2^18 and more are sorted by Morton bin before the level-major encode and the outputs are put
   // back through the permutation: every output must be bit-identical to the unbinned path, for bins of several
   // sizes, a tail that is not a multiple of the tile, repeated points (one crowded bin), out-of-range and NaN
   // coordinates; and it must match the CPU engine.
   const Shape s = kShapes[2];
   const Model m = randomModel(configOf(s), 8);
-  const int64_t n = (int64_t(1) << 17) + 77;
+  const int64_t n = (int64_t(1) << 18) + 77;
   auto xyz = randomPoints(n, 13);
   for (int64_t i = 0; i < 5000; ++i) // a crowded bin
   {
