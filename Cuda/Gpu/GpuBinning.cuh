@@ -1,7 +1,7 @@
 // NeuralVolume engine: spatial binning of point arrays before inference. Random points make the level-major encode
 // L2-throughput bound (about five 32-byte sectors per sample and level, GpuLevels.cuh); after a counting sort by
 // Morton bin, the samples of a block share the corners of the coarse and middle levels, which then come from L1.
-// The outputs go back to the caller's order through the permutation (FwdArgs::perm).
+// Each binned point carries its original index, where the MLP pass writes its output (FwdArgs::binned).
 #pragma once
 
 #include <cstdint>

@@ -58,6 +58,7 @@ FwdFn pickForward(int W, int F, bool pre)
 /// 2^5 bins per axis measured best, 2^6 within 1%); from 2^18 points (2^16 random points: 0.079 ms unbinned,
 /// 0.087 binned; 2^18: 0.202 / 0.196). NV_GPU_BIN_BITS or setInferenceBinning() override.
 std::atomic<int> gBinBits{ envInt("NV_GPU_BIN_BITS", -1) };
+std::atomic<int> gLastBinBits{ 0 };
 
 int binBits(int64_t m)
 {
@@ -132,6 +133,11 @@ void setInferenceBinning(int bitsPerAxis)
   gBinBits.store(bitsPerAxis < 0 ? -1 : bitsPerAxis);
 }
 
+int lastInferenceBinning()
+{
+  return gLastBinBits.load();
+}
+
 /// Register-resident fast path; false when the shape is not covered (then the WMMA kernel of GpuInference.cu runs).
 bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
   int64_t first, int64_t n, float* out, cudaStream_t stream)
@@ -181,6 +187,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     if (pre)
     {
       const int bits = a.xyz ? binBits(m) : 0;
+      gLastBinBits.store(bits);
       if (bits > 0)
       {
         binPoints(dm, a.xyz, m, bits, stream);

@@ -24,6 +24,8 @@ float testLossAndGradient(const Model& model, const TrainConfig& config, const f
 /// Spatial binning of point arrays before inference (GpuBinning.cuh): bits per axis of the Morton bins for every
 /// following call, 0 = never bin, -1 = automatic (the default: 2^18 points and more).
 void setInferenceBinning(int bitsPerAxis);
+/// Bits per axis of the bins the last point-array inference used (0: not binned).
+int lastInferenceBinning();
 
 /// Kernel-only timings (device-resident inputs and outputs, CUDA events, median of `reps`), milliseconds.
 double benchInferKernel(const Model& model, int64_t n, int reps);

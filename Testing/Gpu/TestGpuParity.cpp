@@ -155,8 +155,8 @@ NV_TEST(inference_matches_cpu)
 
 NV_TEST(binned_inference_equals_unbinned)
 {
-  // Point arrays of 2^18 and more are sorted by Morton bin before the level-major encode and the outputs are put
-  // back through the permutation: every output must be bit-identical to the unbinned path, for bins of several
+  // Point arrays of 2^18 and more are sorted by Morton bin before the level-major encode and each output is written
+  // to its point's original index: every output must be bit-identical to the unbinned path, for bins of several
   // sizes, a tail that is not a multiple of the tile, repeated points (one crowded bin), out-of-range and NaN
   // coordinates; and it must match the CPU engine.
   const Shape s = kShapes[2];
@@ -176,10 +176,12 @@ NV_TEST(binned_inference_equals_unbinned)
   cpuInferPoints(m, xyz.data(), n, cpu.data(), 0);
   gpu::setInferenceBinning(0);
   inferPoints(m, xyz.data(), n, plain.data(), Device::Cuda);
+  EXPECT_TRUE(gpu::lastInferenceBinning() == 0);
   for (int bits : { -1, 3, 7 })
   {
     gpu::setInferenceBinning(bits);
     inferPoints(m, xyz.data(), n, binned.data(), Device::Cuda);
+    EXPECT_TRUE(gpu::lastInferenceBinning() == (bits < 0 ? 4 : bits)); // automatic: ~32 points per bin
     int64_t differ = 0;
     for (int64_t i = 0; i < n; ++i)
       differ += std::memcmp(&plain[i], &binned[i], sizeof(float)) == 0 ? 0 : 1;
