@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
-# Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvBenchGpu nvBench; data/: .nhdr+.raw;
-# ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
+# Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvTestFilterTrainingGpu nvBenchGpu nvBench;
+# data/: .nhdr+.raw; ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
 #   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
@@ -14,6 +14,8 @@ for s in "$@"; do
     parity)
       nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv | tee "$O/gpu.txt"
       $B/nvTestGpuParity 2>&1 | tee "$O/parity.log"
+      # the Neural Compress filter's training loop (VTK-free part of Filters/) on the CUDA engine
+      $B/nvTestFilterTrainingGpu 2>&1 | tee "$O/filter_training.log"
       # the two-pass training path on every test shape (auto picks it for tables > 16 MiB only)
       for t in gradients_match_cpu training_curve_matches_cpu host_sampled_equals_gpu_resident queued_steps_equal_single_steps; do
         NV_GPU_TRAIN_TWOPASS=1 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_twopass.log"

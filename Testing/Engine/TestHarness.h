@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <string>
 #include <vector>
@@ -37,6 +38,34 @@ inline void fail(const char* file, int line, const std::string& msg)
 inline bool near(double a, double b, double rel, double abs)
 {
   return std::isfinite(a) && std::isfinite(b) && std::fabs(a - b) <= abs + rel * std::fabs(b);
+}
+/// Runs every registered case, or only the one named by argv[1]; 0 when all pass.
+inline int runCases(int argc, char** argv)
+{
+  int ran = 0;
+  for (auto& c : cases())
+  {
+    if (argc > 1 && std::string(argv[1]) != c.name)
+      continue;
+    const int before = failures();
+    try
+    {
+      c.fn();
+    }
+    catch (const std::exception& e)
+    {
+      fail(__FILE__, __LINE__, std::string("exception: ") + e.what());
+    }
+    std::printf("%s %s\n", failures() == before ? "PASS" : "FAIL", c.name);
+    std::fflush(stdout);
+    ++ran;
+  }
+  if (ran == 0)
+  {
+    std::printf("no test matched\n");
+    return 1;
+  }
+  return failures() == 0 ? 0 : 1;
 }
 } // namespace nvtest
 
@@ -82,27 +111,5 @@ inline bool near(double a, double b, double rel, double abs)
 #define NV_TEST_MAIN()                                                                             \
   int main(int argc, char** argv)                                                                  \
   {                                                                                                \
-    int ran = 0;                                                                                   \
-    for (auto& c : nvtest::cases())                                                                \
-    {                                                                                              \
-      if (argc > 1 && std::string(argv[1]) != c.name)                                              \
-        continue;                                                                                  \
-      const int before = nvtest::failures();                                                       \
-      try                                                                                          \
-      {                                                                                            \
-        c.fn();                                                                                    \
-      }                                                                                            \
-      catch (const std::exception& e)                                                              \
-      {                                                                                            \
-        nvtest::fail(__FILE__, __LINE__, std::string("exception: ") + e.what());                   \
-      }                                                                                            \
-      std::printf("%s %s\n", nvtest::failures() == before ? "PASS" : "FAIL", c.name);              \
-      ++ran;                                                                                       \
-    }                                                                                              \
-    if (ran == 0)                                                                                  \
-    {                                                                                              \
-      std::printf("no test matched\n");                                                            \
-      return 1;                                                                                    \
-    }                                                                                              \
-    return nvtest::failures() == 0 ? 0 : 1;                                                        \
+    return nvtest::runCases(argc, argv);                                                           \
   }

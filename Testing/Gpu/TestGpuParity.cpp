@@ -463,28 +463,5 @@ int main(int argc, char** argv)
     return kSkip;
   }
   std::printf("GPU: %s\n", gpu::deviceDescription().c_str());
-  int ran = 0;
-  for (auto& c : nvtest::cases())
-  {
-    if (argc > 1 && std::string(argv[1]) != c.name)
-      continue;
-    const int before = nvtest::failures();
-    try
-    {
-      c.fn();
-    }
-    catch (const std::exception& e)
-    {
-      nvtest::fail(__FILE__, __LINE__, std::string("exception: ") + e.what());
-    }
-    std::printf("%s %s\n", nvtest::failures() == before ? "PASS" : "FAIL", c.name);
-    std::fflush(stdout);
-    ++ran;
-  }
-  if (ran == 0)
-  {
-    std::printf("no test matched\n");
-    return 1;
-  }
-  return nvtest::failures() == 0 ? 0 : 1;
+  return nvtest::runCases(argc, argv);
 }
