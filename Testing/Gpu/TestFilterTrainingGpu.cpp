@@ -5,6 +5,7 @@
 #include "Core/Engine.h"
 #include "Gpu/GpuEngine.h"
 #include "TestHarness.h"
+#include "TestVolumeView.h"
 #include "vtkNeuralCompressInternals.h"
 
 #include <cmath>
@@ -28,17 +29,6 @@ std::vector<float> smoothVolume()
       for (int x = 0; x < kN; ++x)
         v[(size_t(z) * kN + y) * kN + x] = float(std::sin(0.21 * x) * std::cos(0.17 * y) + 0.4 * std::sin(0.13 * z));
   return v;
-}
-
-VolumeView viewOf(const std::vector<float>& data)
-{
-  VolumeView vol;
-  vol.data = data.data();
-  vol.dims[0] = vol.dims[1] = vol.dims[2] = kN;
-  const VolumeStats st = computeStats(vol);
-  vol.valueMin = st.min;
-  vol.valueMax = st.max;
-  return vol;
 }
 
 Model smallModel(const VolumeView& vol)
@@ -66,7 +56,7 @@ TrainConfig trainConfig(TrainingStrategy strategy)
 NV_TEST(filter_loop_on_gpu)
 {
   const auto data = smoothVolume();
-  const VolumeView vol = viewOf(data);
+  const VolumeView vol = floatCubeView(data, kN);
   const vi::PsnrProbe probe(vol, 7, 20000);
   for (TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
   {
@@ -125,7 +115,7 @@ NV_TEST(filter_loop_on_gpu)
 NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
 {
   const auto data = smoothVolume();
-  const VolumeView vol = viewOf(data);
+  const VolumeView vol = floatCubeView(data, kN);
   {
     // Abort is checked between chunks: the first check lets one chunk (64 queued steps) run, the second aborts.
     Model m = smallModel(vol);

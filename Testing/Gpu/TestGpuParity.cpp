@@ -7,6 +7,7 @@
 #include "Gpu/GpuEngine.h"
 #include "Gpu/GpuTesting.h"
 #include "TestHarness.h"
+#include "TestVolumeView.h"
 
 #include <cmath>
 #include <cstring>
@@ -290,24 +291,13 @@ std::vector<float> testVolume(int n, bool withNaN)
         v[(size_t(n / 2) * n + y) * n + x] = NAN;
   return v;
 }
-/// A float32 view of an n^3 test volume with its value range.
-VolumeView testView(const std::vector<float>& data, int n)
-{
-  VolumeView vol;
-  vol.data = data.data();
-  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
-  const VolumeStats st = computeStats(vol);
-  vol.valueMin = st.min;
-  vol.valueMax = st.max;
-  return vol;
-}
 } // namespace
 
 NV_TEST(training_curve_matches_cpu)
 {
   const int n = 40;
   const auto data = testVolume(n, true);
-  const VolumeView vol = testView(data, n);
+  const VolumeView vol = floatCubeView(data, n);
   ModelConfig c;
   c.encoding.log2TableSize = 14;
   c.encoding.finestResolution = 80;
@@ -419,7 +409,7 @@ NV_TEST(queued_steps_equal_single_steps)
   // device from the previous slot) and must follow the same curve as step() called one at a time.
   const int n = 24;
   const auto data = testVolume(n, false);
-  const VolumeView vol = testView(data, n);
+  const VolumeView vol = floatCubeView(data, n);
   ModelConfig c;
   c.encoding.log2TableSize = 12;
   c.encoding.finestResolution = 48;
