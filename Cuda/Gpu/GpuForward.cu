@@ -166,11 +166,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   a.nx = nx;
   a.ny = ny;
   a.nz = nz;
-  a.z0 = z0;
-  a.enc = nullptr;
-  a.binned = nullptr;
-  a.random = 0;
-  a.seed = a.step = 0;
+  a.z0 = z0; // enc, binned, random, seed, step stay zero (a{})
   // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (128 MiB).
   const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
   static const int64_t scratchBytes = int64_t(std::max(16, envInt("NV_GPU_FWD_CHUNK_MB", 128))) << 20;
