@@ -67,6 +67,13 @@ enum class Device : int
 
 const char* deviceName(Device d);
 
+/// Where the arrays passed to an engine call live.
+enum class Memory : int
+{
+  Host = 0,
+  Device = 1 ///< memory of the session's GPU (CUDA backend only)
+};
+
 /// Where training targets are sampled (the paper's Sections 4.1-4.2). CPU training always samples on the host.
 enum class TrainingStrategy : int
 {

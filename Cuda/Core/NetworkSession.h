@@ -1,0 +1,102 @@
+// NeuralVolume engine: a network session -- one trained (or training) network living on its device.
+//
+// The session owns the model's device copy, its streams, scratch buffers and thread pool, created once. Every use
+// of a network goes through it: training (createTrainer: the trainer optimises the session's network and
+// publish() makes its parameters the session's without leaving the device), PSNR probes and point inference,
+// grid decoding, and rendering by every path. A backend (CPU or CUDA) is chosen once, by create().
+//
+//   auto s = nv::NetworkSession::create(nv::Device::Auto, model);
+//   auto t = s->createTrainer(volume, trainConfig);
+//   t->steps(500, nullptr); t->publish();   // the session now renders / decodes the trained network
+//   s->render(request, result);
+#pragma once
+
+#include "Config.h"
+#include "Engine.h"
+#include "Model.h"
+#include "Render.h"
+#include "Volume.h"
+
+#include <cstdint>
+#include <memory>
+
+namespace nv
+{
+
+/// Explicit variants of the GPU kernels (tests and benchmarks choose them; the defaults are the measured best).
+/// The CPU backend ignores them.
+struct KernelOptions
+{
+  /// Inference: 0 fused encode + MLP for all inputs; 1 two passes (level-major encode, then MLP) for point arrays
+  /// and fused for grids; 2 two passes for both.
+  int forwardMode = 1;
+  int binBitsPerAxis = -1;        ///< Morton binning of point arrays: -1 auto (from 2^18 points), 0 off, 1..8 bits
+  int encodeLevelsPerThread = 4;  ///< level-major encode: 1, 2 or 4 levels per thread
+  int encodeScratchMiB = 128;     ///< two-pass inference: encodings scratch
+  int trainTwoPass = -1;          ///< -1 auto (tables > 16 MiB and batches > 32768), 0 fused, 1 two passes
+  bool trainRegisterResident = true; ///< false: the WMMA training kernel
+  bool inShaderHalfAccumulate = true; ///< In-Shader path: fp16 accumulation in the MLP (fewer registers per ray)
+};
+
+struct SessionOptions
+{
+  int threads = 0; ///< CPU worker threads (CPU backend, and host-side work of the GPU backend); 0 = all cores
+  KernelOptions kernels;
+};
+
+class NetworkSession
+{
+public:
+  /// Device::Auto picks CUDA when a GPU is usable, else the CPU (`message` says why); Device::Cuda without a GPU
+  /// throws nv::Error.
+  static std::unique_ptr<NetworkSession> create(Device device, const Model& model,
+    const SessionOptions& options = SessionOptions(), std::string* message = nullptr);
+
+  virtual ~NetworkSession() = default;
+  NetworkSession(const NetworkSession&) = delete;
+  NetworkSession& operator=(const NetworkSession&) = delete;
+
+  virtual Device device() const = 0;
+  /// Host copy: configuration and source information; its parameters are current after setModel() or syncModel().
+  virtual const Model& model() const = 0;
+  /// Incremented whenever the parameters change (setModel, Trainer::publish). Caches key on it.
+  virtual uint64_t version() const = 0;
+  /// Replace the network (any configuration): one upload.
+  virtual void setModel(const Model& model) = 0;
+  /// Copy the current (published) parameters into model().
+  virtual void syncModel() = 0;
+
+  /// A trainer of this session's network on `volume` (which must outlive it). Its publish() makes the current
+  /// parameters the session's, in place.
+  virtual std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) = 0;
+
+  /// Network output (normalised units) at n points (xyz interleaved, each in [0,1]); xyz and out in `where`.
+  virtual void inferPoints(const float* xyz, int64_t n, float* out, Memory where = Memory::Host) = 0;
+  /// Normalised outputs of slices [z0, z1) of an nx*ny*nz grid over [0,1]^3 (sample i at i/(n-1), 0.5 when n == 1),
+  /// x fastest, into out (`where`).
+  virtual void decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out,
+    Memory where = Memory::Host) = 0;
+
+  /// Render an image (Render.h). Cached state (decoded grid, macrocells, path-tracing accumulation) is reused while
+  /// the network version, the resolution and the transfer function are unchanged.
+  virtual void render(const RenderRequest& request, RenderResult& result, Memory where = Memory::Host) = 0;
+  /// True while background work started by render() (a progressive decode) is still running: render again to
+  /// show the refined result.
+  virtual bool workPending() const = 0;
+
+  /// Bytes of accelerator memory held (0 on the CPU).
+  virtual int64_t deviceMemoryBytes() const = 0;
+
+protected:
+  NetworkSession() = default;
+};
+
+/// Decode slices [z0, z1) de-normalised to source units (model().source range), into host memory.
+void decodeGridValues(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,
+  float* out);
+void decodeGridValues(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,
+  double* out);
+/// Error of the session's network against the source volume over every valid voxel (see ErrorStats).
+ErrorStats compareToSource(NetworkSession& session, const VolumeView& volume);
+
+} // namespace nv

@@ -1,0 +1,119 @@
+// NeuralVolume engine: what a caller asks of the renderer and what it gets back (VTK-free).
+//
+// One image of the network (or, for tests, of an explicit grid) seen through a camera, with a transfer function,
+// a render path (how the field is evaluated) and a shading mode (what light transport is computed). The per-ray
+// logic is shared by every path and both backends (RayMachine.h); the paths differ only in where the field values
+// come from:
+//   Decode          the network decoded once to a grid (kept until the network or the resolution changes), sampled
+//                   trilinearly while marching;
+//   SampleStreaming wavefront: every live ray emits the next K samples, all of them are inferred in one batch,
+//                   consumed in order, and finished rays are compacted away;
+//   InShader        the encoding + MLP are evaluated inside the ray-marching kernel (on the GPU the 32 lanes of a
+//                   warp evaluate their samples together on the tensor cores; a lane whose ray ends takes the next
+//                   pixel).
+#pragma once
+
+#include "Config.h"
+#include "Volume.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace nv
+{
+
+enum class RenderPath : int
+{
+  Decode = 0,
+  SampleStreaming = 1,
+  InShader = 2
+};
+
+enum class ShadingMode : int
+{
+  RayMarch = 0,         ///< emission-absorption
+  RayMarchGradient = 1, ///< emission-absorption, Blinn-Phong with the network's gradient (central differences)
+  RayMarchShadows = 2,  ///< emission-absorption, one shadow ray per visible sample towards the light
+  PathTrace = 3,        ///< volumetric path tracing (delta tracking, isotropic phase, sky + sun)
+  PathTraceNee = 4      ///< the same with next-event estimation of the sun (ratio-tracked shadow rays)
+};
+
+/// How samples along a ray are combined (ray-marching modes; path tracing always composites).
+enum class BlendMode : int
+{
+  Composite = 0,
+  Maximum = 1, ///< maximum intensity projection: the transfer function at the largest value
+  Minimum = 2,
+  Average = 3, ///< mean of the values inside averageRange
+  Additive = 4 ///< emission without absorption: sum of opacity-weighted colours
+};
+
+const char* renderPathName(RenderPath p);
+const char* shadingModeName(ShadingMode m);
+const char* blendModeName(BlendMode b);
+
+/// Colour and opacity over a range of source values (what VTK's colour and scalar opacity functions give).
+struct TransferFunction
+{
+  std::vector<float> rgba;    ///< n >= 2 entries (r, g, b, opacity), uniform over [valueMin, valueMax]
+  double valueMin = 0.0;      ///< source units; values outside the range take the end entries
+  double valueMax = 1.0;
+  double unitDistance = 1.0;  ///< world distance over which an entry's opacity applies (ScalarOpacityUnitDistance)
+};
+
+struct RenderRequest
+{
+  int width = 0;
+  int height = 0;
+  double viewProjection[16] = {}; ///< world -> clip, row-major, OpenGL conventions (NDC z in [-1, 1])
+  double worldToUnit[16] = {};    ///< world -> network coordinates [0,1]^3, row-major affine
+  TransferFunction transfer;
+  RenderPath path = RenderPath::InShader;
+  ShadingMode shading = ShadingMode::RayMarch;
+  BlendMode blend = BlendMode::Composite;
+  double sampleDistance = 0.0;    ///< world units between samples; 0 = the smallest voxel spacing of the source
+  double averageRange[2] = { 0.0, 0.0 }; ///< source units; Average blend only (lo >= hi: every value)
+  double lightDirection[3] = { 0.0, 0.0, 1.0 }; ///< world space, towards the light
+  double lightIntensity = 1.0;
+  double ambient = 0.2;
+  double diffuse = 0.8;
+  double specular = 0.2;
+  double specularPower = 10.0;
+  double sunAngle = 5.0;          ///< degrees, angular radius of the sun (path tracing)
+  int maxBounces = 4;             ///< scattering events per path (path tracing)
+  int samplesPerPixel = 1;        ///< paths per pixel per render (path tracing)
+  bool accumulate = true;         ///< path tracing: average with the previous renders while the request is unchanged
+  int streamingSamples = 0;       ///< K of Sample Streaming: samples a ray advances per wavefront; 0 = default
+  bool emptySpaceSkipping = true; ///< macrocells x opacity: skip empty space (ray marching), local majorants (tracking)
+  double terminationOpacity = 0.99; ///< early ray termination (>= 1: off)
+  int decodeResolution[3] = { 0, 0, 0 }; ///< Decode path grid; 0 0 0 = the trained field's dimensions
+  const float* depth = nullptr;   ///< optional width*height window depths in [0,1] of opaque geometry (row 0 bottom)
+  const VolumeView* grid = nullptr; ///< Decode path only: march this volume (its own value range normalised like the
+                                    ///< network's source) instead of the decoded network -- the tests' reference
+  uint64_t seed = 1;
+};
+
+struct RenderStats
+{
+  RenderPath path = RenderPath::Decode;
+  Device device = Device::Cpu;
+  int64_t rays = 0;             ///< primary rays (pixels x samples per pixel)
+  int64_t samplesEvaluated = 0; ///< field evaluations (network or grid)
+  int64_t samplesPlain = 0;     ///< samples a plain marcher would take (one per step from entry to termination or
+                                ///< exit, no skipping); ray-marching modes only
+  int64_t wavefronts = 0;       ///< Sample Streaming: batches inferred
+  int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
+  bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
+  double decodeMilliseconds = 0.0;    ///< decoding and macrocell refresh done by this call
+  double renderMilliseconds = 0.0;    ///< marching / tracing
+};
+
+struct RenderResult
+{
+  std::vector<float> rgba;           ///< width * height * 4, premultiplied colour and opacity, row 0 at the bottom
+  const float* deviceRgba = nullptr; ///< same layout in device memory (render to Memory::Device; GPU backend only;
+                                     ///< valid until the session's next render)
+  RenderStats stats;
+};
+
+} // namespace nv

@@ -1,0 +1,351 @@
+#include "RenderSetup.h"
+
+#include "Error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+namespace nv
+{
+
+const char* renderPathName(RenderPath p)
+{
+  switch (p)
+  {
+    case RenderPath::Decode:
+      return "Decode";
+    case RenderPath::SampleStreaming:
+      return "Sample Streaming";
+    case RenderPath::InShader:
+      return "In-Shader";
+  }
+  return "unknown";
+}
+
+const char* shadingModeName(ShadingMode m)
+{
+  switch (m)
+  {
+    case ShadingMode::RayMarch:
+      return "Ray Marching";
+    case ShadingMode::RayMarchGradient:
+      return "Ray Marching + Gradient Shading";
+    case ShadingMode::RayMarchShadows:
+      return "Ray Marching + Shadows";
+    case ShadingMode::PathTrace:
+      return "Path Tracing";
+    case ShadingMode::PathTraceNee:
+      return "Path Tracing + NEE";
+  }
+  return "unknown";
+}
+
+const char* blendModeName(BlendMode b)
+{
+  switch (b)
+  {
+    case BlendMode::Composite:
+      return "Composite";
+    case BlendMode::Maximum:
+      return "Maximum Intensity";
+    case BlendMode::Minimum:
+      return "Minimum Intensity";
+    case BlendMode::Average:
+      return "Average Intensity";
+    case BlendMode::Additive:
+      return "Additive";
+  }
+  return "unknown";
+}
+
+namespace
+{
+bool finite(const double* v, int n)
+{
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i]))
+      return false;
+  return true;
+}
+
+/// Inverse of a row-major 4x4 matrix (Gauss-Jordan with partial pivoting); false when singular.
+bool invert4(const double* m, double* out)
+{
+  double a[4][8];
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 8; ++c)
+      a[r][c] = c < 4 ? m[4 * r + c] : (c - 4 == r ? 1.0 : 0.0);
+  double scale = 0.0;
+  for (int i = 0; i < 16; ++i)
+    scale = std::max(scale, std::fabs(m[i]));
+  if (!(scale > 0.0))
+    return false;
+  for (int c = 0; c < 4; ++c)
+  {
+    int p = c;
+    for (int r = c + 1; r < 4; ++r)
+      if (std::fabs(a[r][c]) > std::fabs(a[p][c]))
+        p = r;
+    if (std::fabs(a[p][c]) <= 1e-14 * scale)
+      return false;
+    if (p != c)
+      for (int k = 0; k < 8; ++k)
+        std::swap(a[p][k], a[c][k]);
+    const double inv = 1.0 / a[c][c];
+    for (int k = 0; k < 8; ++k)
+      a[c][k] *= inv;
+    for (int r = 0; r < 4; ++r)
+    {
+      if (r == c)
+        continue;
+      const double f = a[r][c];
+      for (int k = 0; k < 8; ++k)
+        a[r][k] -= f * a[c][k];
+    }
+  }
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      out[4 * r + c] = a[r][c + 4];
+  return finite(out, 16);
+}
+
+/// Inverse of the 3x3 linear part of a row-major affine 4x4 (columns: world extent of a network unit per axis).
+bool invert3(const double* m, double b[9])
+{
+  const double a[9] = { m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10] };
+  const double det = a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) +
+    a[2] * (a[3] * a[7] - a[4] * a[6]);
+  if (!(std::fabs(det) > 0.0) || !std::isfinite(det))
+    return false;
+  const double id = 1.0 / det;
+  b[0] = (a[4] * a[8] - a[5] * a[7]) * id;
+  b[1] = (a[2] * a[7] - a[1] * a[8]) * id;
+  b[2] = (a[1] * a[5] - a[2] * a[4]) * id;
+  b[3] = (a[5] * a[6] - a[3] * a[8]) * id;
+  b[4] = (a[0] * a[8] - a[2] * a[6]) * id;
+  b[5] = (a[2] * a[3] - a[0] * a[5]) * id;
+  b[6] = (a[3] * a[7] - a[4] * a[6]) * id;
+  b[7] = (a[1] * a[6] - a[0] * a[7]) * id;
+  b[8] = (a[0] * a[4] - a[1] * a[3]) * id;
+  return finite(b, 9);
+}
+
+/// FNV-1a over raw bytes.
+struct Hasher
+{
+  uint64_t h = 1469598103934665603ull;
+  void add(const void* p, size_t n)
+  {
+    const unsigned char* b = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i)
+      h = (h ^ b[i]) * 1099511628211ull;
+  }
+  template <typename T>
+  void add(const T& v)
+  {
+    add(&v, sizeof(T));
+  }
+};
+} // namespace
+
+void validate(const RenderRequest& q)
+{
+  std::ostringstream os;
+  if (q.width < 1 || q.height < 1 || q.width > kMaxImageSize || q.height > kMaxImageSize)
+    os << "image size " << q.width << " x " << q.height << " outside 1.." << kMaxImageSize << "; ";
+  if (!finite(q.viewProjection, 16))
+    os << "the view-projection matrix is not finite; ";
+  if (!finite(q.worldToUnit, 16))
+    os << "the volume transform is not finite; ";
+  const TransferFunction& tf = q.transfer;
+  if (tf.rgba.size() < 8 || tf.rgba.size() % 4 != 0)
+    os << "the transfer function needs at least 2 entries of 4 values (has " << tf.rgba.size() << " values); ";
+  for (float v : tf.rgba)
+    if (!std::isfinite(v))
+    {
+      os << "the transfer function has non-finite values; ";
+      break;
+    }
+  if (!std::isfinite(tf.valueMin) || !std::isfinite(tf.valueMax))
+    os << "the transfer function's value range is not finite; ";
+  if (!(tf.unitDistance > 0.0) || !std::isfinite(tf.unitDistance))
+    os << "the opacity unit distance must be > 0 (is " << tf.unitDistance << "); ";
+  if (!(q.sampleDistance >= 0.0) || !std::isfinite(q.sampleDistance))
+    os << "the sample distance must be >= 0 (is " << q.sampleDistance << "); ";
+  const int path = static_cast<int>(q.path), mode = static_cast<int>(q.shading), blend = static_cast<int>(q.blend);
+  if (path < 0 || path > 2)
+    os << "unknown render path " << path << "; ";
+  if (mode < 0 || mode > 4)
+    os << "unknown shading mode " << mode << "; ";
+  if (blend < 0 || blend > 4)
+    os << "unknown blend mode " << blend << "; ";
+  if (q.maxBounces < 0 || q.maxBounces > 1024)
+    os << "max bounces must be in 0..1024 (is " << q.maxBounces << "); ";
+  if (q.samplesPerPixel < 1 || q.samplesPerPixel > 4096)
+    os << "samples per pixel must be in 1..4096 (is " << q.samplesPerPixel << "); ";
+  if (q.streamingSamples < 0 || q.streamingSamples > 1024)
+    os << "streaming samples (K) must be in 0..1024 (is " << q.streamingSamples << "); ";
+  for (int a = 0; a < 3; ++a)
+    if (q.decodeResolution[a] < 0 || q.decodeResolution[a] > 8192)
+    {
+      os << "decode resolution must be in 0..8192 per axis; ";
+      break;
+    }
+  if (!finite(q.lightDirection, 3) || !std::isfinite(q.lightIntensity) || !std::isfinite(q.ambient) ||
+    !std::isfinite(q.diffuse) || !std::isfinite(q.specular) || !std::isfinite(q.specularPower) ||
+    !std::isfinite(q.sunAngle) || !std::isfinite(q.terminationOpacity))
+    os << "lighting parameters must be finite; ";
+  if (q.grid && (!q.grid->data || q.grid->count() < 1))
+    os << "the reference grid is empty; ";
+  double inv[16];
+  if (finite(q.viewProjection, 16) && !invert4(q.viewProjection, inv))
+    os << "the view-projection matrix is singular; ";
+  double b[9];
+  if (finite(q.worldToUnit, 16) && !invert3(q.worldToUnit, b))
+    os << "the volume transform is singular (a zero-thickness volume?); ";
+  const std::string e = os.str();
+  if (!e.empty())
+    NV_THROW("invalid render request: " + e.substr(0, e.size() - 2));
+}
+
+RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
+{
+  validate(q);
+  RenderSetup s;
+  ray::Params& P = s.params;
+  P.width = q.width;
+  P.height = q.height;
+  double inv[16];
+  invert4(q.viewProjection, inv);
+  for (int i = 0; i < 16; ++i)
+    P.clipToWorld[i] = static_cast<float>(inv[i]);
+  for (int i = 0; i < 12; ++i)
+    P.worldToUnit[i] = static_cast<float>(q.worldToUnit[i]);
+
+  // One sample per voxel by default: the world length of a voxel step along the finest axis.
+  double b[9];
+  invert3(q.worldToUnit, b);
+  double voxel = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    const double len = std::sqrt(b[a] * b[a] + b[3 + a] * b[3 + a] + b[6 + a] * b[6 + a]);
+    const double v = src.dims[a] > 1 ? len / static_cast<double>(src.dims[a] - 1) : len;
+    voxel = voxel > 0.0 ? std::min(voxel, v) : v;
+    P.gradH[a] = src.dims[a] > 1 ? static_cast<float>(0.5 / static_cast<double>(src.dims[a] - 1)) : 0.5f;
+  }
+  const double dt = q.sampleDistance > 0.0 ? q.sampleDistance : voxel;
+  NV_CHECK(dt > 0.0 && std::isfinite(dt), "cannot derive a sample distance from the volume transform");
+  P.dt = static_cast<float>(dt);
+  P.dtShadow = static_cast<float>(2.0 * dt);
+  P.termination = static_cast<float>(std::min(q.terminationOpacity, 2.0));
+
+  // Transfer function: opacity per unit distance -> extinction per world unit.
+  const TransferFunction& tf = q.transfer;
+  const int n = static_cast<int>(tf.rgba.size() / 4);
+  s.table.resize(tf.rgba.size());
+  const double ud = tf.unitDistance;
+  for (int i = 0; i < n; ++i)
+  {
+    for (int c = 0; c < 3; ++c)
+      s.table[4 * i + c] = std::min(1.0f, std::max(0.0f, tf.rgba[4 * i + c]));
+    const double a = std::min(0.99999, std::max(0.0, static_cast<double>(tf.rgba[4 * i + 3])));
+    s.table[4 * i + 3] = static_cast<float>(-std::log1p(-a) / ud);
+  }
+  P.tfSize = n;
+  double lo = tf.valueMin, hi = tf.valueMax;
+  if (!(hi > lo))
+    hi = lo + std::max(std::fabs(lo) * 1e-6, 1e-30);
+  const double vr = src.valueMax - src.valueMin;
+  // entry coordinate of source value v: (v - lo) / (hi - lo) * (n - 1); v = valueMin + y * vr.
+  const double k = static_cast<double>(n - 1) / (hi - lo);
+  P.tfScale = static_cast<float>(vr * k);
+  P.tfShift = static_cast<float>((src.valueMin - lo) * k);
+  NV_CHECK(std::isfinite(P.tfScale) && std::isfinite(P.tfShift),
+    "the transfer function's range is too small for the field's value range");
+  P.unitDistance = static_cast<float>(ud);
+
+  s.cells = macrocellLayout(src.dims);
+  for (int a = 0; a < 3; ++a)
+  {
+    P.mc[a] = s.cells.dims[a];
+    P.mcScale[a] = s.cells.scale[a];
+  }
+  P.skipping = q.emptySpaceSkipping ? 1 : 0;
+  P.shading = static_cast<int>(q.shading);
+  P.blend = static_cast<int>(q.blend);
+  if (q.averageRange[1] > q.averageRange[0] && vr > 0.0)
+  {
+    P.avgLo = static_cast<float>((q.averageRange[0] - src.valueMin) / vr);
+    P.avgHi = static_cast<float>((q.averageRange[1] - src.valueMin) / vr);
+  }
+  else
+  {
+    P.avgLo = 1.0f;
+    P.avgHi = 0.0f;
+  }
+  ray::V3 l = ray::mk(static_cast<float>(q.lightDirection[0]), static_cast<float>(q.lightDirection[1]),
+    static_cast<float>(q.lightDirection[2]));
+  P.lightW = ray::dot(l, l) > 0.0f ? ray::normalize(l) : ray::mk(0.0f, 0.0f, 1.0f);
+  P.ambient = static_cast<float>(q.ambient);
+  P.diffuse = static_cast<float>(q.diffuse);
+  P.specular = static_cast<float>(q.specular);
+  P.specularPower = static_cast<float>(q.specularPower);
+  P.intensity = static_cast<float>(q.lightIntensity);
+  const double sun = std::min(90.0, std::max(0.1, q.sunAngle));
+  P.sunCos = static_cast<float>(std::cos(sun * 3.14159265358979 / 180.0));
+  P.maxBounces = q.maxBounces;
+  P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
+  P.frame = 0;
+
+  for (int a = 0; a < 3; ++a)
+    s.gridDims[a] = q.decodeResolution[a] > 0 ? q.decodeResolution[a] : std::max<int64_t>(1, src.dims[a]);
+  if (q.decodeResolution[0] <= 0 || q.decodeResolution[1] <= 0 || q.decodeResolution[2] <= 0)
+    for (int a = 0; a < 3; ++a)
+      s.gridDims[a] = std::max<int64_t>(1, src.dims[a]);
+  if (q.grid)
+    for (int a = 0; a < 3; ++a)
+      s.gridDims[a] = q.grid->dims[a];
+  s.streamingSamples = q.streamingSamples > 0 ? q.streamingSamples : kDefaultStreamingSamples;
+
+  Hasher h;
+  h.add(q.width);
+  h.add(q.height);
+  h.add(q.viewProjection, sizeof(q.viewProjection));
+  h.add(q.worldToUnit, sizeof(q.worldToUnit));
+  h.add(tf.rgba.data(), tf.rgba.size() * sizeof(float));
+  h.add(tf.valueMin);
+  h.add(tf.valueMax);
+  h.add(tf.unitDistance);
+  h.add(q.path);
+  h.add(q.shading);
+  h.add(q.blend);
+  h.add(q.sampleDistance);
+  h.add(q.averageRange, sizeof(q.averageRange));
+  h.add(q.lightDirection, sizeof(q.lightDirection));
+  h.add(q.lightIntensity);
+  h.add(q.ambient);
+  h.add(q.diffuse);
+  h.add(q.specular);
+  h.add(q.specularPower);
+  h.add(q.sunAngle);
+  h.add(q.maxBounces);
+  h.add(q.samplesPerPixel);
+  h.add(q.streamingSamples);
+  h.add(q.emptySpaceSkipping);
+  h.add(q.terminationOpacity);
+  h.add(q.decodeResolution, sizeof(q.decodeResolution));
+  h.add(q.seed);
+  if (q.depth)
+    h.add(q.depth, sizeof(float) * static_cast<size_t>(q.width) * static_cast<size_t>(q.height));
+  if (q.grid)
+  {
+    h.add(q.grid->data);
+    h.add(q.grid->dims, sizeof(q.grid->dims));
+  }
+  s.key = h.h;
+  return s;
+}
+
+} // namespace nv

@@ -1,0 +1,42 @@
+// NeuralVolume engine: a render request turned into the ray machine's parameters (host side, both backends).
+#pragma once
+
+#include "Macrocells.h"
+#include "Model.h"
+#include "RayMachine.h"
+#include "Render.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace nv
+{
+
+/// The largest image a request may ask for (per axis).
+constexpr int kMaxImageSize = 16384;
+
+/// Throws nv::Error with a readable message when a request cannot be rendered (empty or huge image, non-finite
+/// matrices, a singular view-projection, a transfer function with fewer than 2 entries or non-finite values,
+/// negative sample distance, out-of-range modes or counts).
+void validate(const RenderRequest& request);
+
+/// Everything the backends derive from a request on the host. `params` has every pointer null: the backend points
+/// tf, majorant and depth at its own copies of `table`, the macrocell majorants and the request's depth.
+struct RenderSetup
+{
+  ray::Params params{};
+  std::vector<float> table; ///< transfer function as (r, g, b, extinction per world unit)
+  MacrocellLayout cells{};
+  int64_t gridDims[3] = { 1, 1, 1 }; ///< Decode path: grid samples per axis
+  int streamingSamples = 8;         ///< K of Sample Streaming after defaults
+  uint64_t key = 0;                 ///< hash of everything that changes the picture except the frame (accumulation)
+};
+
+/// `source` gives the network's extent (dims) and value range (the transfer function is defined on source values).
+/// params.frame is 0: the backend sets the path-tracing accumulation index (it restarts when `key` changes).
+RenderSetup makeRenderSetup(const RenderRequest& request, const SourceInfo& source);
+
+/// Default K of Sample Streaming (from the K sweep in Testing/Benchmarks).
+constexpr int kDefaultStreamingSamples = 8;
+
+} // namespace nv
