@@ -131,6 +131,7 @@ struct Params
   V3 lightW;             ///< world direction towards the light, unit length
   float ambient, diffuse, specular, specularPower, intensity;
   float sunCos;          ///< cosine of the sun's angular radius
+  float g;               ///< Henyey-Greenstein anisotropy of the phase function (0: isotropic)
   int maxBounces;
   uint32_t seed, frame;
   const float* depth;    ///< window depth of opaque geometry per pixel, or null
@@ -147,7 +148,7 @@ struct Ray
   float stEnd, sT;  ///< its end and transmittance
   int sj;           ///< shadow marching: next sample index
   float c[4];       ///< accumulated premultiplied colour and opacity
-  float pend[4];    ///< marching with shadows: the pending sample's shaded colour (rgb) and alpha
+  float pend[4];    ///< marching with shadows: the pending sample's shaded colour (rgb) and alpha; NEE: phase weight
   float thr[3];     ///< path tracing: throughput
   float acc;        ///< Maximum / Minimum / Average / Additive accumulator
   int count;        ///< Average: samples in range
@@ -633,12 +634,37 @@ NV_HD void escape(const Params& P, Ray& r)
   r.phase = Done;
 }
 
-/// New isotropic direction after a scattering event at p (NEE done or not used).
+/// Henyey-Greenstein phase function times 4 pi (1 for g = 0) at the cosine between incoming and outgoing directions.
+NV_HD float phase4pi(float g, float cosTheta)
+{
+  if (g == 0.0f)
+    return 1.0f;
+  const float d = 1.0f + g * g - 2.0f * g * cosTheta;
+  return (1.0f - g * g) / (d * sqrtf(fmaxf_(d, 1e-12f)));
+}
+
+/// Direction sampled from the Henyey-Greenstein phase function around the incoming direction w (unit length).
+NV_HD V3 phaseDir(float g, V3 w, float u1, float u2)
+{
+  if (g == 0.0f)
+    return sphereDir(u1, u2);
+  const float s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u1);
+  float ct = (1.0f + g * g - s * s) / (2.0f * g);
+  ct = ct < -1.0f ? -1.0f : (ct > 1.0f ? 1.0f : ct);
+  const float st = sqrtf(fmaxf_(0.0f, 1.0f - ct * ct));
+  const float phi = 6.28318530718f * u2;
+  const V3 h = fabsf(w.x) > 0.9f ? mk(0.0f, 1.0f, 0.0f) : mk(1.0f, 0.0f, 0.0f);
+  const V3 b1 = normalize(cross(h, w));
+  const V3 b2 = cross(w, b1);
+  return b1 * (st * cosf(phi)) + b2 * (st * sinf(phi)) + w * ct;
+}
+
+/// New direction after a scattering event at p (NEE done or not used).
 NV_HD void scatter(const Params& P, Ray& r, V3 p)
 {
   const float u1 = rand01(P, r.pixel, 2u, r.nEvent++), u2 = rand01(P, r.pixel, 2u, r.nEvent++);
   ++r.bounces;
-  startSegment(P, r, p, sphereDir(u1, u2));
+  startSegment(P, r, p, phaseDir(P.g, r.dW, u1, u2));
 }
 
 /// Consume the n values of the queries emit(P, r, K, q) produced (same K), in order.
@@ -787,7 +813,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
           if (P.shading == PathTraceNee)
           {
             const float u1 = rand01(P, r.pixel, 4u, r.nEvent++), u2 = rand01(P, r.pixel, 4u, r.nEvent++);
-            startShadow(P, r, clampUnit(p), coneDir(P.lightW, P.sunCos, u1, u2));
+            const V3 w = coneDir(P.lightW, P.sunCos, u1, u2);
+            r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
+            startShadow(P, r, clampUnit(p), w);
             r.phase = Nee;
           }
           else
@@ -830,7 +858,7 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
       if (!end)
         return;
       for (int q = 0; q < 3; ++q)
-        r.c[q] += r.thr[q] * P.diffuse * P.intensity * r.sT;
+        r.c[q] += r.thr[q] * P.diffuse * P.intensity * r.sT * r.pend[0];
       scatter(P, r, r.so);
       r.phase = Track;
       return;

@@ -80,6 +80,7 @@ struct RenderRequest
   double specular = 0.2;
   double specularPower = 10.0;
   double sunAngle = 5.0;          ///< degrees, angular radius of the sun (path tracing)
+  double anisotropy = 0.0;        ///< Henyey-Greenstein g of the phase function (path tracing), in (-1, 1)
   int maxBounces = 4;             ///< scattering events per path (path tracing)
   int samplesPerPixel = 1;        ///< paths per pixel per render (path tracing)
   bool accumulate = true;         ///< path tracing: average with the previous renders while the request is unchanged

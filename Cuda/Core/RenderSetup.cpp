@@ -195,7 +195,7 @@ void validate(const RenderRequest& q)
     }
   if (!finite(q.lightDirection, 3) || !std::isfinite(q.lightIntensity) || !std::isfinite(q.ambient) ||
     !std::isfinite(q.diffuse) || !std::isfinite(q.specular) || !std::isfinite(q.specularPower) ||
-    !std::isfinite(q.sunAngle) || !std::isfinite(q.terminationOpacity))
+    !std::isfinite(q.sunAngle) || !std::isfinite(q.terminationOpacity) || !std::isfinite(q.anisotropy))
     os << "lighting parameters must be finite; ";
   if (q.grid && (!q.grid->data || q.grid->count() < 1))
     os << "the reference grid is empty; ";
@@ -295,6 +295,7 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.intensity = static_cast<float>(q.lightIntensity);
   const double sun = std::min(90.0, std::max(0.1, q.sunAngle));
   P.sunCos = static_cast<float>(std::cos(sun * 3.14159265358979 / 180.0));
+  P.g = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
   P.frame = 0;
@@ -330,6 +331,7 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   h.add(q.specular);
   h.add(q.specularPower);
   h.add(q.sunAngle);
+  h.add(q.anisotropy);
   h.add(q.maxBounces);
   h.add(q.samplesPerPixel);
   h.add(q.streamingSamples);
