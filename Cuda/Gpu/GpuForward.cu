@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdlib>
 
 namespace nv
 {
@@ -19,20 +18,6 @@ namespace gpu
 namespace
 {
 using FwdFn = void (*)(FwdArgs);
-
-int envInt(const char* name, int fallback)
-{
-  const char* e = std::getenv(name);
-  return e ? std::atoi(e) : fallback;
-}
-
-/// Mode (NV_GPU_FWD_MODE, for benchmarks): 0 fused encode+MLP for all inputs; 1 (default) two passes (level-major
-/// encode, then MLP) for point arrays, fused for grid decoding; 2 two passes for both.
-int forwardMode()
-{
-  static const int v = envInt("NV_GPU_FWD_MODE", 1);
-  return v >= 0 && v <= 2 ? v : 1;
-}
 
 /// Fused (grid decoding): 2 blocks per SM, L1 left for the coarse levels' gathers. Two-pass MLP pass (point
 /// arrays): 3 blocks per SM (80 registers): measured 1.62 -> 1.69 G samples/s on binned random points.
@@ -56,13 +41,11 @@ FwdFn pickForward(int W, int F, bool pre)
 
 /// Bits per axis of the Morton bins for m points (0: no binning): about 32 points per bin (1M random points:
 /// 2^5 bins per axis measured best, 2^6 within 1%); from 2^18 points (2^16 random points: 0.079 ms unbinned,
-/// 0.087 binned; 2^18: 0.202 / 0.196). NV_GPU_BIN_BITS or setInferenceBinning() override.
-std::atomic<int> gBinBits{ envInt("NV_GPU_BIN_BITS", -1) };
+/// 0.087 binned; 2^18: 0.202 / 0.196). KernelOptions::binBitsPerAxis >= 0 forces a value.
 std::atomic<int> gLastBinBits{ 0 };
 
-int binBits(int64_t m)
+int binBits(int64_t m, int forced)
 {
-  const int forced = gBinBits.load();
   if (forced >= 0)
     return std::min(forced, 8);
   if (m < (int64_t(1) << 18))
@@ -113,11 +96,10 @@ void launchEncodeLevelsL(int F, const FwdArgs& a, __half* enc, cudaStream_t stre
   NV_CUDA_LAUNCH();
 }
 
-/// Levels per thread (NV_GPU_ENC_LPT 1 / 2 / 4, default 4): 4 reads each point once for four levels (measured on
-/// binned random points, 2^21: 1.68 / 1.71 / 1.73 G samples/s).
-void launchEncodeLevels(int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
+/// Levels per thread (KernelOptions::encodeLevelsPerThread 1 / 2 / 4, default 4): 4 reads each point once for four
+/// levels (measured on binned random points, 2^21: 1.68 / 1.71 / 1.73 G samples/s).
+void launchEncodeLevels(int lpt, int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
 {
-  static const int lpt = envInt("NV_GPU_ENC_LPT", 4);
   if (lpt == 4)
     launchEncodeLevelsL<4>(F, a, enc, stream);
   else if (lpt == 2)
@@ -128,11 +110,6 @@ void launchEncodeLevels(int F, const FwdArgs& a, __half* enc, cudaStream_t strea
 
 } // namespace
 
-void setInferenceBinning(int bitsPerAxis)
-{
-  gBinBits.store(bitsPerAxis < 0 ? -1 : bitsPerAxis);
-}
-
 int lastInferenceBinning()
 {
   return gLastBinBits.load();
@@ -142,7 +119,8 @@ int lastInferenceBinning()
 bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
   int64_t first, int64_t n, float* out, cudaStream_t stream)
 {
-  const int mode = forwardMode();
+  const KernelOptions& o = dm.options;
+  const int mode = o.forwardMode >= 0 && o.forwardMode <= 2 ? o.forwardMode : 1;
   const bool pre = mode == 2 || (mode == 1 && xyz != nullptr);
   const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre);
   if (!fn || dm.shape.H > kMaxHidden)
@@ -169,7 +147,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   a.z0 = z0; // enc, binned, random, seed, step stay zero (a{})
   // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (128 MiB).
   const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
-  static const int64_t scratchBytes = int64_t(std::max(16, envInt("NV_GPU_FWD_CHUNK_MB", 128))) << 20;
+  const int64_t scratchBytes = int64_t(std::max(16, o.encodeScratchMiB)) << 20;
   const int64_t chunk = pre ? std::min<int64_t>(n, scratchBytes / (2 * D)) : n;
   if (pre && dm.encScratch.size() < size_t(chunk * D))
     dm.encScratch.allocate(size_t(chunk * D), "encoding scratch");
@@ -182,7 +160,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     a.out = out + b;
     if (pre)
     {
-      const int bits = a.xyz ? binBits(m) : 0;
+      const int bits = a.xyz ? binBits(m, o.binBitsPerAxis) : 0;
       gLastBinBits.store(bits);
       if (bits > 0)
       {
@@ -190,7 +168,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
         a.binned = dm.bins.binned.get();
       }
       a.enc = dm.encScratch.get();
-      launchEncodeLevels(dm.grid.features, a, dm.encScratch.get(), stream);
+      launchEncodeLevels(o.encodeLevelsPerThread, dm.grid.features, a, dm.encScratch.get(), stream);
     }
     const int64_t tiles = (m + 15) / 16;
     const int64_t blocks = std::min<int64_t>((tiles + warps - 1) / warps, int64_t(perSm) * deviceInfo().sms);

@@ -2,12 +2,12 @@
 // in one kernel; used where the register-resident fast path of GpuForward.cu does not apply: W = 128, weights
 // larger than shared memory), batched inference and grid decoding entry points, and test/benchmark hooks.
 #include "Core/Model.h"
-#include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
 #include "GpuInternal.cuh"
 #include "GpuTesting.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <mutex>
 #include <sstream>
@@ -391,66 +391,6 @@ void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_
   NV_CUDA_LAUNCH();
 }
 
-void inferPoints(const Model& model, const float* xyz, int64_t n, float* out)
-{
-  Stream st;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 24);
-  DeviceBuffer<float> dx(3 * chunk, "points"), dy(chunk, "outputs");
-  for (int64_t b = 0; b < n; b += chunk)
-  {
-    const int64_t m = std::min(chunk, n - b);
-    NV_CUDA(cudaMemcpyAsync(dx.get(), xyz + 3 * b, 3 * m * sizeof(float), cudaMemcpyHostToDevice, st.get()));
-    launchInference(dm, dx.get(), 0, 0, 0, 0, 0, m, dy.get(), st.get());
-    NV_CUDA(cudaMemcpyAsync(out + b, dy.get(), m * sizeof(float), cudaMemcpyDeviceToHost, st.get()));
-  }
-  st.sync();
-}
-
-void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out)
-{
-  Stream st, copy;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t n = nx * ny * (z1 - z0);
-  // Pipeline over 3 slots: the kernel fills chunk k (stream st) while chunk k-1 is copied to pinned memory (stream
-  // copy, own copy engine) and host threads move chunk k-2 into `out`.
-  constexpr int S = 3;
-  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 22);
-  DeviceBuffer<float> dy[S];
-  PinnedBuffer<float> hy[S];
-  Event filled[S], done[S];
-  for (int k = 0; k < S; ++k)
-  {
-    dy[k].allocate(chunk, "decode");
-    hy[k].allocate(chunk);
-  }
-  ThreadPool pool(std::min(16, ThreadPool::defaultThreads()));
-  const int64_t chunks = (n + chunk - 1) / chunk;
-  auto drain = [&](int64_t k) {
-    const int slot = static_cast<int>(k % S);
-    NV_CUDA(cudaEventSynchronize(done[slot].get()));
-    const int64_t b = k * chunk, m = std::min(chunk, n - b);
-    const float* src = hy[slot].get();
-    pool.parallelFor(m, [&](int64_t s, int64_t e, int) { std::memcpy(out + b + s, src + s, (e - s) * sizeof(float)); });
-  };
-  for (int64_t k = 0; k < chunks; ++k)
-  {
-    const int slot = static_cast<int>(k % S); // chunk k-S was drained in iteration k-1
-    const int64_t b = k * chunk, m = std::min(chunk, n - b);
-    launchInference(dm, nullptr, nx, ny, nz, z0, b, m, dy[slot].get(), st.get());
-    NV_CUDA(cudaEventRecord(filled[slot].get(), st.get()));
-    NV_CUDA(cudaStreamWaitEvent(copy.get(), filled[slot].get(), 0));
-    NV_CUDA(cudaMemcpyAsync(hy[slot].get(), dy[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost, copy.get()));
-    NV_CUDA(cudaEventRecord(done[slot].get(), copy.get()));
-    if (k >= S - 1)
-      drain(k - (S - 1));
-  }
-  for (int64_t k = std::max<int64_t>(0, chunks - (S - 1)); k < chunks; ++k)
-    drain(k);
-}
-
 void testEncode(const Model& model, const float* xyz, int64_t n, float* out)
 {
   Stream st;
@@ -508,6 +448,39 @@ double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz,
   const int64_t n = nx * ny * nz;
   DeviceBuffer<float> dy(n);
   return medianMs(reps, st.get(), [&] { launchInference(dm, nullptr, nx, ny, nz, 0, 0, n, dy.get(), st.get()); });
+}
+
+namespace
+{
+template <typename Fn>
+double medianWallMs(int reps, Fn&& fn)
+{
+  std::vector<double> ts;
+  fn(); // warm-up
+  for (int r = 0; r < reps; ++r)
+  {
+    const auto a = std::chrono::steady_clock::now();
+    fn();
+    ts.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a).count());
+  }
+  std::sort(ts.begin(), ts.end());
+  return ts[ts.size() / 2];
+}
+} // namespace
+
+double benchSessionInfer(NetworkSession& session, int64_t n, int reps)
+{
+  DeviceBuffer<float> dx(3 * n, "points"), dy(n, "outputs");
+  randomPointsKernel<<<gridFor(n), 256>>>(dx.get(), n);
+  NV_CUDA_LAUNCH();
+  NV_CUDA(cudaDeviceSynchronize());
+  return medianWallMs(reps, [&] { session.inferPoints(dx.get(), n, dy.get(), Memory::Device); });
+}
+
+double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps)
+{
+  DeviceBuffer<float> dy(nx * ny * nz, "decoded grid");
+  return medianWallMs(reps, [&] { session.decodeGrid(nx, ny, nz, 0, nz, dy.get(), Memory::Device); });
 }
 
 } // namespace gpu

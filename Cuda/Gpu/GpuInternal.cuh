@@ -2,6 +2,7 @@
 #pragma once
 
 #include "Core/Model.h"
+#include "Core/NetworkSession.h"
 #include "GpuCommon.cuh"
 #include "GpuNetwork.cuh"
 
@@ -41,6 +42,7 @@ struct DeviceModel
 {
   GridLayout grid{};
   MlpShape shape{};
+  KernelOptions options; ///< kernel variants of every launch on this model
   DeviceBuffer<__half> table16;
   DeviceBuffer<__half> w16;
   DeviceBuffer<float> wout;
