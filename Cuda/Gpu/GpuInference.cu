@@ -1,6 +1,5 @@
-// NeuralVolume engine: CUDA device queries, parameter packing, the general WMMA inference kernel (encoding + MLP
-// in one kernel; used where the register-resident fast path of GpuForward.cu does not apply: W = 128, weights
-// larger than shared memory), batched inference and grid decoding entry points, and test/benchmark hooks.
+// NeuralVolume engine: CUDA device queries, parameter packing, the inference entry point (the forward kernel of
+// GpuForward.cu) and test/benchmark hooks.
 #include "Core/Model.h"
 #include "GpuEngine.h"
 #include "GpuInternal.cuh"
@@ -126,105 +125,6 @@ __global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half*
   }
 }
 
-struct InferArgs
-{
-  GridLayout grid;
-  MlpShape shape;
-  SmemPlan plan;
-  const __half* table16;
-  const __half* w16;
-  const float* wout;
-  const float* xyz;
-  int64_t nx, ny, nz, z0, first, n;
-  float* out;
-  int tiles;
-};
-
-template <int W, int F>
-__global__ void __launch_bounds__(256) inferKernel(const __grid_constant__ InferArgs a)
-{
-  extern __shared__ __align__(128) unsigned char smem[];
-  const SmemPlan& p = a.plan;
-  const MlpShape& s = a.shape;
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T;
-  float* sx = reinterpret_cast<float*>(smem + p.xyz);
-  __half* enc = reinterpret_cast<__half*>(smem + p.enc);
-  __half* act = reinterpret_cast<__half*>(smem + p.acts);
-  float* stage = reinterpret_cast<float*>(smem + p.stage) + warp * 256;
-  const float* sw = reinterpret_cast<const float*>(smem + p.wout);
-  const __half* wl[kMaxHidden];
-  int ldw[kMaxHidden];
-  stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
-  const int pad = s.Dp - s.D;
-  for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
-    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
-  __syncthreads();
-  const int row0 = warp * 16;
-  for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
-  {
-    const int64_t base = int64_t(tile) * T;
-    for (int t = threadIdx.x; t < T; t += blockDim.x)
-    {
-      const int64_t gi = base + t;
-      float x = 0.0f, y = 0.0f, z = 0.0f;
-      if (gi < a.n)
-      {
-        if (a.xyz)
-        {
-          x = a.xyz[3 * gi];
-          y = a.xyz[3 * gi + 1];
-          z = a.xyz[3 * gi + 2];
-        }
-        else
-        {
-          const int64_t li = a.first + gi;
-          const int64_t row = li / a.nx;
-          x = gridCoord(li - row * a.nx, a.nx);
-          y = gridCoord(row % a.ny, a.ny);
-          z = gridCoord(a.z0 + row / a.ny, a.nz);
-        }
-      }
-      sx[3 * t] = x;
-      sx[3 * t + 1] = y;
-      sx[3 * t + 2] = z;
-    }
-    __syncthreads();
-    encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
-    __syncthreads();
-    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], act, p.ldA, stage, row0, lane);
-    for (int l = 1; l < s.H; ++l)
-      forwardLayer<W>(act, p.ldA, W, wl[l], ldw[l], act, p.ldA, stage, row0, lane);
-    {
-      const int t = row0 + (lane >> 1), h = lane & 1;
-      float o = 0.0f;
-      const __half* r = act + t * p.ldA + h * (W / 2);
-#pragma unroll 8
-      for (int i = 0; i < W / 2; ++i)
-        o += __half2float(r[i]) * sw[h * (W / 2) + i];
-      o += __shfl_xor_sync(0xffffffffu, o, 1);
-      const int64_t gi = base + t;
-      if (h == 0 && gi < a.n)
-        a.out[gi] = o;
-    }
-    __syncthreads();
-  }
-}
-
-using InferFn = void (*)(InferArgs);
-
-InferFn pickInfer(int W, int F)
-{
-#define NV_CASE(w, f)                                                                              \
-  if (W == w && F == f)                                                                            \
-    return inferKernel<w, f>;
-  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
-  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
-  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
-  NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
-#undef NV_CASE
-  NV_THROW("unsupported network width / features per level on the GPU");
-}
-
 __global__ void encodeTestKernel(GridLayout g, const __half* __restrict__ table, const float* __restrict__ xyz,
   int64_t n, float* __restrict__ out)
 {
@@ -331,6 +231,7 @@ SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* block
 
 void allocateDeviceModel(const Model& model, DeviceModel& dm)
 {
+  dm.fwdPlan[0] = dm.fwdPlan[1] = ForwardPlan();
   dm.grid = model.layout();
   dm.shape = makeMlpShape(model.config());
   dm.table16.allocate(model.encodingParamCount(), "fp16 hash table");
@@ -364,31 +265,7 @@ void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_
 {
   if (n <= 0)
     return;
-  if (launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream))
-    return;
-  InferArgs a;
-  a.grid = dm.grid;
-  a.shape = dm.shape;
-  const InferFn fn = pickInfer(dm.shape.W, dm.grid.features);
-  int perSm = 0;
-  a.plan = choosePlan(dm.shape, false, reinterpret_cast<const void*>(fn), &perSm);
-  a.table16 = dm.table16.get();
-  a.w16 = dm.w16.get();
-  a.wout = dm.wout.get();
-  a.xyz = xyz;
-  a.nx = nx;
-  a.ny = ny;
-  a.nz = nz;
-  a.z0 = z0;
-  a.first = first;
-  a.n = n;
-  a.out = out;
-  const int64_t tiles = (n + a.plan.T - 1) / a.plan.T;
-  NV_CHECK(tiles < (int64_t(1) << 31), "too many samples in one launch");
-  a.tiles = static_cast<int>(tiles);
-  const int blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms * 4));
-  fn<<<blocks, a.plan.warps * 32, a.plan.total, stream>>>(a);
-  NV_CUDA_LAUNCH();
+  launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream);
 }
 
 void testEncode(const Model& model, const float* xyz, int64_t n, float* out)

@@ -402,6 +402,8 @@ private:
     a.grid = Dm.grid;
     a.shape = Dm.shape;
     a.plan = Plan;
+    for (int l = 1; l < Dm.shape.H; ++l)
+      a.actOff[l] = (l - 1) * Plan.T * Plan.ldA;
     a.reg = Reg;
     a.table16 = Dm.table16.get();
     a.table32 = P.get();
