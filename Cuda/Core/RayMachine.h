@@ -486,6 +486,7 @@ NV_HD void startShadow(const Params& P, Ray& r, V3 p, V3 w)
 // emit
 
 /// Write the queries of the next (at most) K steps into q (room for K * queriesPerStep(P)); returns their number.
+/// q may be null: only count them.
 NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
 {
   int n = 0;
@@ -502,6 +503,11 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
         if (!nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
           break;
         const V3 p = r.o + r.d * t;
+        if (!q)
+        {
+          n += grad ? 7 : 1;
+          continue;
+        }
         q[n++] = clampUnit(p);
         if (grad)
         {
@@ -523,7 +529,9 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
         float t;
         if (!nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
           break;
-        q[n++] = clampUnit(r.so + r.sd * t);
+        if (q)
+          q[n] = clampUnit(r.so + r.sd * t);
+        ++n;
       }
       return n;
     }
@@ -539,7 +547,9 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
       {
         if (!nextFlight(P, r, o, d, tEnd, t, c))
           break;
-        q[n++] = clampUnit(o + d * t);
+        if (q)
+          q[n] = clampUnit(o + d * t);
+        ++n;
       }
       return n;
     }
