@@ -103,18 +103,34 @@ __global__ void initRaysKernel(const __grid_constant__ ray::Params P, uint32_t s
   }
 }
 
-/// Queries of the next K steps of each live ray: counts only (q == null) or written at offsets[i].
+/// Queries of the next K steps of each live ray, into its slot of `stride` points (one emit per ray, so the count
+/// and the queries come from the same evaluation), and their count.
 __global__ void emitKernel(const __grid_constant__ ray::Params P, const ray::Ray* __restrict__ rays,
-  const uint32_t* __restrict__ active, uint32_t n, int K, uint32_t* __restrict__ counts,
-  const uint32_t* __restrict__ offsets, float* __restrict__ points)
+  const uint32_t* __restrict__ active, uint32_t n, int K, int stride, float* __restrict__ slots,
+  uint32_t* __restrict__ counts)
 {
   for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x)
+    counts[i] = static_cast<uint32_t>(
+      ray::emit(P, rays[active[i]], K, reinterpret_cast<ray::V3*>(slots) + size_t(i) * stride));
+}
+
+/// Pack the slots densely: ray i's queries to offsets[i] (exclusive scan of the counts).
+__global__ void packKernel(uint32_t n, int stride, const float* __restrict__ slots,
+  const uint32_t* __restrict__ counts, const uint32_t* __restrict__ offsets, float* __restrict__ points)
+{
+  // One thread per (ray, query) slot.
+  const int64_t items = int64_t(n) * stride;
+  for (int64_t it = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; it < items; it += int64_t(gridDim.x) * blockDim.x)
   {
-    const ray::Ray& r = rays[active[i]];
-    if (points)
-      ray::emit(P, r, K, reinterpret_cast<ray::V3*>(points) + offsets[i]);
-    else
-      counts[i] = static_cast<uint32_t>(ray::emit(P, r, K, nullptr));
+    const int64_t i = it / stride;
+    const int k = static_cast<int>(it - i * stride);
+    if (k >= static_cast<int>(counts[i]))
+      continue;
+    const float* src = slots + 3 * it;
+    float* dst = points + 3 * (int64_t(offsets[i]) + k);
+    dst[0] = src[0];
+    dst[1] = src[1];
+    dst[2] = src[2];
   }
 }
 

@@ -115,6 +115,7 @@ int64_t GpuRenderer::deviceMemoryBytes() const
 {
   size_t b = Tf.bytes() + Majorant.bytes() + Lattice.bytes() + GridLinear.bytes() + Depth.bytes() + Range.bytes() +
     Grid.bytes() + Image.bytes() + Accum.bytes() + Rays.bytes() + Counts.bytes() + Offsets.bytes() + Points.bytes() +
+    Slots.bytes() +
     Values.bytes() + ScanTemp.bytes() + Active[0].bytes() + Active[1].bytes();
   return static_cast<int64_t>(b);
 }
@@ -250,7 +251,16 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
   NV_CUDA(cudaMemcpyAsync(h, &c->active[0], sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
   NV_CUDA(cudaStreamSynchronize(St));
   uint32_t live = h[0];
-  const int64_t batch = std::max<int64_t>(1, kMaxStreamQueries / (int64_t(K) * qps));
+  // Rays per batch: their slots (K steps of qps queries each) hold at most kMaxStreamQueries points.
+  const int stride = K * qps;
+  const int64_t batch = std::max<int64_t>(1, std::min<int64_t>(pixels, kMaxStreamQueries / stride));
+  const size_t slotPoints = size_t(batch) * stride;
+  if (Slots.size() < 3 * slotPoints)
+  {
+    Slots.allocate(3 * slotPoints, "wavefront query slots");
+    Points.allocate(3 * slotPoints, "wavefront queries");
+    Values.allocate(slotPoints, "wavefront values");
+  }
   int cur = 0;
   while (live > 0)
   {
@@ -259,7 +269,7 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
     {
       const uint32_t m = static_cast<uint32_t>(std::min<int64_t>(batch, live - start));
       const uint32_t* act = Active[cur].get() + start;
-      emitKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, Counts.get(), nullptr, nullptr);
+      emitKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, stride, Slots.get(), Counts.get());
       NV_CUDA_LAUNCH();
       NV_CUDA(cub::DeviceScan::ExclusiveSum(ScanTemp.get(), temp, Counts.get(), Offsets.get(), static_cast<int>(m), St));
       NV_CUDA(cudaMemcpyAsync(h, Offsets.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
@@ -268,12 +278,8 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
       const int64_t total = int64_t(h[0]) + h[1];
       if (total > 0)
       {
-        if (Values.size() < size_t(total))
-        {
-          Points.allocate(size_t(3 * total), "wavefront queries");
-          Values.allocate(size_t(total), "wavefront values");
-        }
-        emitKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, nullptr, Offsets.get(), Points.get());
+        packKernel<<<gridFor(int64_t(m) * stride), 256, 0, St>>>(m, stride, Slots.get(), Counts.get(), Offsets.get(),
+          Points.get());
         NV_CUDA_LAUNCH();
         launchInference(Dm, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), St);
       }

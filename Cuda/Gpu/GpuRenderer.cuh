@@ -90,7 +90,7 @@ private:
   // Sample Streaming
   DeviceBuffer<ray::Ray> Rays;
   DeviceBuffer<uint32_t> Active[2], Counts, Offsets;
-  DeviceBuffer<float> Points, Values;
+  DeviceBuffer<float> Slots, Points, Values;
   DeviceBuffer<unsigned char> ScanTemp;
   PinnedBuffer<uint32_t> HostScalars;
   Event Begin, End;

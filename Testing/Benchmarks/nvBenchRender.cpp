@@ -1,11 +1,11 @@
 // NeuralVolume render benchmark (CPU or CUDA through the same session API), on the rendering anchor's setup
 // (RenderSetupBench.h): a volume trained for STEPS steps, then frames of the anchor's orbit.
-//   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H [paths] [modes] [frames] [outdir]
+//   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H [paths] [modes] [frames] [outdir] [K]
 //     paths: comma list of decode,stream,inshader (default all); modes: rm,grad,shadow,pt,nee (default all)
 //     -> per path x mode: median ms per frame, FPS, samples evaluated vs a plain marcher, inference rate
 //   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H sweep [frames]   -> Sample Streaming K sweep (ray marching)
 //   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H skip [frames]    -> samples and time with skipping on / off
-//   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H train [frames]   -> decode / in-shader ray marching while training
+//   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H train [seconds]  -> decode / in-shader ray marching while training
 // Kernel variants: flags of KernelFlags.h. Prints lines "RESULT {json}"; with outdir, frame 0 of each
 // combination is written there as a PPM.
 #include "Core/NetworkSession.h"
@@ -212,8 +212,20 @@ int main(int argc, char** argv)
     }
     if (what == "train")
     {
-      // Render while a second thread trains the same session (chunks of 64 queued steps, publish after each).
-      const int frames = argc > 8 ? std::atoi(argv[8]) : 60;
+      // Training alone, then rendering (orbit frames, 2 s) while a second thread trains the same session: chunks of
+      // 64 queued steps, each published to the session (the renderer sees every new network).
+      const double seconds = argc > 8 ? std::atof(argv[8]) : 2.0;
+      {
+        const auto a = Clock::now();
+        int64_t done = 0;
+        while (ms(a, Clock::now()) < 1000.0 * seconds)
+        {
+          trainer->steps(64, nullptr);
+          trainer->publish();
+          done += 64;
+        }
+        std::printf("RESULT {\"what\":\"training_alone\",\"steps_per_s\":%.1f}\n", done / (ms(a, Clock::now()) * 1e-3));
+      }
       for (RenderPath p : { RenderPath::Decode, RenderPath::InShader })
       {
         std::atomic<bool> stop{ false };
@@ -226,24 +238,41 @@ int main(int argc, char** argv)
             done += 64;
           }
         });
+        std::vector<double> frame;
+        int64_t versions = 0;
+        uint64_t last = session->version();
+        RenderResult r;
         const auto a = Clock::now();
-        b.run(p, ShadingMode::RayMarch, frames, std::string(renderPathName(p)) + " training", "");
+        for (int f = 0; ms(a, Clock::now()) < 1000.0 * seconds; ++f)
+        {
+          const auto t = Clock::now();
+          session->render(b.request(p, ShadingMode::RayMarch, f), r, Memory::Device);
+          frame.push_back(ms(t, Clock::now()));
+          const uint64_t v = session->version();
+          versions += v != last ? 1 : 0;
+          last = v;
+        }
         const double elapsed = ms(a, Clock::now());
         stop = true;
         worker.join();
-        std::printf("RESULT {\"what\":\"training_while_rendering\",\"path\":\"%s\",\"steps\":%lld,\"seconds\":%.3f,"
-                    "\"steps_per_s\":%.1f}\n",
-          renderPathName(p), (long long)done.load(), elapsed * 1e-3, done.load() / (elapsed * 1e-3));
+        std::sort(frame.begin(), frame.end());
+        std::printf("RESULT {\"what\":\"render_while_training\",\"path\":\"%s\",\"width\":%d,\"height\":%d,"
+                    "\"frames\":%zu,\"fps\":%.1f,\"ms_median\":%.3f,\"ms_p95\":%.3f,\"frames_with_new_network\":%lld,"
+                    "\"training_steps_per_s\":%.1f}\n",
+          renderPathName(p), W, H, frame.size(), frame.size() / (elapsed * 1e-3), frame[frame.size() / 2],
+          frame[frame.size() * 95 / 100], (long long)versions, done.load() / (elapsed * 1e-3));
       }
       return 0;
     }
     const std::vector<std::string> paths = split(argc > 7 && what.size() ? what : "decode,stream,inshader");
     const std::vector<std::string> modes = split(argc > 8 ? argv[8] : "rm,grad,shadow,pt,nee");
     const int frames = argc > 9 ? std::atoi(argv[9]) : 20;
-    const std::string outdir = argc > 10 ? argv[10] : "";
+    const std::string outdir = argc > 10 && std::string(argv[10]) != "-" ? argv[10] : "";
+    RenderRequest base;
+    base.streamingSamples = argc > 11 ? std::atoi(argv[11]) : 0;
     for (const std::string& p : paths)
       for (const std::string& md : modes)
-        b.run(parsePath(p), parseMode(md), frames, p + "_" + md, outdir);
+        b.run(parsePath(p), parseMode(md), frames, p + "_" + md, outdir, &base);
   }
   catch (const std::exception& e)
   {
