@@ -1,0 +1,85 @@
+// NeuralVolume engine: the CPU renderer -- every render path x every shading mode on a thread pool.
+//
+// One object per network session, created once with the session's pool. Caches, keyed on the network version:
+// the decoded grid of the Decode path (progressive: a coarse grid first while the full one decodes in the
+// background), the macrocell lattice of the network paths, the macrocell ranges (per lattice) and majorants (per
+// transfer function), the path-tracing accumulation (continues while RenderSetup::key, the version, the field and
+// the image size stay the same and request.accumulate is set), and the last deterministic image (an identical
+// request returns it without tracing; stats.fromCache tells).
+#pragma once
+
+#include "Core/Model.h"
+#include "Core/Render.h"
+#include "CpuGridDecoder.h"
+#include "CpuMacrocells.h"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace nv
+{
+
+class ThreadPool;
+
+struct CpuRendererOptions
+{
+  /// Decode path: grids with more samples than this are decoded progressively (2^21: about 128^3, which takes
+  /// about a second with the paper's network on 2 cores).
+  int64_t progressiveSamples = int64_t(1) << 21;
+  /// Network paths: the macrocell lattice has the source's samples per axis, at most this many.
+  int latticeMax = 128;
+  /// Network paths: network probes per macrocell that widen its range (CpuMacrocells::updateRanges), at most
+  /// maxProbes in all (at least 4 per cell).
+  int probesPerCell = 32;
+  int64_t maxProbes = int64_t(1) << 18;
+};
+
+class CpuRenderer
+{
+public:
+  explicit CpuRenderer(ThreadPool& pool, const CpuRendererOptions& options = CpuRendererOptions());
+  ~CpuRenderer(); ///< cancels and joins a background decode
+  CpuRenderer(const CpuRenderer&) = delete;
+  CpuRenderer& operator=(const CpuRenderer&) = delete;
+
+  /// Render `request` of `model`, whose parameters have version `version` (caches key on it). Throws nv::Error for
+  /// an invalid request or model.
+  void render(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
+
+  /// True while a background (progressive) decode runs or its grid has not been shown yet: render again.
+  bool workPending() const;
+
+  /// The macrocells of the last render (tests and statistics).
+  const CpuMacrocells& macrocells() const { return Cells; }
+
+
+private:
+  std::shared_ptr<const DecodedGrid> referenceGrid(const Model& model, const VolumeView& grid);
+  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version);
+
+  ThreadPool& Pool;
+  CpuRendererOptions Options;
+  CpuGridDecoder Decoder;
+  CpuMacrocells Cells;
+
+  // The request.grid of the last render, normalised (keyed on its pointer, type, dims and the source range).
+  std::shared_ptr<const DecodedGrid> Reference;
+  const void* ReferenceData = nullptr;
+  int ReferenceType = -1;
+  double ReferenceRange[2] = { 0.0, 0.0 };
+
+  std::shared_ptr<const DecodedGrid> Lattice; ///< network paths
+
+  // Path-tracing accumulation.
+  std::vector<float> Accum;
+  uint64_t AccumKey = 0;
+  int AccumFrames = 0;
+
+  // The last deterministic image.
+  std::vector<float> Image;
+  uint64_t ImageKey = 0;
+  RenderStats ImageStats;
+};
+
+} // namespace nv
