@@ -65,8 +65,8 @@ public:
 private:
   struct Job;
   void cancelJob();
-  static std::shared_ptr<DecodedGrid> decode(ThreadPool& pool, const Model& model, uint64_t version, const int64_t dims[3],
-    const std::atomic<bool>* cancel);
+  static std::shared_ptr<DecodedGrid> decode(ThreadPool& pool, const Model& model, uint64_t version,
+    const int64_t dims[3], const std::atomic<bool>* cancel);
   static bool matches(const DecodedGrid* g, uint64_t version, const int64_t dims[3]);
 
   ThreadPool& Pool;

@@ -8,9 +8,34 @@
 namespace nv
 {
 
-CpuHalfNetwork::CpuHalfNetwork(const Model& model)
+void CpuHalfTable::update(const Model& model, uint64_t version)
+{
+  const float* src = model.params().data();
+  if (version == Version && src == Source)
+    return;
+  Version = version;
+  Source = src;
+  const size_t n = model.encodingParamCount();
+  Rounded.resize(n);
+  bool exact = true;
+  for (size_t i = 0; i < n; ++i)
+  {
+    Rounded[i] = roundHalf(src[i]);
+    exact = exact && Rounded[i] == src[i];
+  }
+  if (exact)
+  {
+    Rounded.clear();
+    Rounded.shrink_to_fit();
+    Table = src;
+  }
+  else
+    Table = Rounded.data();
+}
+
+CpuHalfNetwork::CpuHalfNetwork(const Model& model, const float* table16)
   : Layout(model.layout())
-  , Table(model.params().data())
+  , Table(table16)
   , Inputs(model.config().encoding.outputDims())
   , Width(model.config().network.width)
   , Hidden(model.config().network.hiddenLayers)
@@ -95,13 +120,14 @@ void CpuHalfNetwork::evaluateT(const CpuHalfNetwork& net, const float* xyz, int 
       for (int c = 0; c < 8; ++c)
       {
         const float w = cornerWeight(c, frac);
-        const float* e = net.Table + static_cast<size_t>(cornerIndex(lv, c, corner)) * F;
+        const float* e = net.Table + static_cast<size_t>(cornerIndex(lv, c, corner)) * F; // fp16 values
         for (int f = 0; f < F; ++f)
-          acc[f] += w * roundHalf(e[f]); // fp16 table entries, fp32 interpolation
+          acc[f] += w * e[f]; // fp32 interpolation
       }
       for (int f = 0; f < F; ++f)
-        enc[l * F + f] = roundHalf(acc[f]); // fp16 encoding operand
+        enc[l * F + f] = acc[f];
     }
+    roundHalfArray(enc, L * F); // fp16 encoding operands
     const float* in = enc;
     int inDim = L * F;
     const float* Wt = net.Hidden16.data();
@@ -119,7 +145,8 @@ void CpuHalfNetwork::evaluateT(const CpuHalfNetwork& net, const float* xyz, int 
       }
       float* y = h[l & 1];
       for (int o = 0; o < W; ++o)
-        y[o] = roundHalf(acc[o] > 0.0f ? acc[o] : 0.0f); // ReLU, then the fp16 activation of the next operand
+        y[o] = acc[o] > 0.0f ? acc[o] : 0.0f;
+      roundHalfArray(y, W); // ReLU, then the fp16 activation of the next operand
       Wt += static_cast<size_t>(inDim) * W;
       in = y;
       inDim = W;

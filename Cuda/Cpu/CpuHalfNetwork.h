@@ -59,11 +59,39 @@ inline float roundHalf(float x)
 #endif
 }
 
+/// In place: every value of x[0..n) rounded to fp16 (8 at a time with F16C).
+inline void roundHalfArray(float* x, int n)
+{
+  int i = 0;
+#if defined(__F16C__)
+  for (; i + 8 <= n; i += 8)
+    _mm256_storeu_ps(x + i, _mm256_cvtph_ps(_mm256_cvtps_ph(_mm256_loadu_ps(x + i), _MM_FROUND_TO_NEAREST_INT)));
+#endif
+  for (; i < n; ++i)
+    x[i] = roundHalf(x[i]);
+}
+
+/// The hash table rounded to fp16 (what the GPU gathers), made once per network version: a rounded copy, or none
+/// when every entry is already an fp16 value (models stored in fp16).
+class CpuHalfTable
+{
+public:
+  /// The table of `model` (which must outlive the use of table()).
+  void update(const Model& model, uint64_t version);
+  const float* table() const { return Table; }
+
+private:
+  std::vector<float> Rounded;
+  const float* Table = nullptr;
+  const void* Source = nullptr;
+  uint64_t Version = ~0ull;
+};
+
 class CpuHalfNetwork
 {
 public:
-  /// Reads the hash table of `model` in place (the model must outlive this object); copies the MLP weights.
-  explicit CpuHalfNetwork(const Model& model);
+  /// `table16`: the model's hash table rounded to fp16 (CpuHalfTable), read in place; the MLP weights are copied.
+  CpuHalfNetwork(const Model& model, const float* table16);
 
   /// Network outputs (normalised units) of n points xyz (interleaved, in [0,1]^3).
   void evaluate(const float* xyz, int n, float* out) const;

@@ -104,6 +104,7 @@ bool CpuMacrocells::updateMajorants(ThreadPool& pool, const float* tf, int size,
     return false;
   MajorantRanges = RangesVersion;
   TfHash = h;
+  ++MajorantUpdates;
   const int64_t cells = static_cast<int64_t>(Lo.size());
   Majorant.assign(Lo.size(), 0.0f);
   pool.parallelChunks(cells, 256, [&](int64_t b, int64_t e, int) {

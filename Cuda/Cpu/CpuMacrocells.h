@@ -45,6 +45,9 @@ public:
 
   /// The largest widening of a cell's range beyond its lattice hull in the last update (0 for exact lattices).
   float largestWidening() const { return Widening; }
+  /// How often the ranges / majorants were computed (tests check the caching).
+  uint64_t rangeUpdates() const { return RangesVersion; }
+  uint64_t majorantUpdates() const { return MajorantUpdates; }
 
 private:
   MacrocellLayout Layout{};
@@ -57,6 +60,7 @@ private:
 
   uint64_t MajorantRanges = ~0ull;
   uint64_t TfHash = 0;
+  uint64_t MajorantUpdates = 0;
   std::vector<float> Majorant;
   float MaxMajorant = 0.0f;
   int64_t EmptyCells = 0;

@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <new>
+#include <string>
 
 namespace nv
 {
@@ -43,7 +45,7 @@ CpuRenderer::~CpuRenderer() = default; // the decoder cancels and joins its back
 
 bool CpuRenderer::workPending() const
 {
-  return Decoder.workPending();
+  return DecodeShown.load() && Decoder.workPending();
 }
 
 std::shared_ptr<const DecodedGrid> CpuRenderer::referenceGrid(const Model& model, const VolumeView& v)
@@ -95,6 +97,21 @@ std::shared_ptr<const DecodedGrid> CpuRenderer::networkLattice(const Model& mode
 
 void CpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& out)
 {
+  try
+  {
+    renderImpl(model, version, q, out);
+  }
+  catch (const std::bad_alloc&)
+  {
+    Accum.clear();
+    AccumFrames = 0;
+    NV_THROW("out of memory rendering a " + std::to_string(q.width) + " x " + std::to_string(q.height) + " image (" +
+      renderPathName(q.path) + ", " + shadingModeName(q.shading) + ")");
+  }
+}
+
+void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& out)
+{
   const Clock::time_point t0 = Clock::now();
   NV_CHECK(model.paramCount() > 0 && model.paramCount() == model.encodingParamCount() + model.mlpParamCount(),
     "the model has no parameters");
@@ -102,6 +119,7 @@ void CpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     NV_THROW(std::string("invalid render request: a reference grid is rendered by the Decode path only (path is ") +
       renderPathName(q.path) + ")");
   RenderSetup setup = makeRenderSetup(q, model.source);
+  DecodeShown = q.path == RenderPath::Decode && !q.grid;
   ray::Params& P = setup.params;
   RenderStats st;
   st.path = q.path;
@@ -194,7 +212,8 @@ void CpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       }
       case RenderPath::InShader:
       {
-        const CpuHalfNetwork net(model);
+        HalfTable.update(model, version);
+        const CpuHalfNetwork net(model, HalfTable.table());
         traceInShader(Pool, paths, net, target, c);
         break;
       }

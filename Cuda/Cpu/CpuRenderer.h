@@ -11,8 +11,10 @@
 #include "Core/Model.h"
 #include "Core/Render.h"
 #include "CpuGridDecoder.h"
+#include "CpuHalfNetwork.h"
 #include "CpuMacrocells.h"
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -47,7 +49,8 @@ public:
   /// an invalid request or model.
   void render(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
 
-  /// True while a background (progressive) decode runs or its grid has not been shown yet: render again.
+  /// True while the last render was a Decode render whose full grid is still decoding in the background or has not
+  /// been shown yet: render again. (A render by another path leaves the job running but does not ask for more.)
   bool workPending() const;
 
   /// The macrocells of the last render (tests and statistics).
@@ -58,18 +61,23 @@ private:
   std::shared_ptr<const DecodedGrid> referenceGrid(const Model& model, const VolumeView& grid);
   std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version);
 
+  void renderImpl(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
+
   ThreadPool& Pool;
   CpuRendererOptions Options;
+  std::atomic<bool> DecodeShown{ false }; ///< the last render showed the Decode path's decoded grid
   CpuGridDecoder Decoder;
   CpuMacrocells Cells;
 
-  // The request.grid of the last render, normalised (keyed on its pointer, type, dims and the source range).
+  // The request.grid of the last render, normalised (keyed on its pointer, type, dims and the source range: a
+  // caller that rewrites the same buffer must pass another pointer, as RenderSetup's key hashes the pointer too).
   std::shared_ptr<const DecodedGrid> Reference;
   const void* ReferenceData = nullptr;
   int ReferenceType = -1;
   double ReferenceRange[2] = { 0.0, 0.0 };
 
   std::shared_ptr<const DecodedGrid> Lattice; ///< network paths
+  CpuHalfTable HalfTable;                     ///< In-Shader: the fp16 hash table
 
   // Path-tracing accumulation.
   std::vector<float> Accum;
