@@ -3,6 +3,7 @@
 #include "Core/Engine.h"
 #include "Core/Error.h"
 #include "Core/Model.h"
+#include "Core/NetworkSession.h"
 #include "Core/Serialization.h"
 
 #include "vtkFieldData.h"
@@ -20,6 +21,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,7 @@ struct vtkNeuralVolumeMapper::vtkInternals
 
   bool HaveModel = false;
   nv::Model Model;
+  std::unique_ptr<nv::NetworkSession> Session;
   nv::Device Device = nv::Device::Cpu;
   int64_t Dims[3] = { 0, 0, 0 };
   int64_t Decoded = 0; // z-slices decoded
@@ -167,6 +170,7 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     try
     {
       in.Model = nv::deserialize(bytes, size);
+      in.Session = nv::NetworkSession::create(in.Device, in.Model);
       in.HaveModel = true;
       in.LastError.clear();
     }
@@ -202,8 +206,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       : remaining;
     try
     {
-      nv::decodeGrid(in.Model, nx, ny, nz, in.Decoded, in.Decoded + count,
-        in.Grid.data() + in.Decoded * nx * ny, in.Device, 0);
+      nv::decodeGridValues(*in.Session, nx, ny, nz, in.Decoded, in.Decoded + count,
+        in.Grid.data() + in.Decoded * nx * ny);
     }
     catch (const std::exception& e)
     {

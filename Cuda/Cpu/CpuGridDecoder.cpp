@@ -2,7 +2,7 @@
 
 #include "Core/Error.h"
 #include "Core/Model.h"
-#include "CpuBatchNetwork.h"
+#include "CpuInference.h"
 
 #include <algorithm>
 #include <exception>
@@ -96,17 +96,16 @@ std::shared_ptr<DecodedGrid> CpuGridDecoder::decode(ThreadPool& pool, const Mode
   {
     NV_THROW("out of memory for a decode grid of " + std::to_string(samples) + " samples");
   }
-  const CpuBatchNetwork net(model);
+  const CpuInference net(model);
   // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
   const int64_t slice = dims[0] * dims[1];
   const int64_t block = cancel ? std::max<int64_t>(1, (int64_t(1) << 18) / slice) : dims[2];
   for (int64_t z0 = 0; z0 < dims[2]; z0 += block)
   {
     const int64_t z1 = std::min(dims[2], z0 + block);
-    if (!net.decodeSlices(pool, dims, z0, z1, g->values.data() + z0 * slice, cancel))
-      return nullptr;
     if (cancel && cancel->load())
       return nullptr;
+    net.decodeGrid(pool, dims[0], dims[1], dims[2], z0, z1, g->values.data() + z0 * slice);
   }
   g->id = newGridId();
   g->version = version;

@@ -1,7 +1,7 @@
 #include "CpuMacrocells.h"
 
 #include "Core/HashGridMath.h"
-#include "CpuBatchNetwork.h"
+#include "CpuInference.h"
 #include "CpuGridSampler.h"
 #include "ThreadPool.h"
 
@@ -13,7 +13,7 @@ namespace nv
 {
 
 bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout, const float* lattice,
-  const int64_t L[3], uint64_t latticeId, const CpuBatchNetwork* net, int probesPerCell)
+  const int64_t L[3], uint64_t latticeId, const CpuInference* net, int probesPerCell)
 {
   const bool sameLayout = std::memcmp(&layout, &Layout, sizeof(Layout)) == 0;
   const int probes = net ? std::max(1, probesPerCell) : 0;
@@ -57,7 +57,7 @@ bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout
         }
       }
     });
-    net->evaluate(pool, xyz.data(), n, v.data());
+    net->inferPoints(pool, xyz.data(), n, v.data());
     const CpuGridSampler lookup(lattice, L, false);
     std::vector<float> widest(static_cast<size_t>(pool.size()), 0.0f);
     pool.parallelFor(cells, [&](int64_t b, int64_t e, int w) {

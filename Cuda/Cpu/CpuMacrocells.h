@@ -14,7 +14,7 @@ namespace nv
 {
 
 class ThreadPool;
-class CpuBatchNetwork;
+class CpuInference;
 
 class CpuMacrocells
 {
@@ -27,7 +27,7 @@ public:
   /// Without `net` the ranges are exact (trilinear interpolation stays inside the hull of the lattice samples).
   /// Returns true when the ranges were recomputed.
   bool updateRanges(ThreadPool& pool, const MacrocellLayout& layout, const float* lattice, const int64_t L[3],
-    uint64_t latticeId, const CpuBatchNetwork* net = nullptr, int probesPerCell = 0);
+    uint64_t latticeId, const CpuInference* net = nullptr, int probesPerCell = 0);
   static constexpr float kProbeSafety = 2.0f;
   static constexpr float kNetworkFloor = 2.0f / 1024.0f; ///< covers the fp16 rounding of the In-Shader numerics
 

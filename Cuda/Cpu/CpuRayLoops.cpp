@@ -1,12 +1,13 @@
 #include "CpuRayLoops.h"
 
 #include "Core/Error.h"
-#include "CpuBatchNetwork.h"
+#include "CpuInference.h"
 #include "CpuGridSampler.h"
 #include "CpuHalfNetwork.h"
 #include "ThreadPool.h"
 
 #include <algorithm>
+#include <vector>
 
 namespace nv
 {
@@ -37,10 +38,9 @@ void addCounters(TraceCounters& total, const std::vector<WorkerCounters>& w)
 
 /// Per-ray paths: tiles of 8 x 8 pixels handed out dynamically; each pixel's paths run the machine with K = 1.
 template <class Field>
-void tracePerRay(ThreadPool& pool, const std::vector<ray::Params>& paths, const Field& field, float* rgba,
-  TraceCounters& total)
+void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& field, float* rgba, TraceCounters& total)
 {
-  const int width = paths[0].width, height = paths[0].height;
+  const int width = P.width, height = P.height;
   const int tilesX = (width + 7) / 8, tilesY = (height + 7) / 8;
   std::vector<WorkerCounters> counters(static_cast<size_t>(pool.size()));
   pool.parallelChunks(int64_t(tilesX) * tilesY, 1, [&](int64_t b, int64_t e, int w) {
@@ -54,10 +54,10 @@ void tracePerRay(ThreadPool& pool, const std::vector<ray::Params>& paths, const 
         for (int px = x0; px < std::min(width, x0 + 8); ++px)
         {
           float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
-          for (const ray::Params& P : paths)
+          for (int sample = 0; sample < spp; ++sample)
           {
             ray::Ray r;
-            ray::initRay(P, px, py, r);
+            ray::initRay(P, px, py, r, static_cast<uint32_t>(sample));
             for (int64_t it = 0; r.phase != ray::Done; ++it)
             {
               if (it >= kMaxRayIterations)
@@ -83,11 +83,11 @@ void tracePerRay(ThreadPool& pool, const std::vector<ray::Params>& paths, const 
 }
 } // namespace
 
-void traceDecode(ThreadPool& pool, const std::vector<ray::Params>& paths, const CpuGridSampler& grid, float* rgba,
+void traceDecode(ThreadPool& pool, const ray::Params& P, int spp, const CpuGridSampler& grid, float* rgba,
   TraceCounters& counters)
 {
   tracePerRay(
-    pool, paths,
+    pool, P, spp,
     [&grid](const ray::V3* q, int n, float* v) {
       for (int i = 0; i < n; ++i)
         v[i] = grid(&q[i].x);
@@ -95,27 +95,24 @@ void traceDecode(ThreadPool& pool, const std::vector<ray::Params>& paths, const 
     rgba, counters);
 }
 
-void traceInShader(ThreadPool& pool, const std::vector<ray::Params>& paths, const CpuHalfNetwork& net, float* rgba,
+void traceInShader(ThreadPool& pool, const ray::Params& P, int spp, const CpuHalfNetwork& net, float* rgba,
   TraceCounters& counters)
 {
   tracePerRay(
-    pool, paths, [&net](const ray::V3* q, int n, float* v) { net.evaluate(&q[0].x, n, v); }, rgba, counters);
+    pool, P, spp, [&net](const ray::V3* q, int n, float* v) { net.evaluate(&q[0].x, n, v); }, rgba, counters);
 }
 
-void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int K, const CpuBatchNetwork& net,
-  float* rgba, TraceCounters& counters, int64_t queryBudget)
+void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, const CpuInference& net, float* rgba,
+  TraceCounters& counters, int64_t queryBudget)
 {
-  const ray::Params& P0 = paths[0];
-  const int width = P0.width;
-  const int64_t spp = static_cast<int64_t>(paths.size());
-  const int64_t rays = int64_t(P0.width) * P0.height * spp; // ray g: pixel g / spp, path g % spp
-  const int cap = K * ray::queriesPerStep(P0);
+  const int width = P.width;
+  const int64_t rays = int64_t(P.width) * P.height * spp; // ray g: pixel g / spp, path g % spp
+  const int cap = K * ray::queriesPerStep(P);
   const int64_t maxLive = std::max<int64_t>(1024, queryBudget / cap);
 
   struct Slot
   {
     ray::Ray r;
-    int path;
     int64_t iterations;
   };
   std::vector<Slot> live, fresh;
@@ -144,10 +141,9 @@ void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int
         {
           const int64_t g = next + i, pixel = g / spp;
           Slot& s = fresh[static_cast<size_t>(i)];
-          s.path = static_cast<int>(g % spp);
           s.iterations = 0;
-          ray::initRay(paths[static_cast<size_t>(s.path)], static_cast<int>(pixel % width),
-            static_cast<int>(pixel / width), s.r);
+          ray::initRay(P, static_cast<int>(pixel % width), static_cast<int>(pixel / width), s.r,
+            static_cast<uint32_t>(g % spp));
         }
       });
       for (const Slot& s : fresh)
@@ -176,7 +172,7 @@ void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int
         if (++s.iterations > kMaxRayIterations)
           runaway();
         ray::V3* q = reinterpret_cast<ray::V3*>(slotQueries.data() + static_cast<size_t>(i) * cap * 3);
-        count[static_cast<size_t>(i)] = ray::emit(paths[static_cast<size_t>(s.path)], s.r, K, q);
+        count[static_cast<size_t>(i)] = ray::emit(P, s.r, K, q);
       }
     });
     offset[0] = 0;
@@ -191,7 +187,7 @@ void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int
         std::copy_n(slotQueries.data() + static_cast<size_t>(i) * cap * 3, 3 * count[static_cast<size_t>(i)],
           batch.data() + 3 * offset[static_cast<size_t>(i)]);
     });
-    net.evaluate(pool, batch.data(), total, values.data());
+    net.inferPoints(pool, batch.data(), total, values.data());
     counters.evaluated += total;
     ++counters.wavefronts;
     // 3. every ray consumes its values in order
@@ -199,8 +195,7 @@ void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int
       for (int64_t i = b; i < e; ++i)
       {
         Slot& s = live[static_cast<size_t>(i)];
-        ray::consume(paths[static_cast<size_t>(s.path)], s.r, K, values.data() + offset[static_cast<size_t>(i)],
-          count[static_cast<size_t>(i)]);
+        ray::consume(P, s.r, K, values.data() + offset[static_cast<size_t>(i)], count[static_cast<size_t>(i)]);
       }
     });
     // 4. retire finished rays (in list order: deterministic), compact, admit waiting rays

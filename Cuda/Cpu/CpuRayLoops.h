@@ -10,7 +10,6 @@
 #include "Core/RayMachine.h"
 
 #include <cstdint>
-#include <vector>
 
 namespace nv
 {
@@ -18,7 +17,7 @@ namespace nv
 class ThreadPool;
 class CpuGridSampler;
 class CpuHalfNetwork;
-class CpuBatchNetwork;
+class CpuInference;
 
 struct TraceCounters
 {
@@ -27,16 +26,16 @@ struct TraceCounters
   int64_t wavefronts = 0; ///< Sample Streaming batches
 };
 
-/// `paths` holds one Params per path of a pixel (they differ only in `frame`). Each trace adds the sum of a pixel's
-/// path results to rgba (width * height * 4, row 0 at the bottom).
-void traceDecode(ThreadPool& pool, const std::vector<ray::Params>& paths, const CpuGridSampler& grid, float* rgba,
+/// `spp` paths per pixel (path s: initRay(..., s); P.frame is the first path index of this render). Each trace adds
+/// the sum of a pixel's path results to rgba (width * height * 4, row 0 at the bottom).
+void traceDecode(ThreadPool& pool, const ray::Params& P, int spp, const CpuGridSampler& grid, float* rgba,
   TraceCounters& counters);
-void traceInShader(ThreadPool& pool, const std::vector<ray::Params>& paths, const CpuHalfNetwork& net, float* rgba,
+void traceInShader(ThreadPool& pool, const ray::Params& P, int spp, const CpuHalfNetwork& net, float* rgba,
   TraceCounters& counters);
 /// At most `queryBudget` queries per wavefront (live rays = queryBudget / (K * queries per step), at least 1024);
 /// rays beyond that wait and are admitted as others finish.
-void traceStreaming(ThreadPool& pool, const std::vector<ray::Params>& paths, int K, const CpuBatchNetwork& net,
-  float* rgba, TraceCounters& counters, int64_t queryBudget = int64_t(1) << 21);
+void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, const CpuInference& net, float* rgba,
+  TraceCounters& counters, int64_t queryBudget = int64_t(1) << 21);
 
 /// Emit/consume iterations after which a ray is declared runaway (nv::Error): far beyond any valid request.
 constexpr int64_t kMaxRayIterations = int64_t(1) << 26;

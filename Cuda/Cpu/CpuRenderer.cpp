@@ -2,9 +2,9 @@
 
 #include "Core/Error.h"
 #include "Core/RenderSetup.h"
-#include "CpuBatchNetwork.h"
 #include "CpuGridSampler.h"
 #include "CpuHalfNetwork.h"
+#include "CpuInference.h"
 #include "CpuRayLoops.h"
 #include "ThreadPool.h"
 
@@ -147,7 +147,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     const int64_t cells = int64_t(setup.cells.dims[0]) * setup.cells.dims[1] * setup.cells.dims[2];
     const int probes = static_cast<int>(std::max<int64_t>(4, std::min<int64_t>(Options.probesPerCell,
       Options.maxProbes / cells)));
-    const CpuBatchNetwork net(model);
+    const CpuInference net(model);
     Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, &net, probes);
   }
   Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift);
@@ -168,7 +168,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     out.rgba = Image;
     out.deviceRgba = nullptr;
     out.stats = ImageStats;
-    out.stats.fromCache = true;
+    out.stats.reused = true;
     out.stats.decodeMilliseconds = st.decodeMilliseconds;
     out.stats.renderMilliseconds = millis(t1, Clock::now());
     return;
@@ -195,9 +195,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     local.assign(values, 0.0f);
     target = local.data();
   }
-  std::vector<ray::Params> paths(static_cast<size_t>(spp), P);
-  for (int s = 0; s < spp; ++s)
-    paths[static_cast<size_t>(s)].frame = static_cast<uint32_t>(frame) * static_cast<uint32_t>(spp) + s;
+  P.frame = static_cast<uint32_t>(frame) * static_cast<uint32_t>(spp); // path s of this render: P.frame + s
 
   // 4. Trace: the same machine, three ways of evaluating its queries.
   TraceCounters c;
@@ -207,20 +205,20 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
       case RenderPath::Decode:
       {
         const CpuGridSampler sampler(grid->values.data(), grid->dims, grid->hasNaN);
-        traceDecode(Pool, paths, sampler, target, c);
+        traceDecode(Pool, P, spp, sampler, target, c);
         break;
       }
       case RenderPath::InShader:
       {
         HalfTable.update(model, version);
         const CpuHalfNetwork net(model, HalfTable.table());
-        traceInShader(Pool, paths, net, target, c);
+        traceInShader(Pool, P, spp, net, target, c);
         break;
       }
       case RenderPath::SampleStreaming:
       {
-        const CpuBatchNetwork net(model);
-        traceStreaming(Pool, paths, setup.streamingSamples, net, target, c);
+        const CpuInference net(model);
+        traceStreaming(Pool, P, spp, setup.streamingSamples, net, target, c);
         break;
       }
     }

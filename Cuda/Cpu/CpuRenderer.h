@@ -5,7 +5,7 @@
 // background), the macrocell lattice of the network paths, the macrocell ranges (per lattice) and majorants (per
 // transfer function), the path-tracing accumulation (continues while RenderSetup::key, the version, the field and
 // the image size stay the same and request.accumulate is set), and the last deterministic image (an identical
-// request returns it without tracing; stats.fromCache tells).
+// request returns it without tracing; stats.reused tells).
 #pragma once
 
 #include "Core/Model.h"

@@ -89,6 +89,15 @@ inline nv::Model modelFor(const RawVolume& raw, int log2T, uint64_t seed)
   m.initialize(seed);
   m.source.valueMin = raw.view.valueMin;
   m.source.valueMax = raw.view.valueMax;
+  // Voxel i at world coordinate i (spacing 1, origin 0), as the render benchmarks place the volume.
+  for (int a = 0; a < 3; ++a)
+  {
+    m.source.dims[a] = raw.view.dims[a];
+    m.source.origin[a] = 0.0;
+    m.source.spacing[a] = 1.0;
+    m.source.bounds[2 * a] = 0.0;
+    m.source.bounds[2 * a + 1] = double(raw.view.dims[a] - 1);
+  }
   return m;
 }
 

@@ -9,6 +9,7 @@
 // Prints RESULT {json}: the first frame (decode / macrocells included; progressive Decode: whether it used the
 // coarse grid, and the time until the full grid was shown), then the median of the next `frames`.
 #include "Core/Engine.h"
+#include "Core/NetworkSession.h"
 #include "Core/Render.h"
 #include "Core/RenderSetup.h"
 #include "Core/Serialization.h"
@@ -195,7 +196,8 @@ int renderBenchmark(int argc, char** argv)
     TrainConfig tc;
     tc.batchSize = 16384;
     const auto t0 = Clock::now();
-    auto tr = createTrainer(Device::Cpu, m, raw.view, tc);
+    auto session = NetworkSession::create(Device::Cpu, m);
+    auto tr = session->createTrainer(raw.view, tc);
     tr->steps(steps, nullptr);
     tr->syncTo(m);
     trainSeconds = std::chrono::duration<double>(Clock::now() - t0).count();

@@ -7,6 +7,7 @@
 #include "Core/Render.h"
 #include "Cpu/CpuRenderer.h"
 #include "Cpu/ThreadPool.h"
+#include "SessionHelpers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -185,7 +186,7 @@ inline nv::Model trainModel(const nv::VolumeView& vol, const nv::ModelConfig& co
   tc.batchSize = batch;
   tc.seed = seed;
   tc.threads = threads;
-  auto tr = nv::createTrainer(nv::Device::Cpu, m, vol, tc);
+  auto tr = createTrainer(nv::Device::Cpu, m, vol, tc); // SessionHelpers: a CPU session's trainer
   tr->steps(steps, nullptr);
   tr->syncTo(m);
   return m;

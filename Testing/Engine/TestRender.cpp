@@ -2,7 +2,8 @@
 // statistics, caching, empty-space skipping, progressive decoding, path-tracing convergence and a real volume.
 //   nvTestRender [case] --baseline DIR [--data DIR] [--generate]
 #include "Core/Error.h"
-#include "Cpu/CpuBatchNetwork.h"
+#include "Core/NetworkSession.h"
+#include "Cpu/CpuInference.h"
 #include "Cpu/CpuHalfNetwork.h"
 #include "Nhdr.h"
 #include "Reference.h"
@@ -193,8 +194,33 @@ NV_TEST(statistics_show_each_path_ran_its_own_code)
     {
       EXPECT_TRUE(d.samplesPlain == 0 && d.accumulatedFrames == 1 && s.accumulatedFrames == 1);
     }
-    EXPECT_TRUE(!d.decodePending && !d.fromCache);
+    EXPECT_TRUE(!d.decodePending && !d.reused);
   }
+}
+
+NV_TEST(session_renders_through_the_cpu_renderer)
+{
+  // NetworkSession::create(Cpu) renders with the same renderer: the same pictures, its version keys the caches
+  // (a publish by a trainer restarts them).
+  auto s = NetworkSession::create(Device::Cpu, scene().model);
+  for (int path = 0; path < 3; ++path)
+  {
+    RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode::RayMarch);
+    RenderResult a, b;
+    s->render(q, a);
+    EXPECT_TRUE(a.rgba == image(path, 0).rgba && a.stats.path == RenderPath(path));
+    s->render(q, b);
+    EXPECT_TRUE(b.stats.reused);
+  }
+  const uint64_t v = s->version();
+  auto tr = s->createTrainer(scene().volume, TrainConfig());
+  tr->step();
+  tr->publish();
+  EXPECT_TRUE(s->version() != v);
+  RenderRequest q = blobRequest(scene().model, RenderPath::InShader, ShadingMode::RayMarch);
+  RenderResult c;
+  s->render(q, c);
+  EXPECT_TRUE(!c.stats.reused && c.rgba != image(2, 0).rgba);
 }
 
 NV_TEST(in_shader_numerics_are_the_gpus_fp16)
@@ -206,13 +232,13 @@ NV_TEST(in_shader_numerics_are_the_gpus_fp16)
   table.update(m, 1);
   EXPECT_TRUE(table.table() != m.params().data()); // fp32-trained: a rounded copy
   const CpuHalfNetwork half(m, table.table());
-  const CpuBatchNetwork full(m);
+  const CpuInference full(m);
   const int n = 2000;
   std::vector<float> xyz(3 * n), a(n), b(n);
   for (int i = 0; i < n; ++i)
     randomPoint(99, 0, i, &xyz[3 * i]);
   half.evaluate(xyz.data(), n, a.data());
-  full.evaluate(pool(), xyz.data(), n, b.data());
+  full.inferPoints(pool(), xyz.data(), n, b.data());
   auto h = [](double v) { return double(halfToFloat(floatToHalf(float(v)))); };
   const auto levels = refLevels(m.config().encoding);
   const int F = m.config().encoding.featuresPerLevel, H = m.config().network.hiddenLayers;
@@ -274,13 +300,13 @@ NV_TEST(identical_request_returns_the_cached_image)
     RenderResult a, b, c;
     r.render(scene().model, 1, q, a);
     r.render(scene().model, 1, q, b);
-    EXPECT_TRUE(!a.stats.fromCache && b.stats.fromCache && a.rgba == b.rgba);
+    EXPECT_TRUE(!a.stats.reused && b.stats.reused && a.rgba == b.rgba);
     EXPECT_TRUE(b.stats.samplesEvaluated == a.stats.samplesEvaluated);
     q.transfer.rgba[4 * 40 + 3] = 0.9f; // the transfer function changes: trace again
     r.render(scene().model, 1, q, c);
-    EXPECT_TRUE(!c.stats.fromCache && c.rgba != a.rgba);
+    EXPECT_TRUE(!c.stats.reused && c.rgba != a.rgba);
     r.render(scene().model, 2, q, c); // so does a new network version
-    EXPECT_TRUE(!c.stats.fromCache);
+    EXPECT_TRUE(!c.stats.reused);
   }
 }
 
@@ -299,7 +325,7 @@ NV_TEST(macrocells_recompute_only_what_changed)
     EXPECT_TRUE(res.stats.decodeMilliseconds > 0.0);
     q.viewProjection[3] += 0.1;
     r.render(scene().model, 1, q, res);
-    EXPECT_TRUE(c.rangeUpdates() == 1 && c.majorantUpdates() == 1 && !res.stats.fromCache);
+    EXPECT_TRUE(c.rangeUpdates() == 1 && c.majorantUpdates() == 1 && !res.stats.reused);
     q.transfer.rgba[4 * 20 + 3] = 0.0f;
     r.render(scene().model, 1, q, res);
     EXPECT_TRUE(c.rangeUpdates() == 1 && c.majorantUpdates() == 2);
@@ -445,7 +471,7 @@ NV_TEST(real_volume_network_versus_original)
   const auto t0 = std::chrono::steady_clock::now();
   const Model m = trainModel(raw.view, c, 1500, 8192, 1, 2);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const ErrorStats e = compareToSource(m, raw.view, Device::Cpu, 2);
+  const ErrorStats e = nvtest::compareToSource(m, raw.view, Device::Cpu, 2);
   std::printf("  nucleon 41^3: trained in %.1f s, PSNR %.2f dB\n", secs, e.psnr);
   EXPECT_TRUE(e.psnr > 35.0);
   RenderRequest q = blobRequest(m, RenderPath::Decode, ShadingMode::RayMarch, 64, 64);
