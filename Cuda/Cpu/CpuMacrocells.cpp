@@ -13,15 +13,15 @@ namespace nv
 {
 
 bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout, const float* lattice,
-  const int64_t L[3], uint64_t latticeId, const CpuInference* net, int probesPerCell)
+  const int64_t L[3], uint64_t latticeId, float margin, const CpuInference* net, int probesPerCell)
 {
   const bool sameLayout = std::memcmp(&layout, &Layout, sizeof(Layout)) == 0;
-  const int probes = net ? std::max(1, probesPerCell) : 0;
-  if (sameLayout && latticeId == LatticeId && (net != nullptr) == Probed && probes == Probes && !Lo.empty())
+  const int probes = net ? std::max(0, probesPerCell) : 0;
+  if (sameLayout && latticeId == LatticeId && margin == Margin && probes == Probes && !Lo.empty())
     return false;
   Layout = layout;
   LatticeId = latticeId;
-  Probed = net != nullptr;
+  Margin = margin;
   Probes = probes;
   const int64_t cx = layout.dims[0], cy = layout.dims[1], cz = layout.dims[2];
   const int64_t cells = cx * cy * cz;
@@ -31,11 +31,11 @@ bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout
     for (int64_t c = b; c < e; ++c)
     {
       const int x = static_cast<int>(c % cx), y = static_cast<int>((c / cx) % cy), z = static_cast<int>(c / (cx * cy));
-      cellRange(Layout, lattice, L, x, y, z, 0.0f, Lo[static_cast<size_t>(c)], Hi[static_cast<size_t>(c)]);
+      cellRange(Layout, lattice, L, x, y, z, margin, Lo[static_cast<size_t>(c)], Hi[static_cast<size_t>(c)]);
     }
   });
-  Widening = 0.0f;
-  if (net)
+  Widening = margin;
+  if (probes > 0)
   {
     // Probe points: uniform inside each cell (cell c spans [c, c + 1) / scale per axis, clipped to [0, 1]).
     const int64_t n = cells * probes;

@@ -19,15 +19,16 @@ class CpuInference;
 class CpuMacrocells
 {
 public:
-  /// Ranges of every cell of `layout` from `lattice` (L samples per axis, x fastest, normalised, NaN ignored).
-  /// `latticeId` names the lattice's contents (a new id for every new lattice). With `net` (the lattice holds that
-  /// network's values), each cell's range is widened by what the network does between lattice samples: the network
-  /// is evaluated at `probesPerCell` pseudo-random points inside the cell, the range takes their values, and widens by
-  /// kProbeSafety times their largest deviation from the lattice's trilinear interpolation, plus kNetworkFloor.
-  /// Without `net` the ranges are exact (trilinear interpolation stays inside the hull of the lattice samples).
+  /// Ranges of every cell of `layout` from `lattice` (L samples per axis, x fastest, normalised, NaN ignored),
+  /// widened by `margin` (Macrocells.h: cellRange). `latticeId` names the lattice's contents (a new id for every new
+  /// lattice). With `net` and probesPerCell > 0 (the lattice holds that network's values), each cell's range is
+  /// widened further by what the network does between lattice samples: the network is evaluated at `probesPerCell`
+  /// pseudo-random points inside the cell, the range takes their values, and widens by kProbeSafety times their
+  /// largest deviation from the lattice's trilinear interpolation, plus kNetworkFloor. With margin 0 and no probes
+  /// the ranges are exact for trilinear interpolation of the lattice (it stays inside the hull of its samples).
   /// Returns true when the ranges were recomputed.
   bool updateRanges(ThreadPool& pool, const MacrocellLayout& layout, const float* lattice, const int64_t L[3],
-    uint64_t latticeId, const CpuInference* net = nullptr, int probesPerCell = 0);
+    uint64_t latticeId, float margin = 0.0f, const CpuInference* net = nullptr, int probesPerCell = 0);
   static constexpr float kProbeSafety = 2.0f;
   static constexpr float kNetworkFloor = 2.0f / 1024.0f; ///< covers the fp16 rounding of the In-Shader numerics
 
@@ -52,7 +53,7 @@ public:
 private:
   MacrocellLayout Layout{};
   uint64_t LatticeId = 0;
-  bool Probed = false;
+  float Margin = 0.0f;
   int Probes = 0;
   float Widening = 0.0f;
   uint64_t RangesVersion = 0; ///< incremented whenever the ranges change

@@ -38,7 +38,7 @@ CpuRenderer::CpuRenderer(ThreadPool& pool, const CpuRendererOptions& options)
   , Decoder(pool, options.progressiveSamples)
 {
   NV_CHECK(options.latticeMax >= 2, "the macrocell lattice needs at least 2 samples per axis");
-  NV_CHECK(options.probesPerCell >= 1 && options.maxProbes >= 1, "macrocells need at least one probe per cell");
+  NV_CHECK(options.probesPerCell >= 0 && options.maxProbes >= 1, "macrocell probes must be >= 0");
 }
 
 CpuRenderer::~CpuRenderer() = default; // the decoder cancels and joins its background job
@@ -145,10 +145,15 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   {
     lattice = networkLattice(model, version);
     const int64_t cells = int64_t(setup.cells.dims[0]) * setup.cells.dims[1] * setup.cells.dims[2];
-    const int probes = static_cast<int>(std::max<int64_t>(4, std::min<int64_t>(Options.probesPerCell,
-      Options.maxProbes / cells)));
     const CpuInference net(model);
-    Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, &net, probes);
+    if (Options.probesPerCell > 0)
+    {
+      const int probes = static_cast<int>(std::max<int64_t>(4, std::min<int64_t>(Options.probesPerCell,
+        Options.maxProbes / cells)));
+      Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, 0.0f, &net, probes);
+    }
+    else
+      Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, kNetworkRangeMargin);
   }
   Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift);
   P.tf = setup.table.data();

@@ -32,7 +32,8 @@ struct CpuRendererOptions
   /// Network paths: the macrocell lattice has the source's samples per axis, at most this many.
   int latticeMax = 128;
   /// Network paths: network probes per macrocell that widen its range (CpuMacrocells::updateRanges), at most
-  /// maxProbes in all (at least 4 per cell).
+  /// maxProbes in all (at least 4 per cell). 0: no probes, a fixed margin of kNetworkRangeMargin instead (what the
+  /// GPU renderer does: with latticeMax = kMaxLatticeSamples both backends then have the same macrocells).
   int probesPerCell = 32;
   int64_t maxProbes = int64_t(1) << 18;
 };

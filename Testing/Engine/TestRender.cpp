@@ -2,6 +2,7 @@
 // statistics, caching, empty-space skipping, progressive decoding, path-tracing convergence and a real volume.
 //   nvTestRender [case] --baseline DIR [--data DIR] [--generate]
 #include "Core/Error.h"
+#include "Core/Macrocells.h"
 #include "Core/NetworkSession.h"
 #include "Cpu/CpuInference.h"
 #include "Cpu/CpuHalfNetwork.h"
@@ -337,25 +338,34 @@ NV_TEST(macrocells_recompute_only_what_changed)
 NV_TEST(skipping_does_not_change_the_picture)
 {
   // Ray-marching modes of every path with skipping on and off: the macrocell ranges are exact for the decoded grid
-  // and widened by the measured margin for the network, so the pictures agree and skipping evaluates less.
-  for (int path = 0; path < 3; ++path)
-    for (int mode = 0; mode < 3; ++mode)
-    {
-      RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode(mode), 48, 48);
-      RenderResult on, off;
-      renderer(path).render(scene().model, 1, q, on);
-      q.emptySpaceSkipping = false;
-      renderer(path).render(scene().model, 1, q, off);
-      const double p = psnr(on.rgba, off.rgba);
-      const double ratio = double(on.stats.samplesEvaluated) / double(off.stats.samplesEvaluated);
-      std::printf("  %-9s %-9s on/off %s dB, samples %lld / %lld = %.3f (empty cells %lld of %lld, widening %.4f)\n",
-        pathTag(path), modeTag(mode), std::isinf(p) ? "identical" : std::to_string(p).c_str(),
-        (long long)on.stats.samplesEvaluated, (long long)off.stats.samplesEvaluated, ratio,
-        (long long)renderer(path).macrocells().emptyCells(), (long long)renderer(path).macrocells().cellCount(),
-        renderer(path).macrocells().largestWidening());
-      EXPECT_TRUE(p >= 45.0);
-      EXPECT_TRUE(ratio < 0.8);
-    }
+  // and, for the network, widened by per-cell network probes (default) or by the GPU's fixed kNetworkRangeMargin
+  // (probesPerCell = 0), so the pictures agree and skipping evaluates less.
+  CpuRendererOptions gpuLike;
+  gpuLike.probesPerCell = 0;
+  gpuLike.latticeMax = int(kMaxLatticeSamples);
+  CpuRenderer fixedMargin[2] = { CpuRenderer(pool(), gpuLike), CpuRenderer(pool(), gpuLike) };
+  for (int variant = 0; variant < 2; ++variant)
+    for (int path = variant; path < 3; ++path)
+      for (int mode = 0; mode < 3; ++mode)
+      {
+        CpuRenderer& r = variant == 0 ? renderer(path) : fixedMargin[path - 1];
+        RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode(mode), 48, 48);
+        RenderResult on, off;
+        r.render(scene().model, 1, q, on);
+        q.emptySpaceSkipping = false;
+        r.render(scene().model, 1, q, off);
+        const double p = psnr(on.rgba, off.rgba);
+        const double ratio = double(on.stats.samplesEvaluated) / double(off.stats.samplesEvaluated);
+        std::printf("  %-9s %-9s %-6s on/off %s dB, samples %lld / %lld = %.3f (empty cells %lld of %lld, widening "
+                    "%.4f)\n",
+          pathTag(path), modeTag(mode), variant ? "fixed" : "probes",
+          std::isinf(p) ? "identical" : std::to_string(p).c_str(),
+          (long long)on.stats.samplesEvaluated, (long long)off.stats.samplesEvaluated, ratio,
+          (long long)r.macrocells().emptyCells(), (long long)r.macrocells().cellCount(),
+          r.macrocells().largestWidening());
+        EXPECT_TRUE(p >= 45.0);
+        EXPECT_TRUE(ratio < 0.8);
+      }
 }
 
 NV_TEST(progressive_decode)
