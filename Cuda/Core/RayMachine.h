@@ -464,9 +464,14 @@ NV_HD bool marchSkips(const Params& P)
 {
   return P.skipping && (P.blend == Composite || P.blend == Additive);
 }
+/// Gradient shading needs six neighbours per step; only compositing uses them (projections and additive do not).
+NV_HD bool marchGradients(const Params& P)
+{
+  return P.shading == RayMarchGradient && P.blend == Composite;
+}
 NV_HD int queriesPerStep(const Params& P)
 {
-  return P.shading == RayMarchGradient ? 7 : 1;
+  return marchGradients(P) ? 7 : 1;
 }
 
 /// Shadow ray from network point p towards the light (marching with shadows) or in world direction w (NEE).
@@ -495,7 +500,7 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
     case March:
     {
       const bool skip = marchSkips(P);
-      const bool grad = P.shading == RayMarchGradient;
+      const bool grad = marchGradients(P);
       int j = r.j;
       for (int k = 0; k < K; ++k, ++j)
       {
@@ -708,6 +713,8 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
         const float y = s[0];
         if (projection)
         {
+          if (!(y == y)) // NaN (a hole in a reference grid): not a value
+            continue;
           if (P.blend == Maximum)
             r.acc = fmaxf_(r.acc, y);
           else if (P.blend == Minimum)
@@ -799,7 +806,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
       uint32_t c = r.nFlight;
       for (int k = 0; k < K; ++k)
       {
-        if (k >= n || !nextFlight(P, r, r.o, r.d, r.tEnd, t, c))
+        // nextFlight first: where emit() found the segment's end it drew random numbers past the last collision,
+        // and the replay must draw them too (the stream continues after this segment).
+        if (!nextFlight(P, r, r.o, r.d, r.tEnd, t, c) || k >= n)
         {
           // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
           r.t = r.tEnd;
@@ -850,7 +859,10 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
       bool end = false;
       for (int k = 0; k < K; ++k)
       {
-        if (k >= n || !nextFlight(P, r, r.so, r.sd, r.stEnd, t, c))
+        // nextFlight first, as in Track: the path's flights continue this stream after the shadow ray, so the
+        // number that overshot the shadow ray's end must be consumed here (else the next flight reuses it and is
+        // biased long).
+        if (!nextFlight(P, r, r.so, r.sd, r.stEnd, t, c) || k >= n)
         {
           end = true; // the shadow ray left the volume
           break;
@@ -859,7 +871,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
         const float mj = localMajorant(P, clampUnit(p));
         float e[4];
         lookup(P, v[k], e);
-        r.sT *= fmaxf_(0.0f, 1.0f - e[3] / mj);
+        // mj is > 0 where nextFlight stopped; a point rounded into a neighbouring empty cell must not give 0/0.
+        const float ratio = mj > 0.0f ? e[3] / mj : (e[3] > 0.0f ? 1.0f : 0.0f);
+        r.sT *= fmaxf_(0.0f, 1.0f - ratio);
         if (r.sT < 1e-4f)
         {
           r.sT = 0.0f;

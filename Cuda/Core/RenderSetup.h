@@ -14,6 +14,8 @@ namespace nv
 
 /// The largest image a request may ask for (per axis).
 constexpr int kMaxImageSize = 16384;
+/// The most samples (sample distances) or opacity unit distances across the volume a request may ask for.
+constexpr double kMaxStepsPerRay = 1 << 20;
 
 /// Throws nv::Error with a readable message when a request cannot be rendered (empty or huge image, non-finite
 /// matrices, a singular view-projection, a transfer function with fewer than 2 entries or non-finite values,
