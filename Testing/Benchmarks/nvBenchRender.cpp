@@ -1,5 +1,6 @@
 // NeuralVolume render benchmark (CPU or CUDA through the same session API), on the rendering anchor's setup
-// (RenderSetupBench.h): a volume trained for STEPS steps, then frames of the anchor's orbit.
+// (RenderSetupBench.h): a volume trained for STEPS steps, then frames of the anchor's orbit. The volume may be
+// given as file.nhdr@2x: resampled to twice its resolution (a larger dataset with the same content).
 //   nvBenchRender DEVICE file.nhdr LOG2T STEPS W H [paths] [modes] [frames] [outdir] [K]
 //     paths: comma list of decode,stream,inshader (default all); modes: rm,grad,shadow,pt,nee (default all)
 //     -> per path x mode: median ms per frame, FPS, samples evaluated vs a plain marcher, inference rate
@@ -167,7 +168,7 @@ int main(int argc, char** argv)
   try
   {
     const Device dev = std::string(argv[1]) == "cuda" ? Device::Cuda : Device::Cpu;
-    nvbench::RawVolume raw = nvbench::loadNhdr(argv[2]);
+    nvbench::RawVolume raw = nvbench::loadVolume(argv[2]);
     const int log2T = std::atoi(argv[3]);
     const int steps = std::atoi(argv[4]);
     const int W = std::atoi(argv[5]), H = std::atoi(argv[6]);
