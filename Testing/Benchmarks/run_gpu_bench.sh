@@ -83,7 +83,7 @@ for s in "$@"; do
     renderskip)
       $B/nvBenchRender cuda $STENT 14 2250 1280 720 skip 10 2>&1 | tee "$O/render_skip.log" ;;
     rendertrain)
-      $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 60 2>&1 | tee "$O/render_train.log" ;;
+      $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
     renderlarge)
       # a second, larger dataset: stent resampled to 255 x 255 x 511 (8x the voxels; the data folder has no larger
       # regular volume), a 2^19 table (the paper's size), every path x mode

@@ -4,6 +4,7 @@
 //   nvTestGpuRender [case] [--data DIR] [kernel flags]
 #include "Core/Macrocells.h"
 #include "Core/NetworkSession.h"
+#include "Core/RenderSetup.h"
 #include "Cpu/CpuRenderer.h"
 #include "Cpu/ThreadPool.h"
 #include "Gpu/GpuEngine.h"
@@ -162,7 +163,14 @@ NV_TEST(gpu_skipping_does_not_change_the_picture)
       ratio);
     EXPECT_TRUE(db >= 45.0);
     EXPECT_TRUE(ratio < 0.9);
-    EXPECT_TRUE(off.stats.samplesEvaluated == off.stats.samplesPlain);
+    // Without skipping, one sample per step up to termination -- Sample Streaming also evaluates the rest of the
+    // last K-step batch of a ray that terminated early (at most K - 1 per ray).
+    const int64_t extra = off.stats.samplesEvaluated - off.stats.samplesPlain;
+    std::printf("    %-9s without skipping: %lld samples beyond the plain marcher's\n", kPath[p], (long long)extra);
+    if (p == 1)
+      EXPECT_TRUE(extra >= 0 && extra <= int64_t(kDefaultStreamingSamples - 1) * off.stats.rays);
+    else
+      EXPECT_TRUE(extra == 0);
   }
 }
 
