@@ -1,5 +1,7 @@
 #include "CpuHalfNetwork.h"
 
+#include "CpuHashGrid.h"
+
 #include "Core/Error.h"
 #include "Core/Model.h"
 
@@ -109,25 +111,9 @@ void CpuHalfNetwork::evaluateT(const CpuHalfNetwork& net, const float* xyz, int 
   float h[2][W];
   for (int s = 0; s < n; ++s)
   {
-    const float* x = xyz + 3 * s;
-    for (int l = 0; l < L; ++l)
-    {
-      const LevelInfo& lv = g.level[l];
-      uint32_t corner[3];
-      float frac[3];
-      gridPosition(lv, x, corner, frac);
-      float acc[F] = {};
-      for (int c = 0; c < 8; ++c)
-      {
-        const float w = cornerWeight(c, frac);
-        const float* e = net.Table + static_cast<size_t>(cornerIndex(lv, c, corner)) * F; // fp16 values
-        for (int f = 0; f < F; ++f)
-          acc[f] += w * e[f]; // fp32 interpolation
-      }
-      for (int f = 0; f < F; ++f)
-        enc[l * F + f] = acc[f];
-    }
-    roundHalfArray(enc, L * F); // fp16 encoding operands
+    // fp32 interpolation of the fp16-valued table (the CPU encoder), then fp16 encoding operands.
+    CpuHashGrid::encode(g, net.Table, xyz + 3 * s, 1, enc);
+    roundHalfArray(enc, L * F);
     const float* in = enc;
     int inDim = L * F;
     const float* Wt = net.Hidden16.data();
