@@ -16,6 +16,7 @@
 #include "Cpu/CpuRenderer.h"
 #include "Cpu/ThreadPool.h"
 #include "Nhdr.h"
+#include "RenderSetupBench.h"
 
 #include <algorithm>
 #include <chrono>
@@ -33,18 +34,6 @@ namespace
 {
 using Clock = std::chrono::steady_clock;
 
-void mul4(const double* a, const double* b, double* r)
-{
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j)
-    {
-      double s = 0;
-      for (int k = 0; k < 4; ++k)
-        s += a[4 * i + k] * b[4 * k + j];
-      r[4 * i + j] = s;
-    }
-}
-
 /// World = voxel coordinates (spacing 1); the camera orbits the centre at `angle` degrees.
 void camera(const int64_t dims[3], int w, int h, double angle, RenderRequest& q)
 {
@@ -56,34 +45,10 @@ void camera(const int64_t dims[3], int w, int h, double angle, RenderRequest& q)
   const double a = angle * 3.14159265358979 / 180.0;
   const double dir[3] = { std::cos(a) * 0.8, 0.45, std::sin(a) * 0.8 + 0.35 };
   const double dl = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-  double eye[3], f[3], s[3], u[3];
-  for (int i = 0; i < 3; ++i)
-  {
-    eye[i] = c[i] + dist * dir[i] / dl;
-    f[i] = -dir[i] / dl;
-  }
-  const double up[3] = { 0, 1, 0 };
-  s[0] = f[1] * up[2] - f[2] * up[1];
-  s[1] = f[2] * up[0] - f[0] * up[2];
-  s[2] = f[0] * up[1] - f[1] * up[0];
-  const double sl = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
-  for (double& x : s)
-    x /= sl;
-  u[0] = s[1] * f[2] - s[2] * f[1];
-  u[1] = s[2] * f[0] - s[0] * f[2];
-  u[2] = s[0] * f[1] - s[1] * f[0];
-  double view[16] = { s[0], s[1], s[2], 0, u[0], u[1], u[2], 0, -f[0], -f[1], -f[2], 0, 0, 0, 0, 1 };
-  view[3] = -(s[0] * eye[0] + s[1] * eye[1] + s[2] * eye[2]);
-  view[7] = -(u[0] * eye[0] + u[1] * eye[1] + u[2] * eye[2]);
-  view[11] = f[0] * eye[0] + f[1] * eye[1] + f[2] * eye[2];
-  const double n = dist - 2 * radius, fa = dist + 2 * radius, t = 1.0 / std::tan(fov / 2);
-  const double proj[16] = { t * h / w, 0, 0, 0, 0, t, 0, 0, 0, 0, -(fa + n) / (fa - n), -2 * fa * n / (fa - n), 0, 0,
-    -1, 0 };
-  mul4(proj, view, q.viewProjection);
-  std::fill(q.worldToUnit, q.worldToUnit + 16, 0.0);
-  for (int i = 0; i < 3; ++i)
-    q.worldToUnit[5 * i] = dims[i] > 1 ? 1.0 / double(dims[i] - 1) : 1.0;
-  q.worldToUnit[15] = 1.0;
+  const nvbench::Vec eye{ c[0] + dist * dir[0] / dl, c[1] + dist * dir[1] / dl, c[2] + dist * dir[2] / dl };
+  nvbench::viewProjection(eye, nvbench::Vec{ c[0], c[1], c[2] }, nvbench::Vec{ 0, 1, 0 }, 30.0, double(w) / h,
+    dist - 2 * radius, dist + 2 * radius, q.viewProjection);
+  nvbench::voxelWorldToUnit(dims, q.worldToUnit);
 }
 
 /// Transparent up to the 75th percentile of the values (air and background), a ramp to opacity 0.5 per voxel at
