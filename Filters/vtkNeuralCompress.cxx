@@ -351,6 +351,10 @@ bool vtkNeuralCompress::Compress(
     src.association = cells ? 1 : 0;
     src.rawBytes = field.RawBytes;
 
+    nv::SessionOptions sessionOptions;
+    sessionOptions.threads = this->Threads;
+    const std::unique_ptr<nv::NetworkSession> session = nv::NetworkSession::create(device, model, sessionOptions);
+
     // Training.
     nvi::TrainingResult result;
     if (constant)
@@ -365,13 +369,15 @@ bool vtkNeuralCompress::Compress(
       request.MaxSteps = this->TrainingSteps;
       request.TimeBudget = this->TimeBudget;
       request.PsnrInterval = this->PSNRInterval;
-      request.Threads = this->Threads;
-      request.Device = device;
       request.ShouldAbort = [this]() { return this->GetAbortExecute() != 0; };
       request.Progress = [this](double f) { this->UpdateProgress(0.95 * f); };
-      result = nvi::Train(model, field.View, train, request, &probe);
+      result = nvi::Train(*session, field.View, train, request, &probe);
+      session->syncModel();
+      model.params() = session->model().params();
     }
+    // The output is decoded from the network as it is stored.
     model.quantize(precision);
+    session->setModel(model);
 
     // Decode the output grid.
     const int64_t n[3] = { g.DecodedDims[0], g.DecodedDims[1], g.DecodedDims[2] };
@@ -381,7 +387,7 @@ bool vtkNeuralCompress::Compress(
     float* out = decoded->GetPointer(0);
     if (!cells || g.OnSourceGrid)
     {
-      nv::decodeGrid(model, n[0], n[1], n[2], 0, n[2], out, device, this->Threads);
+      nv::decodeGridValues(*session, n[0], n[1], n[2], 0, n[2], out);
     }
     else
     {
@@ -401,7 +407,7 @@ bool vtkNeuralCompress::Compress(
               xyz[k++] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
             }
           }
-      nv::inferPoints(model, xyz.data(), n[0] * n[1] * n[2], out, device, this->Threads);
+      session->inferPoints(xyz.data(), n[0] * n[1] * n[2], out, nv::Memory::Host);
       for (int64_t i = 0; i < n[0] * n[1] * n[2]; ++i)
       {
         out[i] = static_cast<float>(model.denormalize(out[i]));
@@ -409,7 +415,7 @@ bool vtkNeuralCompress::Compress(
     }
     const nv::ErrorStats error = g.OnSourceGrid
       ? nv::compareDecoded(out, field.View, stats.min, stats.max, this->Threads)
-      : nv::compareToSource(model, field.View, device, this->Threads);
+      : nv::compareToSource(*session, field.View);
     this->UpdateProgress(0.98);
 
     model.stats.steps = result.Steps;

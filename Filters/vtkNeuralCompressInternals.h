@@ -5,6 +5,7 @@
 
 #include "Core/Engine.h"
 #include "Core/Model.h"
+#include "Core/NetworkSession.h"
 #include "Core/Volume.h"
 
 #include <cstdint>
@@ -61,7 +62,8 @@ class PsnrProbe
 {
 public:
   PsnrProbe(const nv::VolumeView& view, uint64_t seed, int64_t maxSamples);
-  double Estimate(const nv::Model& model, nv::Device device, int threads) const;
+  /// Estimate from the session's current (published) network.
+  double Estimate(nv::NetworkSession& session) const;
 
 private:
   std::vector<float> Coords;   // xyz interleaved in [0,1]
@@ -73,8 +75,6 @@ struct TrainingRequest
   int64_t MaxSteps = 0;
   double TimeBudget = 0.0; ///< seconds, 0 = unlimited
   int PsnrInterval = 0;
-  int Threads = 0;
-  nv::Device Device = nv::Device::Cpu;
   std::function<bool()> ShouldAbort;
   std::function<void(double)> Progress;
 };
@@ -90,8 +90,9 @@ struct TrainingResult
   std::vector<LogRow> Log;
 };
 
-/// Trains `model` (updated in place) on `view`. Engine errors propagate as nv::Error.
-TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::TrainConfig& config,
+/// Trains the session's network on `view`; the trained parameters are published to the session (probes publish
+/// on their steps). Engine errors propagate as nv::Error.
+TrainingResult Train(nv::NetworkSession& session, const nv::VolumeView& view, const nv::TrainConfig& config,
   const TrainingRequest& request, const PsnrProbe* probe);
 
 /// PSNR (dB) from a mean squared error of normalised values; +inf for an exact match.

@@ -61,7 +61,7 @@ PsnrProbe::PsnrProbe(const nv::VolumeView& view, uint64_t seed, int64_t maxSampl
   }
 }
 
-double PsnrProbe::Estimate(const nv::Model& model, nv::Device device, int threads) const
+double PsnrProbe::Estimate(nv::NetworkSession& session) const
 {
   const int64_t n = static_cast<int64_t>(Expected.size());
   if (n == 0)
@@ -69,7 +69,7 @@ double PsnrProbe::Estimate(const nv::Model& model, nv::Device device, int thread
     return std::numeric_limits<double>::quiet_NaN();
   }
   std::vector<float> out(static_cast<size_t>(n));
-  nv::inferPoints(model, Coords.data(), n, out.data(), device, threads);
+  session.inferPoints(Coords.data(), n, out.data(), nv::Memory::Host);
   double se = 0.0;
   for (int64_t i = 0; i < n; ++i)
   {
@@ -79,12 +79,12 @@ double PsnrProbe::Estimate(const nv::Model& model, nv::Device device, int thread
   return PsnrFromMse(se / static_cast<double>(n));
 }
 
-TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::TrainConfig& config,
+TrainingResult Train(nv::NetworkSession& session, const nv::VolumeView& view, const nv::TrainConfig& config,
   const TrainingRequest& request, const PsnrProbe* probe)
 {
   TrainingResult result;
   const auto start = std::chrono::steady_clock::now();
-  auto trainer = nv::createTrainer(request.Device, model, view, config);
+  auto trainer = session.createTrainer(view, config);
   result.DeviceMemoryBytes = trainer->deviceMemoryBytes();
   double lastProgress = -1.0;
   // Steps run in chunks through Trainer::steps (queued back to back on a GPU, one loss read-back per chunk); a
@@ -120,8 +120,8 @@ TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::Tra
       row.PSNR = std::numeric_limits<double>::quiet_NaN();
       if (probe && request.PsnrInterval > 0 && step % request.PsnrInterval == 0 && step != request.MaxSteps)
       {
-        trainer->syncTo(model);
-        row.PSNR = probe->Estimate(model, request.Device, request.Threads);
+        trainer->publish();
+        row.PSNR = probe->Estimate(session);
       }
       result.Log.push_back(row);
       result.Steps = step;
@@ -143,7 +143,7 @@ TrainingResult Train(nv::Model& model, const nv::VolumeView& view, const nv::Tra
       }
     }
   }
-  trainer->syncTo(model);
+  trainer->publish();
   result.Seconds = Seconds(start);
   return result;
 }

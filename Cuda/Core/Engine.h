@@ -1,10 +1,9 @@
-// NeuralVolume engine: the public API used by the VTK layer and the tests.
-//
-//   nv::Model model(config);  model.initialize(seed);
-//   auto trainer = nv::createTrainer(nv::Device::Auto, model, volume, trainConfig);
-//   while (...) trainer->step();            // one optimisation step each
-//   trainer->syncTo(model);                 // parameters back to the host model
-//   nv::decodeGrid(model, nx, ny, nz, 0, nz, out, nv::Device::Auto);
+// NeuralVolume engine: device choice, the trainer interface and error statistics. Networks are used through a
+// NetworkSession (NetworkSession.h), which creates trainers and does inference, decoding and rendering:
+//   auto session = nv::NetworkSession::create(nv::Device::Auto, model);
+//   auto trainer = session->createTrainer(volume, trainConfig);
+//   trainer->steps(1000, nullptr);
+//   trainer->publish();                     // the session now holds the trained parameters
 #pragma once
 
 #include "Config.h"
@@ -50,33 +49,16 @@ public:
   virtual double currentLearningRate() const = 0;
   /// Copy the current parameters into `model` (same configuration as the one trained).
   virtual void syncTo(Model& model) const = 0;
+  /// Make the current parameters those of the session that created this trainer (in place: on the GPU without
+  /// leaving the device); the session's version() changes. Training can go on afterwards.
+  virtual void publish() = 0;
   virtual Device device() const = 0;
   /// Bytes of accelerator memory held (0 on the CPU).
   virtual int64_t deviceMemoryBytes() const { return 0; }
 };
 
-/// `volume` must stay alive while the trainer is used. `model` provides the configuration and
-/// the initial parameters.
-std::unique_ptr<Trainer> createTrainer(Device device, const Model& model, const VolumeView& volume,
-  const TrainConfig& config);
-
-/// Network output (normalised units) at n points (xyz interleaved, each in [0,1]).
-void inferPoints(const Model& model, const float* xyz, int64_t n, float* out, Device device = Device::Cpu,
-  int threads = 0);
-
-/// Decode slices [zBegin, zEnd) of an nx*ny*nz grid spanning [0,1]^3 (sample i at i/(n-1); 0.5 when n == 1)
-/// into `out` (x fastest, slice zBegin first), de-normalised to source units.
-void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t zBegin, int64_t zEnd, float* out,
-  Device device = Device::Cpu, int threads = 0);
-/// Same in double precision (for sources whose range does not fit in float).
-void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t zBegin, int64_t zEnd, double* out,
-  Device device = Device::Cpu, int threads = 0);
-/// Same, normalised network outputs (no de-normalisation).
-void decodeGridNormalized(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t zBegin, int64_t zEnd,
-  float* out, Device device = Device::Cpu, int threads = 0);
-
-/// Error of the model against the source volume over every valid voxel (values normalised by the source
-/// range): PSNR = 10 log10(1 / MSE), and the max abs error in source units.
+/// Error against a source volume over every valid voxel (values normalised by the source range):
+/// PSNR = 10 log10(1 / MSE), and the max abs error in source units.
 struct ErrorStats
 {
   double psnr = 0.0;
@@ -84,9 +66,7 @@ struct ErrorStats
   double maxAbsError = 0.0;
   int64_t count = 0;
 };
-ErrorStats compareToSource(const Model& model, const VolumeView& volume, Device device = Device::Cpu,
-  int threads = 0);
-/// Same, for an already decoded grid of the source resolution (source units).
+/// Error of an already decoded grid of the source resolution (source units) against the source.
 ErrorStats compareDecoded(const float* decoded, const VolumeView& volume, double valueMin, double valueMax,
   int threads = 0);
 ErrorStats compareDecoded(const double* decoded, const VolumeView& volume, double valueMin, double valueMax,

@@ -17,6 +17,11 @@ namespace nv
 {
 
 constexpr int kCellVoxels = 8;
+/// Network paths: the lattice of network values has the source's resolution, at most this many samples per axis.
+constexpr int64_t kMaxLatticeSamples = 256;
+/// Network paths: normalised margin added to each cell's lattice range for what the network does between lattice
+/// samples (the Decode path's grid needs none: trilinear interpolation stays inside the hull).
+constexpr float kNetworkRangeMargin = 0.02f;
 
 struct MacrocellLayout
 {

@@ -153,6 +153,7 @@ struct Ray
   float acc;        ///< Maximum / Minimum / Average / Additive accumulator
   int count;        ///< Average: samples in range
   uint32_t pixel;
+  uint32_t sample;  ///< path index within the pixel (several paths per pixel per render)
   uint32_t nFlight; ///< counter of the free-flight random stream
   uint32_t nEvent;  ///< counter of the event random stream
   int phase;
@@ -192,10 +193,11 @@ NV_HD int floorInt(float x)
   return static_cast<int>(floorf(x));
 }
 
-/// Uniform in [0,1): counter-based, identical on every backend and launch shape.
-NV_HD float rand01(const Params& P, uint32_t pixel, uint32_t stream, uint32_t counter)
+/// Uniform in [0,1) for path `sample` of a pixel: counter-based, identical on every backend and launch shape. The
+/// accumulation frame P.frame and the sample index together select the path's random streams.
+NV_HD float rand01(const Params& P, uint32_t pixel, uint32_t sample, uint32_t stream, uint32_t counter)
 {
-  const uint64_t k = (static_cast<uint64_t>(pixel) << 32) ^ (static_cast<uint64_t>(P.frame) << 8) ^ stream;
+  const uint64_t k = (static_cast<uint64_t>(pixel) << 32) ^ (static_cast<uint64_t>(P.frame + sample) << 8) ^ stream;
   const uint64_t z = mix64(mix64(static_cast<uint64_t>(P.seed) * 0x9E3779B97F4A7C15ull ^ k) + counter);
   return static_cast<float>(static_cast<uint32_t>(z >> 40)) * (1.0f / 16777216.0f);
 }
@@ -365,7 +367,7 @@ NV_HD bool nextFlight(const Params& P, const Ray& r, V3 o, V3 d, float tEnd, flo
       t = tx;
       continue;
     }
-    const float xi = rand01(P, r.pixel, 1u, n++);
+    const float xi = rand01(P, r.pixel, r.sample, 1u, n++);
     const float tau = -logf_(1.0f - xi) / mj;
     if (t + tau < tx)
     {
@@ -407,12 +409,14 @@ NV_HD V3 coneDir(V3 a, float cosMax, float u1, float u2)
 // ---------------------------------------------------------------------------------------------------------
 // Ray setup
 
-/// Start the primary ray of pixel (px, py). Pixel centres, row 0 at the bottom; the ray starts on the near plane
-/// (a camera inside the volume sees it from there) and stops at the far plane or the opaque depth.
-NV_HD void initRay(const Params& P, int px, int py, Ray& r)
+/// Start the primary ray of pixel (px, py), path `sample` of the pixel. Pixel centres, row 0 at the bottom; the ray
+/// starts on the near plane (a camera inside the volume sees it from there) and stops at the far plane or the opaque
+/// depth.
+NV_HD void initRay(const Params& P, int px, int py, Ray& r, uint32_t sample = 0)
 {
   r = Ray{};
   r.pixel = static_cast<uint32_t>(py * P.width + px);
+  r.sample = sample;
   const float x = 2.0f * (static_cast<float>(px) + 0.5f) / static_cast<float>(P.width) - 1.0f;
   const float y = 2.0f * (static_cast<float>(py) + 0.5f) / static_cast<float>(P.height) - 1.0f;
   const V3 nearW = unproject(P, x, y, -1.0f), farW = unproject(P, x, y, 1.0f);
@@ -662,7 +666,7 @@ NV_HD V3 phaseDir(float g, V3 w, float u1, float u2)
 /// New direction after a scattering event at p (NEE done or not used).
 NV_HD void scatter(const Params& P, Ray& r, V3 p)
 {
-  const float u1 = rand01(P, r.pixel, 2u, r.nEvent++), u2 = rand01(P, r.pixel, 2u, r.nEvent++);
+  const float u1 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++);
   ++r.bounces;
   startSegment(P, r, p, phaseDir(P.g, r.dW, u1, u2));
 }
@@ -797,7 +801,7 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
         const float mj = localMajorant(P, clampUnit(p));
         float e[4];
         lookup(P, v[k], e);
-        const float xi = rand01(P, r.pixel, 3u, r.nEvent++);
+        const float xi = rand01(P, r.pixel, r.sample, 3u, r.nEvent++);
         if (xi * mj < e[3]) // real collision
         {
           r.t = t;
@@ -812,7 +816,7 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
             r.thr[q] *= e[q];
           if (P.shading == PathTraceNee)
           {
-            const float u1 = rand01(P, r.pixel, 4u, r.nEvent++), u2 = rand01(P, r.pixel, 4u, r.nEvent++);
+            const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
             const V3 w = coneDir(P.lightW, P.sunCos, u1, u2);
             r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
             startShadow(P, r, clampUnit(p), w);

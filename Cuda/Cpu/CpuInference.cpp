@@ -2,68 +2,50 @@
 
 #include "Core/Model.h"
 #include "CpuHashGrid.h"
-#include "CpuMlp.h"
 #include "ThreadPool.h"
 
 #include <algorithm>
-#include <vector>
 
 namespace nv
 {
-namespace
-{
-constexpr int kTile = 64;
 
-struct Evaluator
+CpuInference::CpuInference(const Model& m)
+  : M(m)
+  , Mlp(m)
+  , WT(Mlp.paramCount())
 {
-  explicit Evaluator(const Model& m)
-    : model(m)
-    , mlp(m)
-    , WT(mlp.paramCount())
-  {
-    mlp.transpose(m.params().data() + m.encodingParamCount(), WT.data());
-  }
-  // Evaluate n (<= kTile) points.
-  void run(const float* xyz, int n, float* out, std::vector<float>& enc, std::vector<float>& acts) const
-  {
-    CpuHashGrid::encode(model.layout(), model.params().data(), xyz, n, enc.data());
-    mlp.forward(WT.data(), enc.data(), n, acts.data(), out);
-  }
-  std::vector<float> encBuffer() const
-  {
-    return std::vector<float>(static_cast<size_t>(kTile) * model.config().encoding.outputDims());
-  }
-  std::vector<float> actBuffer() const
-  {
-    return std::vector<float>(static_cast<size_t>(kTile) * mlp.width() * mlp.hidden());
-  }
-  const Model& model;
-  CpuMlp mlp;
-  std::vector<float> WT;
-};
-} // namespace
+  Mlp.transpose(m.params().data() + m.encodingParamCount(), WT.data());
+}
 
-void cpuInferPoints(const Model& model, const float* xyz, int64_t n, float* out, int threads)
+CpuInference::Scratch CpuInference::scratch() const
 {
-  const Evaluator ev(model);
-  ThreadPool pool(threads);
+  Scratch s;
+  s.enc.resize(static_cast<size_t>(kTile) * M.config().encoding.outputDims());
+  s.acts.resize(static_cast<size_t>(kTile) * Mlp.width() * Mlp.hidden());
+  return s;
+}
+
+void CpuInference::evaluate(const float* xyz, int n, float* out, Scratch& s) const
+{
+  CpuHashGrid::encode(M.layout(), M.params().data(), xyz, n, s.enc.data());
+  Mlp.forward(WT.data(), s.enc.data(), n, s.acts.data(), out);
+}
+
+void CpuInference::inferPoints(ThreadPool& pool, const float* xyz, int64_t n, float* out) const
+{
   pool.parallelFor(n, [&](int64_t b, int64_t e, int) {
-    std::vector<float> enc = ev.encBuffer(), acts = ev.actBuffer();
+    Scratch s = scratch();
     for (int64_t t = b; t < e; t += kTile)
-    {
-      ev.run(xyz + 3 * t, static_cast<int>(std::min<int64_t>(kTile, e - t)), out + t, enc, acts);
-    }
+      evaluate(xyz + 3 * t, static_cast<int>(std::min<int64_t>(kTile, e - t)), out + t, s);
   });
 }
 
-void cpuDecodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out,
-  int threads)
+void CpuInference::decodeGrid(ThreadPool& pool, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,
+  float* out) const
 {
-  const Evaluator ev(model);
-  ThreadPool pool(threads);
   const int64_t rows = (z1 - z0) * ny;
   pool.parallelFor(rows, [&](int64_t b, int64_t e, int) {
-    std::vector<float> enc = ev.encBuffer(), acts = ev.actBuffer();
+    Scratch s = scratch();
     std::vector<float> xyz(3 * kTile);
     for (int64_t r = b; r < e; ++r)
     {
@@ -79,7 +61,7 @@ void cpuDecodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64
           xyz[3 * k + 1] = fy;
           xyz[3 * k + 2] = fz;
         }
-        ev.run(xyz.data(), m, row + x0, enc, acts);
+        evaluate(xyz.data(), m, row + x0, s);
       }
     }
   });

@@ -10,7 +10,7 @@
 namespace nv
 {
 
-CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config)
+CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, PublishFn publish)
   : Config(model.config())
   , Layout(model.layout())
   , Mlp(model)
@@ -21,7 +21,9 @@ CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const Train
   , Grad(model.paramCount(), 0.0f)
   , WT(Mlp.paramCount())
   , Adam(config.optimizer, model.paramCount())
+  , Publish(std::move(publish))
 {
+  NV_CHECK(Publish != nullptr, "a trainer needs the session it publishes to");
   validate(config);
   NV_CHECK(Params.size() == model.encodingParamCount() + Mlp.paramCount(), "model parameter count mismatch");
   const size_t B = static_cast<size_t>(config.batchSize);
@@ -46,6 +48,11 @@ void CpuTrainer::syncTo(Model& model) const
 {
   NV_CHECK(model.paramCount() == Params.size(), "syncTo: model has a different configuration");
   model.params() = Params;
+}
+
+void CpuTrainer::publish()
+{
+  Publish(Params);
 }
 
 float CpuTrainer::forwardBackward(int64_t n, int64_t nValid)

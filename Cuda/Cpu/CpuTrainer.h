@@ -6,6 +6,7 @@
 #include "CpuMlp.h"
 #include "ThreadPool.h"
 
+#include <functional>
 #include <vector>
 
 namespace nv
@@ -14,12 +15,16 @@ namespace nv
 class CpuTrainer final : public Trainer
 {
 public:
-  CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config);
+  /// Receives the parameters on publish() (the session that created the trainer).
+  using PublishFn = std::function<void(const std::vector<float>& params)>;
+
+  CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, PublishFn publish);
 
   float step() override;
   int64_t stepsDone() const override { return Steps; }
   double currentLearningRate() const override { return Train.optimizer.learningRateAt(Steps + 1); }
   void syncTo(Model& model) const override;
+  void publish() override;
   Device device() const override { return Device::Cpu; }
 
   /// Loss and gradient of the current parameters on a given batch, without updating (for tests).
@@ -51,6 +56,7 @@ private:
   };
   std::vector<Scratch> Work;
   CpuAdam Adam;
+  PublishFn Publish;
   int64_t Steps = 0;
 };
 

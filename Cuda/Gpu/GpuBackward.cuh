@@ -10,7 +10,7 @@
 // fp16 rounding of each activation and of each dZ, output row in fp32.
 #pragma once
 
-#include "GpuForward.cuh"
+#include "GpuWarpForward.cuh"
 #include "GpuTrainArgs.cuh"
 
 namespace nv
@@ -39,17 +39,6 @@ __device__ __forceinline__ void mmaChunkT(float (&C)[NT][4], const uint32_t (&A)
       mma16816(C[j + 1], A, b[2], b[3]);
     }
   }
-}
-
-/// Store an A fragment (16 x 16 block kc of a warp's 16 rows) into row-major fp16 staging (ld halves).
-__device__ __forceinline__ void storeFrag(const uint32_t (&A)[4], __half* rows, int ld, int kc, int lane)
-{
-  const int g = lane >> 2, t = lane & 3;
-  __half* p = rows + g * ld + kc * 16 + 2 * t;
-  *reinterpret_cast<uint32_t*>(p) = A[0];
-  *reinterpret_cast<uint32_t*>(p + 8 * ld) = A[1];
-  *reinterpret_cast<uint32_t*>(p + 8) = A[2];
-  *reinterpret_cast<uint32_t*>(p + 8 * ld + 8) = A[3];
 }
 
 /// x * (mask > 0) for the two halves of a packed fp16 pair.
@@ -89,76 +78,24 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
   const int g = lane >> 2, t = lane & 3, r16 = lane & 15;
   __half* X0 = sh + p.x[0] + row0 * p.ldX0;
 
-  // 1. Encodings of the 16 samples into X_0.
+  // 1-3. Forward pass (encodings into X_0, X_l staged for the backward pass and the weight gradients), outputs.
+  const WarpNet net{ sh, p.w, p.ldX0, p.ldA, swout };
+  const StageActivations stage{ sh + row0 * p.ldA, p.x, p.ldA, nullptr, 0 };
+  WarpOut<W> fo;
   if constexpr (Pre)
   {
-    using V = typename HalfVec<F>::T;
-    const V* src = reinterpret_cast<const V*>(a.encG);
-    for (int it = lane; it < 16 * a.grid.levels; it += 32)
-    {
-      const int rr = it & 15, l = it >> 4;
-      const int64_t gi = base + rr;
-      V v{};
-      if (gi < a.n)
-        v = __ldcs(src + l * a.n + gi);
-      *reinterpret_cast<V*>(X0 + rr * p.ldX0 + l * F) = v;
-    }
+    const PreEncoded src{ a.encG, base, a.n };
+    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, X0, p.ldX0, lane, stage, fo);
   }
   else
   {
     float x[3];
     trainPoint(a, base + r16, x);
-    encodeWarp<F, float>(a.grid, a.table32, x, X0, p.ldX0, lane);
+    const EncodeFrom<float> src{ a.table32 };
+    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, X0, p.ldX0, lane, stage, fo);
   }
-  __syncwarp();
-
-  // 2. Forward; X_l (l >= 1) staged for the backward pass and the weight gradients.
-  float C[W / 8][4];
-#pragma unroll
-  for (int j = 0; j < W / 8; ++j)
-    C[j][0] = C[j][1] = C[j][2] = C[j][3] = 0.0f;
-  for (int kc = 0; kc < s.Dp / 16; ++kc)
-  {
-    uint32_t A[4];
-    ldsm4(A, X0 + r16 * p.ldX0 + (lane >> 4) * 8 + kc * 16);
-    mmaChunk<W>(C, A, sh + p.w[0], p.ldX0, kc * 16, lane);
-  }
-  for (int l = 1; l < s.H; ++l)
-  {
-    uint32_t A[W / 16][4];
-    __half* Xl = sh + p.x[l] + row0 * p.ldA;
-#pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-    {
-      reluFragment(C, kc, A[kc]);
-      storeFrag(A[kc], Xl, p.ldA, kc, lane);
-    }
-#pragma unroll
-    for (int j = 0; j < W / 8; ++j)
-      C[j][0] = C[j][1] = C[j][2] = C[j][3] = 0.0f;
-#pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-      mmaChunk<W>(C, A[kc], sh + p.w[l], p.ldA, kc * 16, lane);
-  }
-
-  // 3. Output row (fp32 over the fp16-rounded last activation X_H), loss and its gradient (unscaled).
-  uint32_t XH[W / 8][2]; // packed fp16 X_H: rows g / g + 8, columns 8j + 2t, +1
-  float lo = 0.0f, hi = 0.0f;
-#pragma unroll
-  for (int j = 0; j < W / 8; ++j)
-  {
-    XH[j][0] = packRelu(C[j][0], C[j][1]);
-    XH[j][1] = packRelu(C[j][2], C[j][3]);
-    const __half2 h0 = *reinterpret_cast<const __half2*>(&XH[j][0]);
-    const __half2 h1 = *reinterpret_cast<const __half2*>(&XH[j][1]);
-    const float w0 = swout[8 * j + 2 * t], w1 = swout[8 * j + 2 * t + 1];
-    lo += __low2float(h0) * w0 + __high2float(h0) * w1;
-    hi += __low2float(h1) * w0 + __high2float(h1) * w1;
-  }
-  lo += __shfl_xor_sync(0xffffffffu, lo, 1);
-  hi += __shfl_xor_sync(0xffffffffu, hi, 1);
-  lo += __shfl_xor_sync(0xffffffffu, lo, 2);
-  hi += __shfl_xor_sync(0xffffffffu, hi, 2);
+  const float lo = fo.lo, hi = fo.hi;
+  uint32_t(&XH)[W / 8][2] = fo.xh; // packed fp16 X_H: rows g / g + 8, columns 8j + 2t, +1
   float gr[2] = { 0.0f, 0.0f };
   {
     const float o[2] = { lo, hi };

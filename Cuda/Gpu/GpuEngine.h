@@ -3,7 +3,9 @@
 #pragma once
 
 #include "Core/Engine.h"
+#include "Core/NetworkSession.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -15,11 +17,11 @@ namespace gpu
 /// True when the CUDA runtime finds a usable device (sm_90 build: compute capability 9.x).
 bool deviceUsable(std::string* why);
 
-std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config);
+/// Receives a trainer's fp32 parameters (device pointer, Model::params layout) and the trainer's stream on publish().
+using PublishFn = std::function<void(const float* deviceParams, void* stream)>;
 
-/// Normalised network outputs.
-void inferPoints(const Model& model, const float* xyz, int64_t n, float* out);
-void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out);
+std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish);
 
 } // namespace gpu
 } // namespace nv

@@ -9,7 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdlib>
+#include <string>
 
 namespace nv
 {
@@ -20,49 +20,45 @@ namespace
 {
 using FwdFn = void (*)(FwdArgs);
 
-int envInt(const char* name, int fallback)
-{
-  const char* e = std::getenv(name);
-  return e ? std::atoi(e) : fallback;
-}
-
-/// Mode (NV_GPU_FWD_MODE, for benchmarks): 0 fused encode+MLP for all inputs; 1 (default) two passes (level-major
-/// encode, then MLP) for point arrays, fused for grid decoding; 2 two passes for both.
-int forwardMode()
-{
-  static const int v = envInt("NV_GPU_FWD_MODE", 1);
-  return v >= 0 && v <= 2 ? v : 1;
-}
-
 /// Fused (grid decoding): 2 blocks per SM, L1 left for the coarse levels' gathers. Two-pass MLP pass (point
-/// arrays): 3 blocks per SM (80 registers): measured 1.62 -> 1.69 G samples/s on binned random points.
-template <int W, int F>
+/// arrays): 3 blocks per SM (80 registers): measured 1.62 -> 1.69 G samples/s on binned random points. Widths up to
+/// 64 always have their weights in shared memory (at most 98 KiB: 8 hidden layers of 64 after 256 inputs); width
+/// 128 reads them through L1 when they do not fit.
+template <int W, int F, typename Weights>
 struct FwdPick
 {
-  static FwdFn fn(bool pre) { return pre ? forwardKernel<W, F, 8, 3, true> : forwardKernel<W, F, 8, 2, false>; }
+  // Width 128 holds 64 accumulators and 32 A registers per lane: one block per SM (no spills).
+  static constexpr int kPre = W <= 64 ? 3 : 1, kFused = W <= 64 ? 2 : 1;
+  static FwdFn fn(bool pre)
+  {
+    return pre ? forwardKernel<W, F, 8, kPre, true, Weights> : forwardKernel<W, F, 8, kFused, false, Weights>;
+  }
 };
 
-FwdFn pickForward(int W, int F, bool pre)
+FwdFn pickForward(int W, int F, bool pre, bool shared)
 {
 #define NV_CASE(w, f)                                                                              \
   if (W == w && F == f)                                                                            \
-    return FwdPick<w, f>::fn(pre);
+    return FwdPick<w, f, WeightsInShared>::fn(pre);
   NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
   NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
   NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
+#undef NV_CASE
+#define NV_CASE(f)                                                                                 \
+  if (W == 128 && F == f)                                                                          \
+    return shared ? FwdPick<128, f, WeightsInShared>::fn(pre) : FwdPick<128, f, WeightsInGlobal>::fn(pre);
+  NV_CASE(1) NV_CASE(2) NV_CASE(4) NV_CASE(8)
 #undef NV_CASE
   return nullptr;
 }
 
 /// Bits per axis of the Morton bins for m points (0: no binning): about 32 points per bin (1M random points:
 /// 2^5 bins per axis measured best, 2^6 within 1%); from 2^18 points (2^16 random points: 0.079 ms unbinned,
-/// 0.087 binned; 2^18: 0.202 / 0.196). NV_GPU_BIN_BITS or setInferenceBinning() override.
-std::atomic<int> gBinBits{ envInt("NV_GPU_BIN_BITS", -1) };
+/// 0.087 binned; 2^18: 0.202 / 0.196). KernelOptions::binBitsPerAxis >= 0 forces a value.
 std::atomic<int> gLastBinBits{ 0 };
 
-int binBits(int64_t m)
+int binBits(int64_t m, int forced)
 {
-  const int forced = gBinBits.load();
   if (forced >= 0)
     return std::min(forced, 8);
   if (m < (int64_t(1) << 18))
@@ -113,11 +109,10 @@ void launchEncodeLevelsL(int F, const FwdArgs& a, __half* enc, cudaStream_t stre
   NV_CUDA_LAUNCH();
 }
 
-/// Levels per thread (NV_GPU_ENC_LPT 1 / 2 / 4, default 4): 4 reads each point once for four levels (measured on
-/// binned random points, 2^21: 1.68 / 1.71 / 1.73 G samples/s).
-void launchEncodeLevels(int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
+/// Levels per thread (KernelOptions::encodeLevelsPerThread 1 / 2 / 4, default 4): 4 reads each point once for four
+/// levels (measured on binned random points, 2^21: 1.68 / 1.71 / 1.73 G samples/s).
+void launchEncodeLevels(int lpt, int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
 {
-  static const int lpt = envInt("NV_GPU_ENC_LPT", 4);
   if (lpt == 4)
     launchEncodeLevelsL<4>(F, a, enc, stream);
   else if (lpt == 2)
@@ -128,38 +123,58 @@ void launchEncodeLevels(int F, const FwdArgs& a, __half* enc, cudaStream_t strea
 
 } // namespace
 
-void setInferenceBinning(int bitsPerAxis)
-{
-  gBinBits.store(bitsPerAxis < 0 ? -1 : bitsPerAxis);
-}
-
 int lastInferenceBinning()
 {
   return gLastBinBits.load();
 }
 
-/// Register-resident fast path; false when the shape is not covered (then the WMMA kernel of GpuInference.cu runs).
-bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
+/// Kernel, shared memory and occupancy of the forward kernel for a model (once per model and mode).
+const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre)
+{
+  ForwardPlan& p = dm.fwdPlan[pre ? 1 : 0];
+  if (p.fn)
+    return p;
+  NV_CHECK(dm.shape.H <= kMaxHidden, "too many hidden layers for the GPU");
+  constexpr int warps = 8;
+  for (bool shared : { true, false })
+  {
+    FwdArgs a{};
+    const int bytes = fwdLayout(dm.shape, warps, shared, a);
+    const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre, shared);
+    if (!fn || bytes > deviceInfo().maxSmemOptin)
+      continue;
+    const void* fp = reinterpret_cast<const void*>(fn);
+    NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, bytes));
+    int perSm = 0;
+    NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, warps * 32, bytes));
+    if (perSm < 1)
+      continue;
+    p.fn = reinterpret_cast<const void*>(fn);
+    p.shared = shared;
+    p.bytes = bytes;
+    p.blocksPerSm = perSm;
+    return p;
+  }
+  NV_THROW("this network shape (width " + std::to_string(dm.shape.W) + ", " + std::to_string(dm.grid.features) +
+    " features per level) cannot run on the GPU");
+}
+
+/// Inference and decoding through the forward kernel.
+void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
   int64_t first, int64_t n, float* out, cudaStream_t stream)
 {
-  const int mode = forwardMode();
+  const KernelOptions& o = dm.options;
+  const int mode = o.forwardMode >= 0 && o.forwardMode <= 2 ? o.forwardMode : 1;
   const bool pre = mode == 2 || (mode == 1 && xyz != nullptr);
-  const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre);
-  if (!fn || dm.shape.H > kMaxHidden)
-    return false;
+  const ForwardPlan& plan = forwardPlan(dm, pre);
+  const FwdFn fn = reinterpret_cast<FwdFn>(plan.fn);
   constexpr int warps = 8;
+  const int bytes = plan.bytes;
+  const int perSm = plan.blocksPerSm;
   FwdArgs a{};
   a.grid = dm.grid;
   a.shape = dm.shape;
-  const int bytes = fwdLayout(dm.shape, warps, a);
-  if (bytes > deviceInfo().maxSmemOptin)
-    return false;
-  const void* fp = reinterpret_cast<const void*>(fn);
-  NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, bytes));
-  int perSm = 0;
-  NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, warps * 32, bytes));
-  if (perSm < 1)
-    return false;
+  fwdLayout(dm.shape, warps, plan.shared, a);
   a.table16 = dm.table16.get();
   a.w16 = dm.w16.get();
   a.wout = dm.wout.get();
@@ -169,7 +184,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   a.z0 = z0; // enc, binned, random, seed, step stay zero (a{})
   // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (128 MiB).
   const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
-  static const int64_t scratchBytes = int64_t(std::max(16, envInt("NV_GPU_FWD_CHUNK_MB", 128))) << 20;
+  const int64_t scratchBytes = int64_t(std::max(16, o.encodeScratchMiB)) << 20;
   const int64_t chunk = pre ? std::min<int64_t>(n, scratchBytes / (2 * D)) : n;
   if (pre && dm.encScratch.size() < size_t(chunk * D))
     dm.encScratch.allocate(size_t(chunk * D), "encoding scratch");
@@ -182,7 +197,7 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     a.out = out + b;
     if (pre)
     {
-      const int bits = a.xyz ? binBits(m) : 0;
+      const int bits = a.xyz ? binBits(m, o.binBitsPerAxis) : 0;
       gLastBinBits.store(bits);
       if (bits > 0)
       {
@@ -190,14 +205,13 @@ bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
         a.binned = dm.bins.binned.get();
       }
       a.enc = dm.encScratch.get();
-      launchEncodeLevels(dm.grid.features, a, dm.encScratch.get(), stream);
+      launchEncodeLevels(o.encodeLevelsPerThread, dm.grid.features, a, dm.encScratch.get(), stream);
     }
     const int64_t tiles = (m + 15) / 16;
     const int64_t blocks = std::min<int64_t>((tiles + warps - 1) / warps, int64_t(perSm) * deviceInfo().sms);
     fn<<<static_cast<int>(blocks), warps * 32, bytes, stream>>>(a);
     NV_CUDA_LAUNCH();
   }
-  return true;
 }
 
 } // namespace gpu

@@ -1,13 +1,12 @@
-// NeuralVolume engine: CUDA device queries, parameter packing, the general WMMA inference kernel (encoding + MLP
-// in one kernel; used where the register-resident fast path of GpuForward.cu does not apply: W = 128, weights
-// larger than shared memory), batched inference and grid decoding entry points, and test/benchmark hooks.
+// NeuralVolume engine: CUDA device queries, parameter packing, the inference entry point (the forward kernel of
+// GpuForward.cu) and test/benchmark hooks.
 #include "Core/Model.h"
-#include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
 #include "GpuInternal.cuh"
 #include "GpuTesting.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <mutex>
 #include <sstream>
@@ -126,105 +125,6 @@ __global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half*
   }
 }
 
-struct InferArgs
-{
-  GridLayout grid;
-  MlpShape shape;
-  SmemPlan plan;
-  const __half* table16;
-  const __half* w16;
-  const float* wout;
-  const float* xyz;
-  int64_t nx, ny, nz, z0, first, n;
-  float* out;
-  int tiles;
-};
-
-template <int W, int F>
-__global__ void __launch_bounds__(256) inferKernel(const __grid_constant__ InferArgs a)
-{
-  extern __shared__ __align__(128) unsigned char smem[];
-  const SmemPlan& p = a.plan;
-  const MlpShape& s = a.shape;
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T;
-  float* sx = reinterpret_cast<float*>(smem + p.xyz);
-  __half* enc = reinterpret_cast<__half*>(smem + p.enc);
-  __half* act = reinterpret_cast<__half*>(smem + p.acts);
-  float* stage = reinterpret_cast<float*>(smem + p.stage) + warp * 256;
-  const float* sw = reinterpret_cast<const float*>(smem + p.wout);
-  const __half* wl[kMaxHidden];
-  int ldw[kMaxHidden];
-  stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
-  const int pad = s.Dp - s.D;
-  for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
-    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
-  __syncthreads();
-  const int row0 = warp * 16;
-  for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
-  {
-    const int64_t base = int64_t(tile) * T;
-    for (int t = threadIdx.x; t < T; t += blockDim.x)
-    {
-      const int64_t gi = base + t;
-      float x = 0.0f, y = 0.0f, z = 0.0f;
-      if (gi < a.n)
-      {
-        if (a.xyz)
-        {
-          x = a.xyz[3 * gi];
-          y = a.xyz[3 * gi + 1];
-          z = a.xyz[3 * gi + 2];
-        }
-        else
-        {
-          const int64_t li = a.first + gi;
-          const int64_t row = li / a.nx;
-          x = gridCoord(li - row * a.nx, a.nx);
-          y = gridCoord(row % a.ny, a.ny);
-          z = gridCoord(a.z0 + row / a.ny, a.nz);
-        }
-      }
-      sx[3 * t] = x;
-      sx[3 * t + 1] = y;
-      sx[3 * t + 2] = z;
-    }
-    __syncthreads();
-    encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
-    __syncthreads();
-    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], act, p.ldA, stage, row0, lane);
-    for (int l = 1; l < s.H; ++l)
-      forwardLayer<W>(act, p.ldA, W, wl[l], ldw[l], act, p.ldA, stage, row0, lane);
-    {
-      const int t = row0 + (lane >> 1), h = lane & 1;
-      float o = 0.0f;
-      const __half* r = act + t * p.ldA + h * (W / 2);
-#pragma unroll 8
-      for (int i = 0; i < W / 2; ++i)
-        o += __half2float(r[i]) * sw[h * (W / 2) + i];
-      o += __shfl_xor_sync(0xffffffffu, o, 1);
-      const int64_t gi = base + t;
-      if (h == 0 && gi < a.n)
-        a.out[gi] = o;
-    }
-    __syncthreads();
-  }
-}
-
-using InferFn = void (*)(InferArgs);
-
-InferFn pickInfer(int W, int F)
-{
-#define NV_CASE(w, f)                                                                              \
-  if (W == w && F == f)                                                                            \
-    return inferKernel<w, f>;
-  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
-  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
-  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
-  NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
-#undef NV_CASE
-  NV_THROW("unsupported network width / features per level on the GPU");
-}
-
 __global__ void encodeTestKernel(GridLayout g, const __half* __restrict__ table, const float* __restrict__ xyz,
   int64_t n, float* __restrict__ out)
 {
@@ -331,6 +231,7 @@ SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* block
 
 void allocateDeviceModel(const Model& model, DeviceModel& dm)
 {
+  dm.fwdPlan[0] = dm.fwdPlan[1] = ForwardPlan();
   dm.grid = model.layout();
   dm.shape = makeMlpShape(model.config());
   dm.table16.allocate(model.encodingParamCount(), "fp16 hash table");
@@ -364,91 +265,7 @@ void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_
 {
   if (n <= 0)
     return;
-  if (launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream))
-    return;
-  InferArgs a;
-  a.grid = dm.grid;
-  a.shape = dm.shape;
-  const InferFn fn = pickInfer(dm.shape.W, dm.grid.features);
-  int perSm = 0;
-  a.plan = choosePlan(dm.shape, false, reinterpret_cast<const void*>(fn), &perSm);
-  a.table16 = dm.table16.get();
-  a.w16 = dm.w16.get();
-  a.wout = dm.wout.get();
-  a.xyz = xyz;
-  a.nx = nx;
-  a.ny = ny;
-  a.nz = nz;
-  a.z0 = z0;
-  a.first = first;
-  a.n = n;
-  a.out = out;
-  const int64_t tiles = (n + a.plan.T - 1) / a.plan.T;
-  NV_CHECK(tiles < (int64_t(1) << 31), "too many samples in one launch");
-  a.tiles = static_cast<int>(tiles);
-  const int blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms * 4));
-  fn<<<blocks, a.plan.warps * 32, a.plan.total, stream>>>(a);
-  NV_CUDA_LAUNCH();
-}
-
-void inferPoints(const Model& model, const float* xyz, int64_t n, float* out)
-{
-  Stream st;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 24);
-  DeviceBuffer<float> dx(3 * chunk, "points"), dy(chunk, "outputs");
-  for (int64_t b = 0; b < n; b += chunk)
-  {
-    const int64_t m = std::min(chunk, n - b);
-    NV_CUDA(cudaMemcpyAsync(dx.get(), xyz + 3 * b, 3 * m * sizeof(float), cudaMemcpyHostToDevice, st.get()));
-    launchInference(dm, dx.get(), 0, 0, 0, 0, 0, m, dy.get(), st.get());
-    NV_CUDA(cudaMemcpyAsync(out + b, dy.get(), m * sizeof(float), cudaMemcpyDeviceToHost, st.get()));
-  }
-  st.sync();
-}
-
-void decodeGrid(const Model& model, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out)
-{
-  Stream st, copy;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t n = nx * ny * (z1 - z0);
-  // Pipeline over 3 slots: the kernel fills chunk k (stream st) while chunk k-1 is copied to pinned memory (stream
-  // copy, own copy engine) and host threads move chunk k-2 into `out`.
-  constexpr int S = 3;
-  const int64_t chunk = std::min<int64_t>(n, int64_t(1) << 22);
-  DeviceBuffer<float> dy[S];
-  PinnedBuffer<float> hy[S];
-  Event filled[S], done[S];
-  for (int k = 0; k < S; ++k)
-  {
-    dy[k].allocate(chunk, "decode");
-    hy[k].allocate(chunk);
-  }
-  ThreadPool pool(std::min(16, ThreadPool::defaultThreads()));
-  const int64_t chunks = (n + chunk - 1) / chunk;
-  auto drain = [&](int64_t k) {
-    const int slot = static_cast<int>(k % S);
-    NV_CUDA(cudaEventSynchronize(done[slot].get()));
-    const int64_t b = k * chunk, m = std::min(chunk, n - b);
-    const float* src = hy[slot].get();
-    pool.parallelFor(m, [&](int64_t s, int64_t e, int) { std::memcpy(out + b + s, src + s, (e - s) * sizeof(float)); });
-  };
-  for (int64_t k = 0; k < chunks; ++k)
-  {
-    const int slot = static_cast<int>(k % S); // chunk k-S was drained in iteration k-1
-    const int64_t b = k * chunk, m = std::min(chunk, n - b);
-    launchInference(dm, nullptr, nx, ny, nz, z0, b, m, dy[slot].get(), st.get());
-    NV_CUDA(cudaEventRecord(filled[slot].get(), st.get()));
-    NV_CUDA(cudaStreamWaitEvent(copy.get(), filled[slot].get(), 0));
-    NV_CUDA(cudaMemcpyAsync(hy[slot].get(), dy[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost, copy.get()));
-    NV_CUDA(cudaEventRecord(done[slot].get(), copy.get()));
-    if (k >= S - 1)
-      drain(k - (S - 1));
-  }
-  for (int64_t k = std::max<int64_t>(0, chunks - (S - 1)); k < chunks; ++k)
-    drain(k);
+  launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream);
 }
 
 void testEncode(const Model& model, const float* xyz, int64_t n, float* out)
@@ -508,6 +325,39 @@ double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz,
   const int64_t n = nx * ny * nz;
   DeviceBuffer<float> dy(n);
   return medianMs(reps, st.get(), [&] { launchInference(dm, nullptr, nx, ny, nz, 0, 0, n, dy.get(), st.get()); });
+}
+
+namespace
+{
+template <typename Fn>
+double medianWallMs(int reps, Fn&& fn)
+{
+  std::vector<double> ts;
+  fn(); // warm-up
+  for (int r = 0; r < reps; ++r)
+  {
+    const auto a = std::chrono::steady_clock::now();
+    fn();
+    ts.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a).count());
+  }
+  std::sort(ts.begin(), ts.end());
+  return ts[ts.size() / 2];
+}
+} // namespace
+
+double benchSessionInfer(NetworkSession& session, int64_t n, int reps)
+{
+  DeviceBuffer<float> dx(3 * n, "points"), dy(n, "outputs");
+  randomPointsKernel<<<gridFor(n), 256>>>(dx.get(), n);
+  NV_CUDA_LAUNCH();
+  NV_CUDA(cudaDeviceSynchronize());
+  return medianWallMs(reps, [&] { session.inferPoints(dx.get(), n, dy.get(), Memory::Device); });
+}
+
+double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps)
+{
+  DeviceBuffer<float> dy(nx * ny * nz, "decoded grid");
+  return medianWallMs(reps, [&] { session.decodeGrid(nx, ny, nz, 0, nz, dy.get(), Memory::Device); });
 }
 
 } // namespace gpu

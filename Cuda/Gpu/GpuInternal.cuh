@@ -2,6 +2,7 @@
 #pragma once
 
 #include "Core/Model.h"
+#include "Core/NetworkSession.h"
 #include "GpuCommon.cuh"
 #include "GpuNetwork.cuh"
 
@@ -36,16 +37,27 @@ struct PointBins
   DeviceBuffer<unsigned char> scanTemp;
 };
 
+/// The forward kernel chosen for a model (GpuForward.cu), found once.
+struct ForwardPlan
+{
+  const void* fn = nullptr;
+  bool shared = true; ///< weights in shared memory
+  int bytes = 0;      ///< dynamic shared memory
+  int blocksPerSm = 0;
+};
+
 /// The parameters in the form the kernels read: fp16 table, padded fp16 MLP, fp32 output row.
 struct DeviceModel
 {
   GridLayout grid{};
   MlpShape shape{};
+  KernelOptions options; ///< kernel variants of every launch on this model
   DeviceBuffer<__half> table16;
   DeviceBuffer<__half> w16;
   DeviceBuffer<float> wout;
   mutable DeviceBuffer<__half> encScratch; ///< two-pass inference: encodings of a chunk (GpuForward.cu)
   mutable PointBins bins;                  ///< two-pass inference on point arrays (GpuForward.cu)
+  mutable ForwardPlan fwdPlan[2];          ///< fused / two-pass forward kernel (GpuForward.cu)
   size_t bytes() const { return table16.bytes() + w16.bytes() + wout.bytes(); }
 };
 
@@ -60,8 +72,8 @@ void uploadModel(const Model& model, DeviceModel& dm, cudaStream_t stream);
 /// L1); blocksPerSm receives its occupancy.
 SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm);
 
-/// Register-resident fast path of launchInference (GpuForward.cu); false when it does not cover the shape.
-bool launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
+/// The forward kernel (GpuForward.cu) on points or grid slices; see launchInference.
+void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
   int64_t first, int64_t n, float* out, cudaStream_t stream);
 
 /// Run the inference kernel: xyz (device, n x 3) or, when xyz is null, the grid points

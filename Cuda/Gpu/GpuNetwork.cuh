@@ -1,6 +1,6 @@
-// NeuralVolume engine: device code shared by training and inference — hash-grid encoding of a tile of samples
-// into shared memory (fp16), and the bias-free ReLU MLP on tensor cores (WMMA m16n16k16, fp16 operands, fp32
-// accumulation). A block processes tiles of T = 16 * warps samples; warp w owns rows [16w, 16w+16) of each tile.
+// NeuralVolume engine: device code shared by the GPU kernels -- the padded MLP layout, shared-memory plans, table
+// entry loads and trilinear interpolation (used by the forward pass, GpuWarpForward.cuh), table-gradient atomics, and
+// the WMMA backward helpers of the general training kernel (GpuTrainWmma.cuh).
 #pragma once
 
 #include "Core/HashGridMath.h"
@@ -246,51 +246,6 @@ __device__ __forceinline__ void gatherTwo(const T* __restrict__ table, const uin
     interpolate<F, E>(v[k], frac[k], acc[k]);
 }
 
-/// Encode the tile's T points (sx: T x 3) into enc (T x ldE halves, columns l*F+f). Two (sample, level) items per
-/// thread and iteration: 16 independent gathers in flight.
-template <int F>
-__device__ __forceinline__ void encodeOne(const GridLayout& g, const __half* __restrict__ table, const float* sx,
-  int it, int T, uint32_t* idx, float* frac)
-{
-  const int t = it % T, l = it / T;
-  const LevelInfo& lv = g.level[l];
-  const float x[3] = { sx[3 * t], sx[3 * t + 1], sx[3 * t + 2] };
-  uint32_t corner[3];
-  gridPosition(lv, x, corner, frac);
-#pragma unroll
-  for (int c = 0; c < 8; ++c)
-    idx[c] = cornerIndex(lv, c, corner);
-}
-
-template <int F>
-__device__ __forceinline__ void encodeTile(const GridLayout& g, const __half* __restrict__ table, const float* sx,
-  __half* enc, int ldE, int T)
-{
-  const int items = T * g.levels;
-  for (int it0 = threadIdx.x; it0 < items; it0 += 2 * blockDim.x)
-  {
-    const int it1 = it0 + blockDim.x;
-    const bool two = it1 < items;
-    uint32_t idx[2][8];
-    float frac[2][3];
-    encodeOne<F>(g, table, sx, it0, T, idx[0], frac[0]);
-    encodeOne<F>(g, table, sx, two ? it1 : it0, T, idx[1], frac[1]);
-    float acc[2][F];
-    gatherTwo<F, Entry<__half, F>>(table, idx, frac, acc);
-#pragma unroll
-    for (int k = 0; k < 2; ++k)
-    {
-      if (k == 1 && !two)
-        break;
-      const int it = k == 0 ? it0 : it1;
-      __half* o = enc + (it % T) * ldE + (it / T) * F;
-#pragma unroll
-      for (int f = 0; f < F; ++f)
-        o[f] = __float2half_rn(acc[k][f]);
-    }
-  }
-}
-
 template <int F>
 __device__ __forceinline__ void atomicAddVec(float* p, const float* v)
 {
@@ -388,48 +343,6 @@ using FragAc = wm::fragment<wm::matrix_a, 16, 16, 16, __half, wm::col_major>;
 using FragBc = wm::fragment<wm::matrix_b, 16, 16, 16, __half, wm::col_major>;
 using FragBr = wm::fragment<wm::matrix_b, 16, 16, 16, __half, wm::row_major>;
 using FragC = wm::fragment<wm::accumulator, 16, 16, 16, float>;
-
-/// Y[rows] = relu(X[rows] . Wl^T) for the warp's 16 rows. X: ld ldX, K inputs; Wl row-major [W][K] (ld ldw).
-/// Y may alias X (all reads finish before the first write).
-template <int W>
-__device__ __forceinline__ void forwardLayer(const __half* X, int ldX, int K, const __half* Wl, int ldw, __half* Y,
-  int ldY, float* stage, int row0, int lane)
-{
-  FragC c[W / 16];
-#pragma unroll
-  for (int j = 0; j < W / 16; ++j)
-    wm::fill_fragment(c[j], 0.0f);
-  for (int k = 0; k < K; k += 16)
-  {
-    FragA a;
-    wm::load_matrix_sync(a, X + row0 * ldX + k, ldX);
-#pragma unroll
-    for (int j = 0; j < W / 16; ++j)
-    {
-      FragBc b;
-      wm::load_matrix_sync(b, Wl + j * 16 * ldw + k, ldw);
-      wm::mma_sync(c[j], a, b, c[j]);
-    }
-  }
-  __syncwarp();
-  const int r = lane >> 1, c0 = (lane & 1) * 8;
-#pragma unroll
-  for (int j = 0; j < W / 16; ++j)
-  {
-    wm::store_matrix_sync(stage, c[j], 16, wm::mem_row_major);
-    __syncwarp();
-    __align__(16) __half2 h[4];
-#pragma unroll
-    for (int q = 0; q < 4; ++q)
-    {
-      const float v0 = fmaxf(stage[r * 16 + c0 + 2 * q], 0.0f);
-      const float v1 = fmaxf(stage[r * 16 + c0 + 2 * q + 1], 0.0f);
-      h[q] = __floats2half2_rn(v0, v1);
-    }
-    *reinterpret_cast<uint4*>(Y + (row0 + r) * ldY + j * 16 + c0) = *reinterpret_cast<const uint4*>(h);
-    __syncwarp();
-  }
-}
 
 /// dA = dZ[rows] . Wl (Wl row-major [W][K], ld ldw). If dEnc: stored there in fp32; else
 /// dZout = (mask > 0) * dA in fp16 (mask, dZout: ld ldA).

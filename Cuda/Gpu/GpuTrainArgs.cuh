@@ -24,6 +24,7 @@ struct TrainArgs
   GridLayout grid;
   MlpShape shape;
   SmemPlan plan; ///< WMMA kernel
+  int actOff[kMaxHidden]; ///< WMMA kernel: offset (halves) of X_l, the input of hidden layer l >= 1, in the activations
   RegPlan reg;   ///< register-resident kernel
   const __half* table16; ///< WMMA kernel: the fp16 copy of the table
   const float* table32;  ///< register-resident kernel: the fp32 parameters (fused mode encodes from them)

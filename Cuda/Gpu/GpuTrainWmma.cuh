@@ -1,11 +1,12 @@
-// NeuralVolume engine: the general training kernel (WMMA m16n16k16 through shared memory; any width up to 128,
-// weights in shared memory or read through L1). One block takes T = 16 * warps samples per tile: encoding (or the
-// level-major encodings), forward, loss, backward, weight gradients into a per-block slot, and the table-gradient
-// scatter (or dEnc out for the level-major scatter). The register-resident kernel (GpuBackward.cuh) replaces it
-// where the shape allows.
+// NeuralVolume engine: the general training kernel (any width up to 128, weights in shared memory or read through
+// L1). One block takes T = 16 * warps samples per tile: the forward pass per warp (GpuWarpForward.cuh, activations
+// staged in shared memory), loss, backward with WMMA m16n16k16, weight gradients into a per-block slot, and the
+// table-gradient scatter (or dEnc out for the level-major scatter). The register-resident kernel (GpuBackward.cuh)
+// replaces it where the shape allows.
 #pragma once
 
 #include "GpuTrainArgs.cuh"
+#include "GpuWarpForward.cuh"
 
 namespace nv
 {
@@ -75,39 +76,47 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
       sx[3 * t + 2] = x[2];
       stgt[t] = tg;
     }
-    if constexpr (TwoPass)
+    __syncthreads();
+    // Forward: each warp its 16 rows (the one forward pass); X_l and X_H staged for the backward pass.
     {
-      using V = typename HalfVec<F>::T;
-      const V* src = reinterpret_cast<const V*>(a.encG);
-      for (int it = threadIdx.x; it < T * a.grid.levels; it += blockDim.x)
+      const WarpNet net = p.wInSmem
+        ? WarpNet{ reinterpret_cast<const __half*>(smem + p.w), p.wOff, s.Dp + 8, W + 8, sw }
+        : WarpNet{ a.w16, s.off, s.Dp, W, sw };
+      // X_l of layer l >= 1 is the output of layer l - 1: activation slot l - 1 (a.actOff[l] = (l - 1) * actStride).
+      const StageActivations st{ acts + row0 * p.ldA, a.actOff, p.ldA,
+        acts + (s.H - 1) * actStride + row0 * p.ldA, p.ldA };
+      __half* rows = enc + row0 * p.ldE;
+      WarpOut<W> fo;
+      if constexpr (TwoPass)
       {
-        const int t = it % T, l = it / T;
-        V v{};
-        if (t < valid)
-          v = __ldcs(src + l * a.n + base + t);
-        *reinterpret_cast<V*>(enc + t * p.ldE + l * F) = v;
+        const PreEncoded src{ a.encG, base + row0, a.n };
+        if (p.wInSmem)
+          warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, rows, p.ldE, lane, st, fo);
+        else
+          warpForward<W, F, false, WeightsInGlobal>(a.grid, s, net, src, nullptr, rows, p.ldE, lane, st, fo);
+      }
+      else
+      {
+        const float* xr = sx + 3 * (row0 + (lane & 15));
+        const float x[3] = { xr[0], xr[1], xr[2] };
+        const EncodeFrom<__half> src{ a.table16 };
+        if (p.wInSmem)
+          warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, rows, p.ldE, lane, st, fo);
+        else
+          warpForward<W, F, false, WeightsInGlobal>(a.grid, s, net, src, x, rows, p.ldE, lane, st, fo);
+      }
+      if ((lane & 3) == 0)
+      {
+        sg[row0 + (lane >> 2)] = fo.lo; // outputs first; the loss below turns them into gradients
+        sg[row0 + (lane >> 2) + 8] = fo.hi;
       }
     }
-    else
-    {
-      __syncthreads();
-      encodeTile<F>(a.grid, a.table16, sx, enc, p.ldE, T);
-    }
-    __syncthreads();
-    // Forward: rows are private to the warp.
-    forwardLayer<W>(enc, p.ldE, s.Dp, wl[0], ldw[0], acts, p.ldA, stage, row0, lane);
-    for (int l = 1; l < s.H; ++l)
-      forwardLayer<W>(acts + (l - 1) * actStride, p.ldA, W, wl[l], ldw[l], acts + l * actStride, p.ldA, stage, row0,
-        lane);
+    __syncwarp();
     const __half* AH = acts + (s.H - 1) * actStride;
     {
       const int t = row0 + (lane >> 1), h = lane & 1;
-      float o = 0.0f;
-      const __half* r = AH + t * p.ldA + h * (W / 2);
-#pragma unroll 8
-      for (int i = 0; i < W / 2; ++i)
-        o += __half2float(r[i]) * sw[h * (W / 2) + i];
-      o += __shfl_xor_sync(0xffffffffu, o, 1);
+      const float o = sg[t];
+      __syncwarp();
       if (h == 0)
       {
         const float tg = stgt[t];

@@ -33,12 +33,11 @@ using TrainFn = void (*)(TrainArgs);
 /// Two-pass training (level-major encode -> MLP kernel -> level-major scatter) or the single fused kernel. Measured
 /// on an H100 at batch 65536 (gpu_notes.md): two passes win when the table does not fit L2 comfortably (2^18: 0.557
 /// vs 0.612 ms, 2^19: 0.754 vs 0.820) and lose on small tables (2^16: 0.388 vs 0.358, 2^14: 0.350 vs 0.322) and
-/// small batches (16384 at 2^19: 0.501 vs 0.479; 32768: equal). NV_GPU_TRAIN_TWOPASS=0/1 forces a path.
-bool trainTwoPass(size_t table16Bytes, int64_t batch)
+/// small batches (16384 at 2^19: 0.501 vs 0.479; 32768: equal). KernelOptions::trainTwoPass 0 / 1 forces a path.
+bool trainTwoPass(const KernelOptions& o, size_t table16Bytes, int64_t batch)
 {
-  const char* e = std::getenv("NV_GPU_TRAIN_TWOPASS");
-  if (e && *e)
-    return std::atoi(e) != 0;
+  if (o.trainTwoPass >= 0)
+    return o.trainTwoPass != 0;
   return table16Bytes > (size_t(16) << 20) && batch > 32768;
 }
 
@@ -70,13 +69,6 @@ TrainFn pickReg(int W, int F, bool two)
   return nullptr;
 }
 
-/// NV_GPU_TRAIN_REG=0 forces the WMMA kernel (benchmarks, tests).
-bool regAllowed()
-{
-  const char* e = std::getenv("NV_GPU_TRAIN_REG");
-  return !(e && *e && std::atoi(e) == 0);
-}
-
 int gridFor(int64_t n, int threads = 256)
 {
   const int64_t b = (n + threads - 1) / threads;
@@ -86,10 +78,13 @@ int gridFor(int64_t n, int threads = 256)
 class GpuTrainer final : public Trainer
 {
 public:
-  GpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, bool forTest)
+  GpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, const KernelOptions& options,
+    PublishFn publish, bool forTest)
     : Config(model.config())
     , Train(config)
     , Volume(volume)
+    , Options(options)
+    , Publish(std::move(publish))
   {
     validate(config);
     const size_t np = model.paramCount();
@@ -104,7 +99,8 @@ public:
     GradPad.allocate(Dm.shape.total, "MLP gradient");
     const int64_t B = config.batchSize;
     Targets.allocate(B, "targets");
-    if (trainTwoPass(Dm.table16.bytes(), B))
+    Dm.options = options;
+    if (trainTwoPass(options, Dm.table16.bytes(), B))
     {
       const int64_t D = int64_t(Dm.grid.levels) * Dm.grid.features;
       EncG.allocate(size_t(B * D), "encodings");
@@ -233,6 +229,13 @@ public:
     NV_CUDA(cudaMemcpy(model.params().data(), P.get(), P.bytes(), cudaMemcpyDeviceToHost));
   }
 
+  /// The session packs the fp32 parameters into its own fp16 copy, on this trainer's stream, and waits for it.
+  void publish() override
+  {
+    NV_CHECK(Publish != nullptr, "this trainer has no session to publish to");
+    Publish(P.get(), St.get());
+  }
+
   int64_t deviceMemoryBytes() const override
   {
     return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
@@ -347,7 +350,9 @@ private:
   {
     const int maxSmem = deviceInfo().maxSmemOptin - 1024; // static shared memory of the kernel
     Reg = makeRegPlan(Dm.shape, kRegWarps, !two);
-    Fn = regAllowed() && Reg.warps > 0 && Reg.total <= maxSmem ? pickReg(Dm.shape.W, Dm.grid.features, two) : nullptr;
+    Fn = Options.trainRegisterResident && Reg.warps > 0 && Reg.total <= maxSmem
+      ? pickReg(Dm.shape.W, Dm.grid.features, two)
+      : nullptr;
     int perSm = 0;
     if (Fn)
     {
@@ -397,6 +402,8 @@ private:
     a.grid = Dm.grid;
     a.shape = Dm.shape;
     a.plan = Plan;
+    for (int l = 1; l < Dm.shape.H; ++l)
+      a.actOff[l] = (l - 1) * Plan.T * Plan.ldA;
     a.reg = Reg;
     a.table16 = Dm.table16.get();
     a.table32 = P.get();
@@ -506,6 +513,8 @@ private:
   ModelConfig Config;
   TrainConfig Train;
   VolumeView Volume;
+  KernelOptions Options;
+  PublishFn Publish;
   TrainingStrategy Strategy = TrainingStrategy::GpuResident;
   size_t NEnc = 0, NMlp = 0;
   mutable Stream St;
@@ -529,13 +538,14 @@ private:
 
 } // namespace
 
-std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config)
+std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish)
 {
-  return std::unique_ptr<Trainer>(new GpuTrainer(model, volume, config, false));
+  return std::unique_ptr<Trainer>(new GpuTrainer(model, volume, config, options, std::move(publish), false));
 }
 
 float testLossAndGradient(const Model& model, const TrainConfig& config, const float* xyz, const float* targets,
-  const uint8_t* valid, int64_t n, std::vector<float>& grad)
+  const uint8_t* valid, int64_t n, std::vector<float>& grad, const KernelOptions& kernels)
 {
   const float dummy[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
   VolumeView v;
@@ -543,7 +553,7 @@ float testLossAndGradient(const Model& model, const TrainConfig& config, const f
   v.dims[0] = v.dims[1] = v.dims[2] = 2;
   TrainConfig c = config;
   c.batchSize = static_cast<int>(std::max<int64_t>(n, 1));
-  GpuTrainer t(model, v, c, true);
+  GpuTrainer t(model, v, c, kernels, nullptr, true);
   return t.lossAndGradient(xyz, targets, valid, n, grad);
 }
 

@@ -4,8 +4,10 @@
 //   nvBench curve DEVICE file.nhdr LOG2T STEPS[,..] [BATCH] [SEED] -> PSNR over all voxels at the given steps
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
-// DEVICE: cpu | cuda. Prints lines "RESULT {json}".
+// DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h. Prints lines "RESULT {json}".
 #include "Core/Engine.h"
+#include "Core/NetworkSession.h"
+#include "KernelFlags.h"
 #include "Nhdr.h"
 
 #include <algorithm>
@@ -42,6 +44,8 @@ static std::vector<float> analytic(int n)
 
 int main(int argc, char** argv)
 {
+  SessionOptions options;
+  options.kernels = nvbench::parseKernelFlags(argc, argv);
   if (argc < 3)
   {
     std::fprintf(stderr, "usage: see the header of nvBench.cpp\n");
@@ -69,12 +73,13 @@ int main(int argc, char** argv)
       vol.valueMax = st.max;
       m.source.valueMin = st.min;
       m.source.valueMax = st.max;
+      const auto session = NetworkSession::create(dev, m, options);
       if (mode == "step")
       {
         TrainConfig tc;
         tc.batchSize = int(size);
         const int steps = argc > 6 ? std::atoi(argv[6]) : 10;
-        auto tr = createTrainer(dev, m, vol, tc);
+        auto tr = session->createTrainer(vol, tc);
         tr->step();
         tr->step();
         std::vector<double> ts;
@@ -101,9 +106,9 @@ int main(int argc, char** argv)
         std::vector<float> xyz(static_cast<size_t>(size) * 3), out(static_cast<size_t>(size));
         for (size_t i = 0; i < xyz.size(); ++i)
           xyz[i] = float((i * 2654435761ull) % 1000003) / 1000003.f;
-        inferPoints(m, xyz.data(), size, out.data(), dev);
+        session->inferPoints(xyz.data(), size, out.data(), Memory::Host);
         const auto a = Clock::now();
-        inferPoints(m, xyz.data(), size, out.data(), dev);
+        session->inferPoints(xyz.data(), size, out.data(), Memory::Host);
         const double t = seconds(a, Clock::now());
         std::printf("RESULT {\"what\":\"inference\",\"device\":\"%s\",\"n\":%lld,\"ms\":%.3f,\"samples_per_s\":%.4g,"
                     "\"note\":\"host arrays, transfers included\"}\n",
@@ -112,9 +117,9 @@ int main(int argc, char** argv)
       else
       {
         std::vector<float> out(size_t(size) * size * size);
-        decodeGrid(m, size, size, size, 0, size, out.data(), dev);
+        decodeGridValues(*session, size, size, size, 0, size, out.data());
         const auto a = Clock::now();
-        decodeGrid(m, size, size, size, 0, size, out.data(), dev);
+        decodeGridValues(*session, size, size, size, 0, size, out.data());
         const double t = seconds(a, Clock::now());
         std::printf("RESULT {\"what\":\"decode\",\"device\":\"%s\",\"grid\":%lld,\"ms\":%.3f,\"samples_per_s\":%.4g,"
                     "\"note\":\"to host memory\"}\n",
@@ -131,13 +136,15 @@ int main(int argc, char** argv)
       TrainConfig tc;
       tc.batchSize = std::atoi(argv[6]);
       const auto a = Clock::now();
-      auto tr = createTrainer(dev, m, raw.view, tc);
+      const auto session = NetworkSession::create(dev, m, options);
+      auto tr = session->createTrainer(raw.view, tc);
       while (seconds(a, Clock::now()) < budget)
         tr->step();
       tr->syncTo(m);
       const double t = seconds(a, Clock::now());
       m.quantize(Precision::Float16);
-      const ErrorStats e = compareToSource(m, raw.view, dev);
+      session->setModel(m);
+      const ErrorStats e = compareToSource(*session, raw.view);
       std::printf("RESULT {\"what\":\"budget\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"batch\":%d,"
                   "\"seconds\":%.2f,\"steps\":%lld,\"psnr_fp16\":%.2f,\"ratio_fp16\":%.2f}\n",
         deviceName(dev), raw.name.c_str(), c.encoding.log2TableSize, tc.batchSize, t, (long long)tr->stepsDone(),
@@ -155,7 +162,8 @@ int main(int argc, char** argv)
       TrainConfig tc;
       tc.seed = seed;
       tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;
-      auto tr = createTrainer(dev, m, raw.view, tc);
+      const auto session = NetworkSession::create(dev, m, options);
+      auto tr = session->createTrainer(raw.view, tc);
       double trainTime = 0;
       std::printf("RESULT {\"what\":\"curve\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"finest\":%d,"
                   "\"batch\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T, c.encoding.finestResolution,
@@ -169,9 +177,9 @@ int main(int argc, char** argv)
           tr->step();
           ++done;
         }
-        tr->syncTo(m);
+        tr->publish();
         trainTime += seconds(a, Clock::now());
-        const ErrorStats e = compareToSource(m, raw.view, dev);
+        const ErrorStats e = compareToSource(*session, raw.view);
         std::printf("%s[%d,%.2f,%.2f]", k ? "," : "", done, trainTime, e.psnr);
         std::fflush(stdout);
       }

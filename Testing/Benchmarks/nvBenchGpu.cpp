@@ -1,11 +1,14 @@
-// NeuralVolume CUDA benchmark (kernel-only figures that the device-agnostic nvBench cannot take).
-//   nvBenchGpu infer N LOG2T FINEST                    -> inference kernel (device-resident points) + host-array API
-//   nvBenchGpu decode NX LOG2T FINEST                  -> decode kernel (device output) + API to host memory
+// NeuralVolume CUDA benchmark (figures that the device-agnostic nvBench cannot take).
+//   nvBenchGpu infer N LOG2T FINEST    -> inference: kernel alone, session API on device arrays, on host arrays
+//   nvBenchGpu decode NX LOG2T FINEST  -> decode of an NX^3 grid: kernel alone, session API to device / host memory
 //   nvBenchGpu ttq file.nhdr LOG2T STEPS[,..] [BATCH]  -> wall time incl. trainer creation/upload and PSNR at marks
-// Paper configuration otherwise (16 levels x 4, base 16, 64 x 4 MLP). Prints lines "RESULT {json}".
+// Paper configuration otherwise (16 levels x 4, base 16, 64 x 4 MLP). Kernel variants: flags of KernelFlags.h.
+// Prints lines "RESULT {json}".
 #include "Core/Engine.h"
+#include "Core/NetworkSession.h"
 #include "Gpu/GpuEngine.h"
 #include "Gpu/GpuTesting.h"
+#include "KernelFlags.h"
 #include "Nhdr.h"
 
 #include <algorithm>
@@ -26,6 +29,8 @@ static double seconds(Clock::time_point a, Clock::time_point b)
 
 int main(int argc, char** argv)
 {
+  SessionOptions options;
+  options.kernels = nvbench::parseKernelFlags(argc, argv);
   if (argc < 3)
   {
     std::fprintf(stderr, "usage: see the header of nvBenchGpu.cpp\n");
@@ -50,37 +55,38 @@ int main(int argc, char** argv)
       m.initialize(1);
       for (size_t i = 0; i < m.encodingParamCount(); ++i) // O(0.1) table values, as after training
         m.params()[i] *= 1000.0f;
+      const auto session = NetworkSession::create(Device::Cuda, m, options);
       if (mode == "infer")
       {
         const double ms = gpu::benchInferKernel(m, size, 20);
+        const double api = gpu::benchSessionInfer(*session, size, 20);
         std::vector<float> xyz(static_cast<size_t>(size) * 3), out(static_cast<size_t>(size));
         for (size_t i = 0; i < xyz.size(); ++i)
           xyz[i] = float((i * 2654435761ull) % 1000003) / 1000003.f;
-        inferPoints(m, xyz.data(), size, out.data(), Device::Cuda);
+        session->inferPoints(xyz.data(), size, out.data(), Memory::Host);
         const auto a = Clock::now();
-        inferPoints(m, xyz.data(), size, out.data(), Device::Cuda);
+        session->inferPoints(xyz.data(), size, out.data(), Memory::Host);
         const double t = seconds(a, Clock::now());
-        std::printf("RESULT {\"what\":\"inference\",\"n\":%lld,\"log2T\":%d,\"kernel_ms\":%.3f,\"kernel_samples_per_s\":%.4g,"
-                    "\"api_ms\":%.3f,\"api_samples_per_s\":%.4g}\n",
-          (long long)size, c.encoding.log2TableSize, ms, double(size) / (ms * 1e-3), t * 1e3, double(size) / t);
+        std::printf("RESULT {\"what\":\"inference\",\"n\":%lld,\"log2T\":%d,\"kernel_ms\":%.3f,"
+                    "\"kernel_samples_per_s\":%.4g,\"api_device_ms\":%.3f,\"api_device_samples_per_s\":%.4g,"
+                    "\"api_host_ms\":%.3f,\"api_host_samples_per_s\":%.4g}\n",
+          (long long)size, c.encoding.log2TableSize, ms, double(size) / (ms * 1e-3), api, double(size) / (api * 1e-3),
+          t * 1e3, double(size) / t);
       }
       else
       {
         const double ms = gpu::benchDecodeKernel(m, size, size, size, 5);
+        const double api = gpu::benchSessionDecode(*session, size, size, size, 5);
         std::vector<float> out(size_t(size) * size * size);
-        decodeGrid(m, size, size, size, 0, size, out.data(), Device::Cuda);
+        session->decodeGrid(size, size, size, 0, size, out.data(), Memory::Host);
         const auto a = Clock::now();
-        decodeGrid(m, size, size, size, 0, size, out.data(), Device::Cuda);
+        session->decodeGrid(size, size, size, 0, size, out.data(), Memory::Host);
         const double t = seconds(a, Clock::now());
-        // The engine's GPU entry point alone (normalised values; the public decodeGrid above also denormalises).
-        const auto a2 = Clock::now();
-        gpu::decodeGrid(m, size, size, size, 0, size, out.data());
-        const double t2 = seconds(a2, Clock::now());
         const double n = double(size) * size * size;
         std::printf("RESULT {\"what\":\"decode\",\"grid\":%lld,\"kernel_ms\":%.3f,\"kernel_samples_per_s\":%.4g,"
-                    "\"api_ms\":%.3f,\"api_samples_per_s\":%.4g,\"gpu_entry_ms\":%.3f,"
-                    "\"note\":\"api: model upload + decode into host memory (public decodeGrid); gpu_entry: gpu::decodeGrid\"}\n",
-          (long long)size, ms, n / (ms * 1e-3), t * 1e3, n / t, t2 * 1e3);
+                    "\"api_device_ms\":%.3f,\"api_host_ms\":%.3f,\"api_host_samples_per_s\":%.4g,"
+                    "\"note\":\"api_device: session->decodeGrid into device memory; api_host: into host memory\"}\n",
+          (long long)size, ms, n / (ms * 1e-3), api, t * 1e3, n / t);
       }
       return 0;
     }
@@ -94,7 +100,8 @@ int main(int argc, char** argv)
       TrainConfig tc;
       tc.batchSize = argc > 5 ? std::atoi(argv[5]) : 65536;
       const auto a = Clock::now();
-      auto tr = createTrainer(Device::Cuda, m, raw.view, tc);
+      const auto session = NetworkSession::create(Device::Cuda, m, options);
+      auto tr = session->createTrainer(raw.view, tc);
       double wall = seconds(a, Clock::now());
       const double create = wall;
       std::printf("RESULT {\"what\":\"time_to_quality\",\"name\":\"%s\",\"log2T\":%d,\"create_s\":%.4f,"
@@ -106,9 +113,9 @@ int main(int argc, char** argv)
         const auto b = Clock::now();
         tr->steps(marks[k] - done, nullptr); // back to back, as Neural Compress runs them
         done = marks[k];
-        tr->syncTo(m);
+        tr->publish();
         wall += seconds(b, Clock::now());
-        const ErrorStats e = compareToSource(m, raw.view, Device::Cuda);
+        const ErrorStats e = compareToSource(*session, raw.view);
         std::printf("%s[%d,%.4f,%.2f]", k ? "," : "", done, wall, e.psnr);
         std::fflush(stdout);
       }

@@ -18,10 +18,10 @@ for s in "$@"; do
       $B/nvTestFilterTrainingGpu 2>&1 | tee "$O/filter_training.log"
       # the two-pass training path on every test shape (auto picks it for tables > 16 MiB only)
       for t in gradients_match_cpu training_curve_matches_cpu host_sampled_equals_gpu_resident queued_steps_equal_single_steps; do
-        NV_GPU_TRAIN_TWOPASS=1 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_twopass.log"
+        $B/nvTestGpuParity $t --two-pass=1; done 2>&1 | tee "$O/parity_twopass.log"
       # the WMMA training kernel (used for widths > 64 or shapes whose staging does not fit) on every test shape
       for t in gradients_match_cpu training_curve_matches_cpu; do
-        NV_GPU_TRAIN_REG=0 $B/nvTestGpuParity $t; done 2>&1 | tee "$O/parity_wmma.log" ;;
+        $B/nvTestGpuParity $t --wmma; done 2>&1 | tee "$O/parity_wmma.log" ;;
     memcheck)
       compute-sanitizer --tool memcheck --leak-check full $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity host_sampled_equals_gpu_resident 2>&1 | tail -6 | tee -a "$O/memcheck.log"
@@ -29,32 +29,31 @@ for s in "$@"; do
       compute-sanitizer --tool memcheck $B/nvTestGpuParity binned_inference_equals_unbinned 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity queued_steps_equal_single_steps 2>&1 | tail -6 | tee -a "$O/memcheck.log"
       # two-pass training (level-major encode/scatter) is chosen for large tables only: force it on the test shapes
-      NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool memcheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/memcheck.log" ;;
+      compute-sanitizer --tool memcheck $B/nvTestGpuParity gradients_match_cpu --two-pass=1 2>&1 | tail -6 | tee -a "$O/memcheck.log" ;;
     racecheck)
       compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/racecheck.log"
       compute-sanitizer --tool racecheck $B/nvTestGpuParity inference_matches_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
       compute-sanitizer --tool racecheck $B/nvTestGpuParity binned_inference_equals_unbinned 2>&1 | tail -6 | tee -a "$O/racecheck.log"
-      NV_GPU_TRAIN_TWOPASS=1 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log"
-      NV_GPU_TRAIN_REG=0 compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
+      compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu --two-pass=1 2>&1 | tail -6 | tee -a "$O/racecheck.log"
+      compute-sanitizer --tool racecheck $B/nvTestGpuParity gradients_match_cpu --wmma 2>&1 | tail -6 | tee -a "$O/racecheck.log" ;;
     step)
       for b in 16384 32768 65536 131072 262144 524288 1048576; do $B/nvBench step cuda $b 19 4096 200; done 2>&1 | tee "$O/step_batch.log"
       for t in 14 16 18 19 20 22; do $B/nvBench step cuda 65536 $t 4096 200; done 2>&1 | tee "$O/step_table.log"
-      for p in 0 1; do for t in 16 18 19; do NV_GPU_TRAIN_TWOPASS=$p $B/nvBench step cuda 65536 $t 4096 200; done; done 2>&1 | sed 's/^/forced /' | tee "$O/step_twopass.log"
-      NV_GPU_TRAIN_REG=0 $B/nvBench step cuda 65536 19 4096 200 2>&1 | sed 's/^/wmma /' | tee -a "$O/step_twopass.log" ;;
+      for p in 0 1; do for t in 16 18 19; do $B/nvBench --two-pass=$p step cuda 65536 $t 4096 200; done; done 2>&1 | sed 's/^/forced /' | tee "$O/step_twopass.log"
+      $B/nvBench --wmma step cuda 65536 19 4096 200 2>&1 | sed 's/^/wmma /' | tee -a "$O/step_twopass.log" ;;
     infer)
       for n in 2097152 8388608; do $B/nvBenchGpu infer $n 19 4096; done 2>&1 | tee "$O/infer.log"
       $B/nvBenchGpu decode 512 19 4096 2>&1 | tee -a "$O/infer.log"
-      # NV_GPU_FWD_MODE: 0 fused encode+MLP everywhere, 2 two passes for decoding too (default 1: two passes for points)
-      for m in 0 2; do NV_GPU_FWD_MODE=$m $B/nvBenchGpu infer 2097152 19 4096; NV_GPU_FWD_MODE=$m $B/nvBenchGpu decode 512 19 4096; done 2>&1 | sed 's/^/mode /' | tee -a "$O/infer.log" ;;
+      # --fwd-mode: 0 fused encode+MLP everywhere, 2 two passes for decoding too (default 1: two passes for points)
+      for m in 0 2; do $B/nvBenchGpu --fwd-mode=$m infer 2097152 19 4096; $B/nvBenchGpu --fwd-mode=$m decode 512 19 4096; done 2>&1 | sed 's/^/mode /' | tee -a "$O/infer.log" ;;
     infervariants)
-      # Inference design choices (pass 4): Morton binning of the points (NV_GPU_BIN_BITS, 0 = off, unset = auto),
-      # levels per thread in the level-major encode (NV_GPU_ENC_LPT 1/2/4, default 4), encoding scratch
-      # (NV_GPU_FWD_CHUNK_MB, default 128).
+      # Inference design choices (pass 4): Morton binning of the points (--bin-bits, 0 = off, -1 = auto),
+      # levels per thread in the level-major encode (--lpt 1/2/4, default 4), encoding scratch (--scratch-mb, 128).
       for n in 2097152 8388608; do for bits in 0 5 6; do for lpt in 1 2 4; do echo "n=$n bits=$bits lpt=$lpt"
-        NV_GPU_BIN_BITS=$bits NV_GPU_ENC_LPT=$lpt $B/nvBenchGpu infer $n 19 4096; done; done; done 2>&1 | tee "$O/infer_variants.log"
-      for c in 64 256; do echo "chunk=$c"; NV_GPU_FWD_CHUNK_MB=$c $B/nvBenchGpu infer 2097152 19 4096; done 2>&1 | tee -a "$O/infer_variants.log"
+        $B/nvBenchGpu --bin-bits=$bits --lpt=$lpt infer $n 19 4096; done; done; done 2>&1 | tee "$O/infer_variants.log"
+      for c in 64 256; do echo "chunk=$c"; $B/nvBenchGpu --scratch-mb=$c infer 2097152 19 4096; done 2>&1 | tee -a "$O/infer_variants.log"
       for n in 65536 262144; do for bits in 0 -1; do echo "n=$n bits=$bits"
-        NV_GPU_BIN_BITS=$bits $B/nvBenchGpu infer $n 19 4096; done; done 2>&1 | tee -a "$O/infer_variants.log" ;;
+        $B/nvBenchGpu --bin-bits=$bits infer $n 19 4096; done; done 2>&1 | tee -a "$O/infer_variants.log" ;;
     seeds)
       # GPU curves over six seeds (the accuracy bar compares means: single runs spread +-0.5 dB at 500 steps)
       for sd in 1 2 3 4 5 6; do for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do

@@ -2,11 +2,17 @@
 #include "Core/Engine.h"
 #include "Cpu/CpuHashGrid.h"
 #include "Reference.h"
+#include "SessionHelpers.h"
 #include "TestHarness.h"
 
 #include <random>
 
 using namespace nv;
+using nvtest::compareToSource;
+using nvtest::createTrainer;
+using nvtest::decodeGrid;
+using nvtest::decodeGridNormalized;
+using nvtest::inferPoints;
 
 NV_TEST(layout_matches_reference_paper_config)
 {

@@ -1,5 +1,6 @@
 // Training behaviour of the CPU engine: convergence, determinism, invalid samples, degenerate volumes.
 #include "Core/Engine.h"
+#include "SessionHelpers.h"
 #include "TestHarness.h"
 
 #include <cmath>
@@ -7,6 +8,11 @@
 #include <vector>
 
 using namespace nv;
+using nvtest::compareToSource;
+using nvtest::createTrainer;
+using nvtest::decodeGrid;
+using nvtest::decodeGridNormalized;
+using nvtest::inferPoints;
 
 namespace
 {

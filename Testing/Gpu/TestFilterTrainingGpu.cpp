@@ -61,16 +61,17 @@ NV_TEST(filter_loop_on_gpu)
   for (TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
   {
     const std::string tag = strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled";
-    Model m = smallModel(vol);
-    const double before = probe.Estimate(m, Device::Cuda, 0);
+    auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
+    const double before = probe.Estimate(*session);
     vi::TrainingRequest rq;
     rq.MaxSteps = 500;
     rq.PsnrInterval = 100; // splits the 64-step chunks: 64, 36, 64, 36, ...
-    rq.Device = Device::Cuda;
     std::vector<double> progress;
     rq.Progress = [&](double f) { progress.push_back(f); };
-    const vi::TrainingResult r = vi::Train(m, vol, trainConfig(strategy), rq, &probe);
-    const double after = probe.Estimate(m, Device::Cuda, 0);
+    const uint64_t version = session->version();
+    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(strategy), rq, &probe);
+    const double after = probe.Estimate(*session);
+    EXPECT_TRUE(session->version() == version + 5); // 4 probes and the end published to the session
     std::printf("    %s: %lld steps in %.3f s, GPU memory %.1f MiB, PSNR %.2f -> %.2f dB (probe at 400: %.2f)\n",
       tag.c_str(), (long long)r.Steps, r.Seconds, r.DeviceMemoryBytes / 1048576.0, before, after,
       r.Log.size() >= 400 ? r.Log[399].PSNR : NAN);
@@ -118,23 +119,21 @@ NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
   const VolumeView vol = floatCubeView(data, kN);
   {
     // Abort is checked between chunks: the first check lets one chunk (64 queued steps) run, the second aborts.
-    Model m = smallModel(vol);
+    auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
     vi::TrainingRequest rq;
     rq.MaxSteps = 100000;
-    rq.Device = Device::Cuda;
     int checks = 0;
     rq.ShouldAbort = [&] { return ++checks >= 2; };
-    const vi::TrainingResult r = vi::Train(m, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
+    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
     std::printf("    abort: %lld steps, aborted %d\n", (long long)r.Steps, int(r.Aborted));
     EXPECT_TRUE(r.Aborted && r.Steps == 64 && r.Log.size() == 64);
   }
   {
-    Model m = smallModel(vol);
+    auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
     vi::TrainingRequest rq;
     rq.MaxSteps = 10000000;
     rq.TimeBudget = 0.3;
-    rq.Device = Device::Cuda;
-    const vi::TrainingResult r = vi::Train(m, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
+    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
     std::printf("    time budget 0.3 s: %lld steps in %.3f s, timed out %d\n", (long long)r.Steps, r.Seconds,
       int(r.TimedOut));
     EXPECT_TRUE(r.TimedOut && r.Steps > 64 && r.Steps < rq.MaxSteps && r.Steps % 64 == 0);

@@ -6,6 +6,8 @@
 #include "Cpu/CpuTrainer.h"
 #include "Gpu/GpuEngine.h"
 #include "Gpu/GpuTesting.h"
+#include "KernelFlags.h"
+#include "SessionHelpers.h"
 #include "TestHarness.h"
 #include "TestVolumeView.h"
 
@@ -17,6 +19,11 @@
 #include <vector>
 
 using namespace nv;
+using nvtest::compareToSource;
+using nvtest::createTrainer;
+using nvtest::decodeGrid;
+using nvtest::decodeGridNormalized;
+using nvtest::inferPoints;
 
 namespace
 {
@@ -148,7 +155,7 @@ NV_TEST(inference_matches_cpu)
     const int64_t n = 5001; // not a multiple of the tile
     const auto xyz = randomPoints(n, 5);
     std::vector<float> cpu(n), gpu(n, NAN);
-    cpuInferPoints(m, xyz.data(), n, cpu.data(), 0);
+    inferPoints(m, xyz.data(), n, cpu.data(), Device::Cpu);
     inferPoints(m, xyz.data(), n, gpu.data(), Device::Cuda);
     EXPECT_REL(relErr(gpu.data(), cpu.data(), n), kTolOutput, "MLP output " + name(s));
   }
@@ -174,14 +181,17 @@ NV_TEST(binned_inference_equals_unbinned)
   xyz[3 * 8 + 1] = 1.5f;
   xyz[3 * 9 + 2] = NAN;
   std::vector<float> cpu(n), plain(n, NAN), binned(n, NAN);
-  cpuInferPoints(m, xyz.data(), n, cpu.data(), 0);
-  gpu::setInferenceBinning(0);
-  inferPoints(m, xyz.data(), n, plain.data(), Device::Cuda);
+  inferPoints(m, xyz.data(), n, cpu.data(), Device::Cpu);
+  auto binnedSession = [&](int bits) {
+    SessionOptions o;
+    o.kernels.binBitsPerAxis = bits;
+    return NetworkSession::create(Device::Cuda, m, o);
+  };
+  binnedSession(0)->inferPoints(xyz.data(), n, plain.data(), Memory::Host);
   EXPECT_TRUE(gpu::lastInferenceBinning() == 0);
   for (int bits : { -1, 3, 7 })
   {
-    gpu::setInferenceBinning(bits);
-    inferPoints(m, xyz.data(), n, binned.data(), Device::Cuda);
+    binnedSession(bits)->inferPoints(xyz.data(), n, binned.data(), Memory::Host);
     EXPECT_TRUE(gpu::lastInferenceBinning() == (bits < 0 ? 4 : bits)); // automatic: ~32 points per bin
     int64_t differ = 0;
     for (int64_t i = 0; i < n; ++i)
@@ -190,7 +200,6 @@ NV_TEST(binned_inference_equals_unbinned)
       (long long)n);
     EXPECT_TRUE(differ == 0);
   }
-  gpu::setInferenceBinning(-1);
   // the NaN point is excluded from the CPU comparison (both engines are free to produce NaN there)
   cpu[9] = plain[9] = 0.0f;
   EXPECT_REL(relErr(plain.data(), cpu.data(), n), kTolOutput, std::string("binned inference vs CPU"));
@@ -210,7 +219,7 @@ NV_TEST(gradients_match_cpu)
       const int n = 3000;
       const auto xyz = randomPoints(n, 9);
       std::vector<float> cpuOut(n);
-      cpuInferPoints(m, xyz.data(), n, cpuOut.data(), 0);
+      inferPoints(m, xyz.data(), n, cpuOut.data(), Device::Cpu);
       std::mt19937 rng(5);
       std::normal_distribution<float> nd(0.0f, 0.3f);
       std::vector<float> targets(n);
@@ -224,10 +233,12 @@ NV_TEST(gradients_match_cpu)
       TrainConfig tc;
       tc.batchSize = n;
       tc.loss = loss;
-      CpuTrainer cpu(m, v, tc);
+      Model published = m;
+      CpuTrainer cpu(m, v, tc, [&published](const std::vector<float>& p) { published.params() = p; });
       std::vector<float> gc, gg;
       const float lc = cpu.lossAndGradient(xyz.data(), targets.data(), valid.data(), n, gc);
-      const float lg = gpu::testLossAndGradient(m, tc, xyz.data(), targets.data(), valid.data(), n, gg);
+      const float lg = gpu::testLossAndGradient(m, tc, xyz.data(), targets.data(), valid.data(), n, gg,
+        nvtest::kernelOptions());
       const std::string tag = name(s) + (loss == LossType::L1 ? " L1" : " L2");
       EXPECT_REL(std::fabs(double(lg) - lc) / std::fabs(lc), kTolLoss, "loss " + tag);
       EXPECT_TRUE(gg.size() == gc.size());
@@ -264,7 +275,7 @@ NV_TEST(decode_equals_batched_inference)
           xyz[3 * i + 2] = gridCoordinate(z, nz);
         }
     inferPoints(m, xyz.data(), n, inf.data(), Device::Cuda);
-    cpuDecodeGrid(m, nx, ny, nz, z0, z1, cpu.data(), 0);
+    decodeGridNormalized(m, nx, ny, nz, z0, z1, cpu.data(), Device::Cpu);
     int mismatches = 0;
     for (int64_t i = 0; i < n; ++i)
       mismatches += dec[i] == inf[i] ? 0 : 1;
@@ -446,6 +457,8 @@ NV_TEST(queued_steps_equal_single_steps)
 
 int main(int argc, char** argv)
 {
+  // Kernel variants (e.g. --two-pass=1, --wmma) apply to every session the test creates.
+  nvtest::kernelOptions() = nvbench::parseKernelFlags(argc, argv);
   std::string why;
   if (!gpu::deviceUsable(&why))
   {

@@ -1,0 +1,21 @@
+// NeuralVolume engine: entry points of the two backends. The only place the core learns which backends a build
+// has: CMake compiles either the CUDA backend (Gpu/GpuSession.cu) or Cpu/NoCudaBackend.cpp, which report CUDA as
+// unusable with the reason.
+#pragma once
+
+#include "NetworkSession.h"
+
+#include <memory>
+#include <string>
+
+namespace nv
+{
+
+std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options);
+
+/// True when the CUDA backend can run here (built with CUDA, driver present, a supported GPU); else `why`.
+bool cudaBackendUsable(std::string* why);
+/// Throws nv::Error when !cudaBackendUsable().
+std::unique_ptr<NetworkSession> createCudaSession(const Model& model, const SessionOptions& options);
+
+} // namespace nv

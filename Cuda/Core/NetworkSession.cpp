@@ -1,0 +1,61 @@
+#include "NetworkSession.h"
+
+#include "Backends.h"
+#include "Error.h"
+
+#include <vector>
+
+namespace nv
+{
+
+std::unique_ptr<NetworkSession> NetworkSession::create(Device device, const Model& model,
+  const SessionOptions& options, std::string* message)
+{
+  validate(model.config());
+  NV_CHECK(model.paramCount() > 0, "model has no parameters");
+  NV_CHECK(options.threads >= 0 && options.threads <= 4096, "thread count must be in 0..4096");
+  if (resolveDevice(device, message) == Device::Cuda)
+    return createCudaSession(model, options);
+  return createCpuSession(model, options);
+}
+
+namespace
+{
+template <typename T>
+void decodeValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, T* out)
+{
+  NV_CHECK(nx >= 1 && ny >= 1 && nz >= 1 && z0 >= 0 && z0 <= z1 && z1 <= nz, "decodeGridValues: invalid grid");
+  const int64_t n = nx * ny * (z1 - z0);
+  std::vector<float> tmp;
+  float* norm = reinterpret_cast<float*>(out);
+  if (sizeof(T) != sizeof(float))
+  {
+    tmp.resize(static_cast<size_t>(n));
+    norm = tmp.data();
+  }
+  s.decodeGrid(nx, ny, nz, z0, z1, norm, Memory::Host);
+  const double lo = s.model().source.valueMin, range = s.model().source.valueMax - lo;
+  for (int64_t i = 0; i < n; ++i)
+    out[i] = static_cast<T>(lo + range * static_cast<double>(norm[i]));
+}
+} // namespace
+
+void decodeGridValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out)
+{
+  decodeValues(s, nx, ny, nz, z0, z1, out);
+}
+
+void decodeGridValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, double* out)
+{
+  decodeValues(s, nx, ny, nz, z0, z1, out);
+}
+
+ErrorStats compareToSource(NetworkSession& s, const VolumeView& volume)
+{
+  const int64_t nx = volume.dims[0], ny = volume.dims[1], nz = volume.dims[2];
+  std::vector<double> decoded(static_cast<size_t>(volume.count()));
+  decodeGridValues(s, nx, ny, nz, 0, nz, decoded.data());
+  return compareDecoded(decoded.data(), volume, s.model().source.valueMin, s.model().source.valueMax, 0);
+}
+
+} // namespace nv

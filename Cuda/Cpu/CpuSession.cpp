@@ -1,0 +1,100 @@
+#include "CpuSession.h"
+
+#include "Core/Backends.h"
+#include "Core/Error.h"
+#include "CpuTrainer.h"
+
+namespace nv
+{
+
+std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options)
+{
+  return std::unique_ptr<NetworkSession>(new CpuSession(model, options));
+}
+
+CpuSession::CpuSession(const Model& model, const SessionOptions& options)
+  : Options(options)
+  , M(model)
+  , Pool(options.threads)
+  , Renderer(new CpuRenderer(Pool))
+{
+}
+
+CpuSession::~CpuSession() = default;
+
+uint64_t CpuSession::version() const
+{
+  std::lock_guard<std::mutex> lock(Mutex);
+  return Version;
+}
+
+void CpuSession::setModel(const Model& model)
+{
+  validate(model.config());
+  std::lock_guard<std::mutex> lock(Mutex);
+  M = model;
+  Eval.reset();
+  ++Version;
+}
+
+const CpuInference& CpuSession::evaluator()
+{
+  if (!Eval)
+    Eval.reset(new CpuInference(M));
+  return *Eval;
+}
+
+std::unique_ptr<Trainer> CpuSession::createTrainer(const VolumeView& volume, const TrainConfig& config)
+{
+  validate(config);
+  NV_CHECK(volume.data != nullptr && volume.count() > 0, "empty source volume");
+  TrainConfig c = config;
+  if (c.threads == 0)
+    c.threads = Options.threads;
+  std::lock_guard<std::mutex> lock(Mutex);
+  // The trainer must not outlive the session (documented in NetworkSession::createTrainer).
+  return std::unique_ptr<Trainer>(new CpuTrainer(M, volume, c, [this](const std::vector<float>& p) {
+    std::lock_guard<std::mutex> guard(Mutex);
+    NV_CHECK(p.size() == M.params().size(), "publish: the trainer's network has a different configuration");
+    M.params() = p;
+    Eval.reset();
+    ++Version;
+  }));
+}
+
+void CpuSession::inferPoints(const float* xyz, int64_t n, float* out, Memory where)
+{
+  NV_CHECK(where == Memory::Host, "the CPU backend has no device memory");
+  NV_CHECK(n >= 0 && (n == 0 || (xyz && out)), "inferPoints: invalid arguments");
+  if (n == 0)
+    return;
+  std::lock_guard<std::mutex> lock(Mutex);
+  evaluator().inferPoints(Pool, xyz, n, out);
+}
+
+void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where)
+{
+  NV_CHECK(where == Memory::Host, "the CPU backend has no device memory");
+  NV_CHECK(nx >= 1 && ny >= 1 && nz >= 1, "decodeGrid: grid dimensions must be >= 1");
+  NV_CHECK(z0 >= 0 && z0 <= z1 && z1 <= nz, "decodeGrid: invalid slice range");
+  NV_CHECK(out != nullptr || z0 == z1, "decodeGrid: null output");
+  if (z0 == z1)
+    return;
+  std::lock_guard<std::mutex> lock(Mutex);
+  evaluator().decodeGrid(Pool, nx, ny, nz, z0, z1, out);
+}
+
+void CpuSession::render(const RenderRequest& request, RenderResult& result, Memory where)
+{
+  NV_CHECK(where == Memory::Host, "the CPU backend renders into host memory");
+  std::lock_guard<std::mutex> lock(Mutex);
+  Renderer->render(M, Version, request, result);
+}
+
+bool CpuSession::workPending() const
+{
+  std::lock_guard<std::mutex> lock(Mutex);
+  return Renderer->workPending();
+}
+
+} // namespace nv

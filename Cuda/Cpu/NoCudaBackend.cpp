@@ -1,0 +1,20 @@
+// NeuralVolume engine: the CUDA entry points of a build without a CUDA compiler (see Core/Backends.h).
+#include "Core/Backends.h"
+#include "Core/Error.h"
+
+namespace nv
+{
+
+bool cudaBackendUsable(std::string* why)
+{
+  if (why)
+    *why = "this build of NeuralVolume has no CUDA support (no CUDA compiler at build time)";
+  return false;
+}
+
+std::unique_ptr<NetworkSession> createCudaSession(const Model&, const SessionOptions&)
+{
+  NV_THROW("CUDA device requested but this build of NeuralVolume has no CUDA support");
+}
+
+} // namespace nv

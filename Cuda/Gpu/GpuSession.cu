@@ -1,0 +1,258 @@
+// NeuralVolume engine: the CUDA backend of NetworkSession. Owns the network's device copy (fp16 table and weights,
+// fp32 output row, and the fp32 parameters last published), one stream, the inference scratch and the host staging
+// buffers, all created once; trainers publish into it on the device.
+#include "Core/Backends.h"
+#include "Core/Error.h"
+#include "Cpu/ThreadPool.h"
+#include "GpuEngine.h"
+#include "GpuInternal.cuh"
+#include "GpuRenderer.cuh"
+
+#include <algorithm>
+#include <cstring>
+#include <mutex>
+
+namespace nv
+{
+
+bool cudaBackendUsable(std::string* why)
+{
+  return gpu::deviceUsable(why);
+}
+
+namespace gpu
+{
+namespace
+{
+
+/// Chunks of host-array inference and decoding: 3 slots, so the GPU fills chunk k while chunk k-1 is copied to
+/// pinned memory (own copy stream) and host threads move chunk k-2 out of it.
+constexpr int kSlots = 3;
+constexpr int64_t kChunk = int64_t(1) << 22;
+
+class GpuSession final : public NetworkSession
+{
+public:
+  GpuSession(const Model& model, const SessionOptions& options)
+    : Options(options)
+    , M(model)
+    , Pool(std::min(16, options.threads > 0 ? options.threads : ThreadPool::defaultThreads()))
+  {
+    upload(model);
+    Renderer.reset(new GpuRenderer(Dm, St.get()));
+  }
+
+  ~GpuSession() override
+  {
+    cudaStreamSynchronize(St.get());
+    cudaStreamSynchronize(Copy.get());
+  }
+
+  Device device() const override { return Device::Cuda; }
+  const Model& model() const override { return M; }
+
+  uint64_t version() const override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    return Version;
+  }
+
+  void setModel(const Model& model) override
+  {
+    validate(model.config());
+    NV_CHECK(model.paramCount() > 0, "model has no parameters");
+    std::lock_guard<std::mutex> lock(Mutex);
+    M = model;
+    upload(model);
+    HostStale = false;
+    ++Version;
+  }
+
+  void syncModel() override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    syncLocked();
+  }
+
+  std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override
+  {
+    validate(config);
+    NV_CHECK(volume.data != nullptr && volume.count() > 0, "empty source volume");
+    TrainConfig c = config;
+    if (c.threads == 0)
+      c.threads = Options.threads;
+    std::lock_guard<std::mutex> lock(Mutex);
+    syncLocked(); // the trainer starts from the current parameters
+    // The trainer must not outlive the session (NetworkSession::createTrainer).
+    return gpu::createTrainer(M, volume, c, Options.kernels,
+      [this](const float* dParams, void* stream) { publish(dParams, static_cast<cudaStream_t>(stream)); });
+  }
+
+  void inferPoints(const float* xyz, int64_t n, float* out, Memory where) override
+  {
+    NV_CHECK(n >= 0 && (n == 0 || (xyz && out)), "inferPoints: invalid arguments");
+    if (n == 0)
+      return;
+    std::lock_guard<std::mutex> lock(Mutex);
+    if (where == Memory::Device)
+    {
+      launchInference(Dm, xyz, 0, 0, 0, 0, 0, n, out, St.get());
+      St.sync();
+      return;
+    }
+    pipeline(n, xyz, out, [&](int64_t b, int64_t m, const float* dIn, float* dOut) {
+      launchInference(Dm, dIn, 0, 0, 0, 0, 0, m, dOut, St.get());
+      (void)b;
+    });
+  }
+
+  void decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where) override
+  {
+    NV_CHECK(nx >= 1 && ny >= 1 && nz >= 1, "decodeGrid: grid dimensions must be >= 1");
+    NV_CHECK(z0 >= 0 && z0 <= z1 && z1 <= nz, "decodeGrid: invalid slice range");
+    NV_CHECK(out != nullptr || z0 == z1, "decodeGrid: null output");
+    NV_CHECK(nx <= (int64_t(1) << 20) && ny <= (int64_t(1) << 20) && nz <= (int64_t(1) << 20),
+      "decodeGrid: more than 2^20 samples along an axis");
+    if (z0 == z1)
+      return;
+    const int64_t n = nx * ny * (z1 - z0);
+    std::lock_guard<std::mutex> lock(Mutex);
+    if (where == Memory::Device)
+    {
+      launchInference(Dm, nullptr, nx, ny, nz, z0, 0, n, out, St.get());
+      St.sync();
+      return;
+    }
+    pipeline(n, nullptr, out, [&](int64_t b, int64_t m, const float*, float* dOut) {
+      launchInference(Dm, nullptr, nx, ny, nz, z0, b, m, dOut, St.get());
+    });
+  }
+
+  void render(const RenderRequest& request, RenderResult& result, Memory where) override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    Renderer->render(M, Version, request, result, where);
+  }
+
+  bool workPending() const override { return false; }
+
+  int64_t deviceMemoryBytes() const override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    size_t b = Dm.bytes() + Dm.encScratch.bytes() + Params32.bytes();
+    for (int k = 0; k < kSlots; ++k)
+      b += DIn[k].bytes() + DOut[k].bytes();
+    return static_cast<int64_t>(b) + Renderer->deviceMemoryBytes();
+  }
+
+private:
+  void upload(const Model& model)
+  {
+    St.sync();
+    Dm.options = Options.kernels;
+    allocateDeviceModel(model, Dm);
+    Params32.allocate(model.paramCount(), "parameters");
+    NV_CUDA(cudaMemcpyAsync(Params32.get(), model.params().data(), Params32.bytes(), cudaMemcpyHostToDevice,
+      St.get()));
+    packParams(Params32.get(), Dm, St.get());
+    St.sync();
+  }
+
+  /// Trainer::publish: the trainer's fp32 parameters become this session's, on the trainer's stream.
+  void publish(const float* dParams, cudaStream_t stream)
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    NV_CUDA(cudaMemcpyAsync(Params32.get(), dParams, Params32.bytes(), cudaMemcpyDeviceToDevice, stream));
+    packParams(Params32.get(), Dm, stream);
+    NV_CUDA(cudaStreamSynchronize(stream));
+    HostStale = true;
+    ++Version;
+  }
+
+  void syncLocked()
+  {
+    if (!HostStale)
+      return;
+    NV_CUDA(cudaMemcpyAsync(M.params().data(), Params32.get(), Params32.bytes(), cudaMemcpyDeviceToHost, St.get()));
+    St.sync();
+    HostStale = false;
+  }
+
+  /// Host-array inference in chunks: launch(b, m, dIn, dOut) computes chunk [b, b + m) into dOut (dIn holds the
+  /// chunk's points when `in` is not null).
+  template <typename Launch>
+  void pipeline(int64_t n, const float* in, float* out, Launch&& launch)
+  {
+    const int64_t chunk = std::min(n, kChunk);
+    for (int k = 0; k < kSlots; ++k)
+    {
+      if (DOut[k].size() < size_t(chunk))
+      {
+        DOut[k].allocate(size_t(chunk), "inference outputs");
+        HOut[k].allocate(size_t(chunk));
+      }
+      if (in && DIn[k].size() < size_t(3 * chunk))
+      {
+        DIn[k].allocate(size_t(3 * chunk), "inference points");
+        HIn[k].allocate(size_t(3 * chunk));
+      }
+    }
+    const int64_t chunks = (n + chunk - 1) / chunk;
+    auto parallelCopy = [&](float* dst, const float* src, int64_t count) {
+      Pool.parallelFor(count, [&](int64_t s, int64_t e, int) { std::memcpy(dst + s, src + s, (e - s) * sizeof(float)); });
+    };
+    auto drain = [&](int64_t k) {
+      const int slot = static_cast<int>(k % kSlots);
+      NV_CUDA(cudaEventSynchronize(Done[slot].get()));
+      const int64_t b = k * chunk, m = std::min(chunk, n - b);
+      parallelCopy(out + b, HOut[slot].get(), m);
+    };
+    for (int64_t k = 0; k < chunks; ++k)
+    {
+      const int slot = static_cast<int>(k % kSlots); // chunk k - kSlots was drained in iteration k - 1
+      const int64_t b = k * chunk, m = std::min(chunk, n - b);
+      if (in)
+      {
+        parallelCopy(HIn[slot].get(), in + 3 * b, 3 * m);
+        NV_CUDA(cudaMemcpyAsync(DIn[slot].get(), HIn[slot].get(), 3 * m * sizeof(float), cudaMemcpyHostToDevice,
+          St.get()));
+      }
+      launch(b, m, in ? DIn[slot].get() : nullptr, DOut[slot].get());
+      NV_CUDA(cudaEventRecord(Filled[slot].get(), St.get()));
+      NV_CUDA(cudaStreamWaitEvent(Copy.get(), Filled[slot].get(), 0));
+      NV_CUDA(cudaMemcpyAsync(HOut[slot].get(), DOut[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost,
+        Copy.get()));
+      NV_CUDA(cudaEventRecord(Done[slot].get(), Copy.get()));
+      if (k >= kSlots - 1)
+        drain(k - (kSlots - 1));
+    }
+    for (int64_t k = std::max<int64_t>(0, chunks - (kSlots - 1)); k < chunks; ++k)
+      drain(k);
+  }
+
+  SessionOptions Options;
+  mutable std::mutex Mutex;
+  Model M;
+  bool HostStale = false;
+  uint64_t Version = 1;
+  Stream St, Copy;
+  DeviceModel Dm;
+  DeviceBuffer<float> Params32;
+  DeviceBuffer<float> DIn[kSlots], DOut[kSlots];
+  PinnedBuffer<float> HIn[kSlots], HOut[kSlots];
+  Event Filled[kSlots], Done[kSlots];
+  ThreadPool Pool;
+  std::unique_ptr<GpuRenderer> Renderer;
+};
+
+} // namespace
+} // namespace gpu
+
+std::unique_ptr<NetworkSession> createCudaSession(const Model& model, const SessionOptions& options)
+{
+  std::string why;
+  NV_CHECK(gpu::deviceUsable(&why), "CUDA device requested but not usable: " + why);
+  return std::unique_ptr<NetworkSession>(new gpu::GpuSession(model, options));
+}
+
+} // namespace nv

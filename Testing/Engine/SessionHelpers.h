@@ -1,0 +1,76 @@
+// Test shorthands over NetworkSession: one-shot inference, decoding, error and trainers that keep their session.
+// Production code holds a session for the network's lifetime; these create one per call, which is fine in tests.
+#pragma once
+
+#include "Core/Engine.h"
+#include "Core/NetworkSession.h"
+
+#include <memory>
+#include <vector>
+
+namespace nvtest
+{
+
+/// Kernel variants of every session the helpers create (GPU tests set them from command-line flags).
+inline nv::KernelOptions& kernelOptions()
+{
+  static nv::KernelOptions k;
+  return k;
+}
+
+inline std::unique_ptr<nv::NetworkSession> session(const nv::Model& m, nv::Device d = nv::Device::Cpu,
+  int threads = 0)
+{
+  nv::SessionOptions o;
+  o.threads = threads;
+  o.kernels = kernelOptions();
+  return nv::NetworkSession::create(d, m, o);
+}
+
+/// Normalised outputs.
+inline void inferPoints(const nv::Model& m, const float* xyz, int64_t n, float* out, nv::Device d = nv::Device::Cpu,
+  int threads = 0)
+{
+  session(m, d, threads)->inferPoints(xyz, n, out, nv::Memory::Host);
+}
+
+/// Normalised outputs of grid slices [z0, z1).
+inline void decodeGridNormalized(const nv::Model& m, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,
+  float* out, nv::Device d = nv::Device::Cpu, int threads = 0)
+{
+  session(m, d, threads)->decodeGrid(nx, ny, nz, z0, z1, out, nv::Memory::Host);
+}
+
+/// De-normalised (source units) grid slices [z0, z1).
+inline void decodeGrid(const nv::Model& m, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out,
+  nv::Device d = nv::Device::Cpu, int threads = 0)
+{
+  auto s = session(m, d, threads);
+  nv::decodeGridValues(*s, nx, ny, nz, z0, z1, out);
+}
+
+inline nv::ErrorStats compareToSource(const nv::Model& m, const nv::VolumeView& v, nv::Device d = nv::Device::Cpu,
+  int threads = 0)
+{
+  auto s = session(m, d, threads);
+  return nv::compareToSource(*s, v);
+}
+
+/// A trainer together with the session it trains (the session must outlive the trainer).
+struct SessionTrainer
+{
+  std::unique_ptr<nv::NetworkSession> s;
+  std::unique_ptr<nv::Trainer> t;
+  nv::Trainer* operator->() const { return t.get(); }
+};
+
+inline SessionTrainer createTrainer(nv::Device d, const nv::Model& m, const nv::VolumeView& v,
+  const nv::TrainConfig& c)
+{
+  SessionTrainer st;
+  st.s = session(m, d, c.threads);
+  st.t = st.s->createTrainer(v, c);
+  return st;
+}
+
+} // namespace nvtest
