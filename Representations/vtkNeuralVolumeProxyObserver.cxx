@@ -34,13 +34,19 @@ namespace
 {
 const char* const kNeuralVolume = "Neural Volume";
 
-/// Stock "Volume Rendering" properties the network renderer does not use (2D transfer functions, separate
-/// opacity arrays, the stock mappers' modes and scattering model, isosurface and slice blending, cropping),
-/// and the surface Opacity (a volume's opacity is its opacity map).
+/// Panel groups of the stock representation whose properties do nothing for a network (surface styling, scalar
+/// mapping of polygons, ray-tracing materials, miscellaneous polygon settings): hidden as a whole for Neural Volume.
+const char* const kGroupsUnusedByNeuralVolume[] = { "Scalar Coloring", "Styling", "Edge Styling",
+  "Backface Styling", "Miscellaneous", "Ray Tracing" };
+
+/// Properties of the groups Neural Volume shows that it does not use: in "Volume Rendering" the 2D transfer
+/// functions, separate opacity arrays, the stock mappers' modes and scattering model, isosurface and slice
+/// blending and cropping; in "Transforming" the coordinate shift. In "Lighting" everything but kLightingUsed.
 const char* const kUnusedByNeuralVolume[] = { "TransferFunction2D", "UseSeparateOpacityArray",
   "OpacityArrayName", "OpacityComponent", "UseTransfer2D", "UseGradientForTransfer2D", "ColorArray2Name",
   "ColorArray2Component", "VolumeRenderingMode", "GlobalIlluminationReach", "VolumetricScatteringBlending",
-  "IsosurfaceValues", "SliceFunction", "UseCropping", "Opacity" };
+  "IsosurfaceValues", "SliceFunction", "UseCropping", "CoordinateShiftScaleMethod" };
+const char* const kLightingUsed[] = { "Ambient", "Diffuse", "Specular", "SpecularPower" };
 
 /// Blend modes of vtkVolumeMapper that the engine renders and ParaView 5.11 does not list.
 const struct
@@ -120,6 +126,32 @@ void ShowVolumeRenderingGroup(vtkSMProxy* representation)
       }
     }
   }
+}
+
+/// Hide a whole panel group while the representation is Neural Volume (every decorator must agree to show a
+/// widget, so this one adds to the group's own).
+void HideGroupForNeuralVolume(vtkSMPropertyGroup* group)
+{
+  vtkPVXMLElement* hints = group->GetHints();
+  if (!hints)
+  {
+    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
+    created->SetName("Hints");
+    group->SetHints(created);
+    hints = group->GetHints();
+  }
+  if (!HasNeuralDecorator(hints))
+  {
+    hints->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
+  }
+}
+
+bool Contains(const char* const* list, size_t n, const char* name)
+{
+  for (size_t i = 0; i < n; ++i)
+    if (name && std::strcmp(list[i], name) == 0)
+      return true;
+  return false;
 }
 
 /// Hide a property's widget while the representation is Neural Volume.
@@ -339,6 +371,29 @@ void vtkNeuralVolumeProxyObserver::AddRepresentation(vtkSMProxy* representation)
     return;
   }
   ShowVolumeRenderingGroup(representation);
+  for (size_t g = 0; g < representation->GetNumberOfPropertyGroups(); ++g)
+  {
+    vtkSMPropertyGroup* group = representation->GetPropertyGroup(g);
+    const char* label = group ? group->GetXMLLabel() : nullptr;
+    if (!label)
+    {
+      continue;
+    }
+    if (Contains(kGroupsUnusedByNeuralVolume, sizeof(kGroupsUnusedByNeuralVolume) / sizeof(char*), label))
+    {
+      HideGroupForNeuralVolume(group);
+    }
+    else if (std::strcmp(label, "Lighting") == 0)
+    {
+      for (unsigned int i = 0; i < group->GetNumberOfProperties(); ++i)
+      {
+        if (!Contains(kLightingUsed, sizeof(kLightingUsed) / sizeof(char*), group->GetPropertyName(i)))
+        {
+          HideForNeuralVolume(group->GetProperty(i));
+        }
+      }
+    }
+  }
   for (const char* name : kUnusedByNeuralVolume)
   {
     if (vtkSMProperty* property = representation->GetProperty(name))

@@ -10,9 +10,13 @@
  *   NVIDIA IndeX), and shows the colour bar when the general settings' scalar bar mode shows bars
  *   automatically; a representation shown with Neural Volume right away is handled as soon as it
  *   joins its view; nothing is changed while a state file is being loaded;
- * - makes the stock "Volume Rendering" property group visible for Neural Volume and hides, for
- *   Neural Volume only, the properties of that group (and the surface Opacity) that the network
- *   renderer does not use (panel hints, no behaviour change for the other representations);
+ * - makes the stock "Volume Rendering" property group visible for Neural Volume and the lighting
+ *   coefficients it uses (Ambient, Diffuse, Specular, Specular Power), and hides for Neural Volume
+ *   only what the network renderer does not use: the surface groups (styling, scalar colouring of
+ *   polygons, edges, backfaces, miscellaneous, ray-tracing materials), the other lighting
+ *   properties, and the stock volume properties for 2D transfer functions, separate opacity arrays,
+ *   the stock mappers' modes, isosurfaces, slices and cropping (panel hints only: nothing changes
+ *   for the other representations);
  * - adds the blend modes the engine renders (maximum, minimum, average intensity, additive) to the
  *   stock BlendMode choices, which in ParaView 5.11 list only Composite, Isosurface and Slice
  *   (the stock volume mapper renders them too).
