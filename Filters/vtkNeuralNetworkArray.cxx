@@ -19,11 +19,17 @@ namespace
 /// (so that bytes changed in place never pass for the registered network).
 vtkNeuralSessionRegistry::Fingerprint VerifiedFingerprint(const uint8_t* bytes, size_t size)
 {
-  NV_CHECK(size > 8, "the NeuralNetwork array is too short to hold a network");
+  // Messages for users: no file:line decoration.
+  if (size <= 8)
+  {
+    throw nv::Error("the NeuralNetwork array is too short to hold a network");
+  }
   uint32_t stored = 0;
   std::memcpy(&stored, bytes + size - 4, 4);
-  NV_CHECK(nv::crc32(bytes, size - 4) == stored,
-    "the NeuralNetwork array is corrupt (checksum mismatch)");
+  if (nv::crc32(bytes, size - 4) != stored)
+  {
+    throw nv::Error("the NeuralNetwork array is corrupt or not a NeuralVolume network (checksum mismatch)");
+  }
   vtkNeuralSessionRegistry::Fingerprint f;
   f.Size = size;
   f.Crc = stored;
@@ -44,7 +50,10 @@ const char* vtkNeuralNetworkArray::GetSessionKeyArrayName()
 void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
   const std::shared_ptr<nv::NetworkSession>& session)
 {
-  NV_CHECK(fd != nullptr, "no field data to write the network to");
+  if (!fd)
+  {
+    throw nv::Error("no field data to write the network to");
+  }
   vtkNew<vtkUnsignedCharArray> network;
   network->SetName(GetArrayName());
   network->SetNumberOfTuples(static_cast<vtkIdType>(bytes.size()));
@@ -81,14 +90,20 @@ vtkUnsignedCharArray* vtkNeuralNetworkArray::Find(vtkFieldData* fd)
 nv::Model vtkNeuralNetworkArray::Read(vtkFieldData* fd)
 {
   vtkUnsignedCharArray* array = Find(fd);
-  NV_CHECK(array != nullptr, std::string("no '") + GetArrayName() + "' field data array");
+  if (!array)
+  {
+    throw nv::Error(std::string("no '") + GetArrayName() + "' field data array");
+  }
   return nv::deserialize(array->GetPointer(0), static_cast<size_t>(array->GetNumberOfTuples()));
 }
 
 std::shared_ptr<nv::NetworkSession> vtkNeuralNetworkArray::Session(vtkFieldData* fd, bool* fromBytes)
 {
   vtkUnsignedCharArray* array = Find(fd);
-  NV_CHECK(array != nullptr, std::string("no '") + GetArrayName() + "' field data array");
+  if (!array)
+  {
+    throw nv::Error(std::string("no '") + GetArrayName() + "' field data array");
+  }
   const uint8_t* bytes = array->GetPointer(0);
   const size_t size = static_cast<size_t>(array->GetNumberOfTuples());
   const vtkNeuralSessionRegistry::Fingerprint fingerprint = VerifiedFingerprint(bytes, size);

@@ -3,6 +3,8 @@
 #include "vtkCommand.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
+#include "vtkPVNeuralVolumeInformation.h"
+#include "vtkPVSession.h"
 #include "vtkRenderWindowInteractor.h"
 #include "vtkSMProperty.h"
 #include "vtkSMPropertyHelper.h"
@@ -204,9 +206,14 @@ void vtkNeuralVolumeRefreshDriver::OnViewRendered(vtkObject* caller, unsigned lo
     {
       continue;
     }
-    representation->UpdatePropertyInformation();
+    // From the render server (information properties would be read on the client).
     vtkSMProperty* work = representation->GetProperty("WorkPending");
-    pending = work && vtkSMPropertyHelper(work).GetAsInt() != 0;
+    vtkSMProxy* neural = work ? work->GetParent() : nullptr;
+    vtkNew<vtkPVNeuralVolumeInformation> information;
+    if (neural && neural->GatherInformation(information, vtkPVSession::RENDER_SERVER))
+    {
+      pending = information->GetValid() && information->GetWorkPending();
+    }
   }
   if (pending)
   {

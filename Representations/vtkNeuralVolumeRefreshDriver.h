@@ -7,10 +7,10 @@
  * work (the GUI would freeze), so this driver, installed by the plugin's initializer in every
  * client process, turns the representations' ProgressiveRefinement on for views whose interactor
  * runs timers in an event loop (the GUI's QVTKInteractor) and, after each still render of such a
- * view, reads the Neural Volume representations' WorkPending information and schedules another
- * still render (a one-shot timer of the view's interactor) while any is pending. It needs no Qt
- * code of its own: the timers are those of the interactor ParaView created for the view, and it
- * works the same in a client-server session (the information comes from the render server).
+ * view, gathers whether a Neural Volume in it has work pending (vtkPVNeuralVolumeInformation, from
+ * the render server) and schedules another still render (a one-shot timer of the view's interactor)
+ * while any has. It needs no Qt code of its own: the timers are those of the interactor ParaView
+ * created for the view, and it works the same in a client-server session.
  *
  * Without such an interactor (pvpython, pvbatch) nothing is changed: ProgressiveRefinement stays
  * off and a still render returns the final picture, so scripts stay deterministic.
