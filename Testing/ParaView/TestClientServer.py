@@ -48,6 +48,11 @@ def pipeline_and_render(png):
     view.ResetCamera()
     Render(view)
     SaveScreenshot(png, view, ImageResolution=[300, 300])
+    check(rep.Representation == "Neural Volume" and list(rep.ColorArrayName) == ["POINTS", "RTData"],
+          "shown as Neural Volume coloured by the network")
+    check(nvtest.info(rep, "EngineRenderCount") >= 1, "the render process ran the engine")
+    # Filter and renderer live in the same process (the pvserver, or the builtin session): one session.
+    check(nvtest.info(rep, "SessionFromBytes") == 0, "the renderer uses the session the filter trained")
     return data
 
 
