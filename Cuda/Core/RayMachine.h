@@ -464,9 +464,14 @@ NV_HD bool marchSkips(const Params& P)
 {
   return P.skipping && (P.blend == Composite || P.blend == Additive);
 }
+/// Gradient shading needs six neighbours per step; only compositing uses them (projections and additive do not).
+NV_HD bool marchGradients(const Params& P)
+{
+  return P.shading == RayMarchGradient && P.blend == Composite;
+}
 NV_HD int queriesPerStep(const Params& P)
 {
-  return P.shading == RayMarchGradient ? 7 : 1;
+  return marchGradients(P) ? 7 : 1;
 }
 
 /// Shadow ray from network point p towards the light (marching with shadows) or in world direction w (NEE).
@@ -486,6 +491,7 @@ NV_HD void startShadow(const Params& P, Ray& r, V3 p, V3 w)
 // emit
 
 /// Write the queries of the next (at most) K steps into q (room for K * queriesPerStep(P)); returns their number.
+/// q may be null: only count them.
 NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
 {
   int n = 0;
@@ -494,7 +500,7 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
     case March:
     {
       const bool skip = marchSkips(P);
-      const bool grad = P.shading == RayMarchGradient;
+      const bool grad = marchGradients(P);
       int j = r.j;
       for (int k = 0; k < K; ++k, ++j)
       {
@@ -502,6 +508,11 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
         if (!nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
           break;
         const V3 p = r.o + r.d * t;
+        if (!q)
+        {
+          n += grad ? 7 : 1;
+          continue;
+        }
         q[n++] = clampUnit(p);
         if (grad)
         {
@@ -523,7 +534,9 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
         float t;
         if (!nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
           break;
-        q[n++] = clampUnit(r.so + r.sd * t);
+        if (q)
+          q[n] = clampUnit(r.so + r.sd * t);
+        ++n;
       }
       return n;
     }
@@ -539,7 +552,9 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
       {
         if (!nextFlight(P, r, o, d, tEnd, t, c))
           break;
-        q[n++] = clampUnit(o + d * t);
+        if (q)
+          q[n] = clampUnit(o + d * t);
+        ++n;
       }
       return n;
     }
@@ -698,6 +713,8 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
         const float y = s[0];
         if (projection)
         {
+          if (!(y == y)) // NaN (a hole in a reference grid): not a value
+            continue;
           if (P.blend == Maximum)
             r.acc = fmaxf_(r.acc, y);
           else if (P.blend == Minimum)
@@ -789,7 +806,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
       uint32_t c = r.nFlight;
       for (int k = 0; k < K; ++k)
       {
-        if (k >= n || !nextFlight(P, r, r.o, r.d, r.tEnd, t, c))
+        // nextFlight first: where emit() found the segment's end it drew random numbers past the last collision,
+        // and the replay must draw them too (the stream continues after this segment).
+        if (!nextFlight(P, r, r.o, r.d, r.tEnd, t, c) || k >= n)
         {
           // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
           r.t = r.tEnd;
@@ -840,7 +859,10 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
       bool end = false;
       for (int k = 0; k < K; ++k)
       {
-        if (k >= n || !nextFlight(P, r, r.so, r.sd, r.stEnd, t, c))
+        // nextFlight first, as in Track: the path's flights continue this stream after the shadow ray, so the
+        // number that overshot the shadow ray's end must be consumed here (else the next flight reuses it and is
+        // biased long).
+        if (!nextFlight(P, r, r.so, r.sd, r.stEnd, t, c) || k >= n)
         {
           end = true; // the shadow ray left the volume
           break;
@@ -849,7 +871,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
         const float mj = localMajorant(P, clampUnit(p));
         float e[4];
         lookup(P, v[k], e);
-        r.sT *= fmaxf_(0.0f, 1.0f - e[3] / mj);
+        // mj is > 0 where nextFlight stopped; a point rounded into a neighbouring empty cell must not give 0/0.
+        const float ratio = mj > 0.0f ? e[3] / mj : (e[3] > 0.0f ? 1.0f : 0.0f);
+        r.sT *= fmaxf_(0.0f, 1.0f - ratio);
         if (r.sT < 1e-4f)
         {
           r.sT = 0.0f;

@@ -105,6 +105,8 @@ struct RenderStats
   int64_t wavefronts = 0;       ///< Sample Streaming: batches inferred
   int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
   bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
+  bool reused = false;          ///< ray marching: the request, network and image size were unchanged, so the previous
+                                ///< image was returned without rendering
   double decodeMilliseconds = 0.0;    ///< decoding and macrocell refresh done by this call
   double renderMilliseconds = 0.0;    ///< marching / tracing
 };

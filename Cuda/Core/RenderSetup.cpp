@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <sstream>
+#include <string>
 
 namespace nv
 {
@@ -237,9 +238,23 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   }
   const double dt = q.sampleDistance > 0.0 ? q.sampleDistance : voxel;
   NV_CHECK(dt > 0.0 && std::isfinite(dt), "cannot derive a sample distance from the volume transform");
+  // Bound the work of one ray: samples across the volume (marching) and mean free paths at the densest opacity
+  // (tracking), both measured along the sum of the box's edge lengths.
+  double edges = 0.0;
+  for (int a = 0; a < 3; ++a)
+    edges += std::sqrt(b[a] * b[a] + b[3 + a] * b[3 + a] + b[6 + a] * b[6 + a]);
+  if (edges / dt > kMaxStepsPerRay)
+    NV_THROW("invalid render request: sample distance " + std::to_string(dt) + " gives " +
+      std::to_string(static_cast<int64_t>(edges / dt)) + " samples across the volume (at most " +
+      std::to_string(static_cast<int64_t>(kMaxStepsPerRay)) + ")");
+  if (edges / q.transfer.unitDistance > kMaxStepsPerRay)
+    NV_THROW("invalid render request: opacity unit distance " + std::to_string(q.transfer.unitDistance) +
+      " is too small for the volume (" + std::to_string(static_cast<int64_t>(edges / q.transfer.unitDistance)) +
+      " units across it, at most " + std::to_string(static_cast<int64_t>(kMaxStepsPerRay)) + ")");
   P.dt = static_cast<float>(dt);
   P.dtShadow = static_cast<float>(2.0 * dt);
-  P.termination = static_cast<float>(std::min(q.terminationOpacity, 2.0));
+  // >= 1 is off: a ray's opacity can reach exactly 1.0f, so "off" must be out of reach.
+  P.termination = q.terminationOpacity >= 1.0 ? 2.0f : static_cast<float>(q.terminationOpacity);
 
   // Transfer function: opacity per unit distance -> extinction per world unit.
   const TransferFunction& tf = q.transfer;

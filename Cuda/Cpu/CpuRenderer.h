@@ -1,25 +1,94 @@
-// NeuralVolume engine: the CPU renderer (placeholder until the cpu-render branch lands: render() throws).
+// NeuralVolume engine: the CPU renderer -- every render path x every shading mode on a thread pool.
+//
+// One object per network session, created once with the session's pool. Caches, keyed on the network version:
+// the decoded grid of the Decode path (progressive: a coarse grid first while the full one decodes in the
+// background), the macrocell lattice of the network paths, the macrocell ranges (per lattice) and majorants (per
+// transfer function), the path-tracing accumulation (continues while RenderSetup::key, the version, the field and
+// the image size stay the same and request.accumulate is set), and the last deterministic image (an identical
+// request returns it without tracing; stats.reused tells).
 #pragma once
 
 #include "Core/Model.h"
 #include "Core/Render.h"
+#include "CpuGridDecoder.h"
+#include "CpuHalfNetwork.h"
+#include "CpuMacrocells.h"
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
+#include <vector>
 
 namespace nv
 {
 
 class ThreadPool;
 
+struct CpuRendererOptions
+{
+  /// Decode path: grids with more samples than this are decoded progressively (2^21: about 128^3, which takes
+  /// about a second with the paper's network on 2 cores).
+  int64_t progressiveSamples = int64_t(1) << 21;
+  /// Network paths: the macrocell lattice has the source's samples per axis, at most this many.
+  int latticeMax = 128;
+  /// Network paths: network probes per macrocell that widen its range (CpuMacrocells::updateRanges), at most
+  /// maxProbes in all (at least 4 per cell). 0: no probes, a fixed margin of kNetworkRangeMargin instead (what the
+  /// GPU renderer does: with latticeMax = kMaxLatticeSamples both backends then have the same macrocells).
+  int probesPerCell = 32;
+  int64_t maxProbes = int64_t(1) << 18;
+};
+
 class CpuRenderer
 {
 public:
-  explicit CpuRenderer(ThreadPool& pool);
+  explicit CpuRenderer(ThreadPool& pool, const CpuRendererOptions& options = CpuRendererOptions());
+  ~CpuRenderer(); ///< cancels and joins a background decode
+  CpuRenderer(const CpuRenderer&) = delete;
+  CpuRenderer& operator=(const CpuRenderer&) = delete;
+
+  /// Render `request` of `model`, whose parameters have version `version` (caches key on it). Throws nv::Error for
+  /// an invalid request or model.
   void render(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
-  bool workPending() const { return false; }
+
+  /// True while the last render was a Decode render whose full grid is still decoding in the background or has not
+  /// been shown yet: render again. (A render by another path leaves the job running but does not ask for more.)
+  bool workPending() const;
+
+  /// The macrocells of the last render (tests and statistics).
+  const CpuMacrocells& macrocells() const { return Cells; }
+
 
 private:
+  std::shared_ptr<const DecodedGrid> referenceGrid(const Model& model, const VolumeView& grid);
+  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version);
+
+  void renderImpl(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
+
   ThreadPool& Pool;
+  CpuRendererOptions Options;
+  std::atomic<bool> DecodeShown{ false }; ///< the last render showed the Decode path's decoded grid
+  CpuGridDecoder Decoder;
+  CpuMacrocells Cells;
+
+  // The request.grid of the last render, normalised (keyed on its pointer, type, dims and the source range: a
+  // caller that rewrites the same buffer must pass another pointer, as RenderSetup's key hashes the pointer too).
+  std::shared_ptr<const DecodedGrid> Reference;
+  const void* ReferenceData = nullptr;
+  int ReferenceType = -1;
+  double ReferenceRange[2] = { 0.0, 0.0 };
+
+  std::shared_ptr<const DecodedGrid> Lattice; ///< network paths
+  CpuHalfTable HalfTable;                     ///< In-Shader: the fp16 hash table
+
+  // Path-tracing accumulation.
+  std::vector<float> Accum;
+  uint64_t AccumKey = 0;
+  int AccumFrames = 0;
+
+  // The last deterministic image.
+  std::vector<float> Image;
+  uint64_t ImageKey = 0;
+  RenderStats ImageStats;
 };
 
 } // namespace nv

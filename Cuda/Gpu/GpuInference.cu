@@ -345,6 +345,11 @@ double medianWallMs(int reps, Fn&& fn)
 }
 } // namespace
 
+void copyToHost(const float* device, size_t n, float* host)
+{
+  NV_CUDA(cudaMemcpy(host, device, n * sizeof(float), cudaMemcpyDeviceToHost));
+}
+
 double benchSessionInfer(NetworkSession& session, int64_t n, int reps)
 {
   DeviceBuffer<float> dx(3 * n, "points"), dy(n, "outputs");

@@ -1,26 +1,426 @@
+// NeuralVolume engine: host side of the GPU renderer -- caches, the three render paths, accumulation, stats.
 #include "GpuRenderer.cuh"
+
+#include "Core/Error.h"
+#include "GpuRenderInShader.cuh"
+#include "GpuRenderKernels.cuh"
+
+#include <cub/device/device_scan.cuh>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <cmath>
+#include <vector>
 
 namespace nv
 {
 namespace gpu
 {
 
+namespace
+{
+/// Sample Streaming: queries of one wavefront batch at most (points 12 B + value 4 B each).
+constexpr int64_t kMaxStreamQueries = int64_t(1) << 23;
+
+uint64_t mixKey(uint64_t a, uint64_t b)
+{
+  return mix64(a ^ (b * 0x9E3779B97F4A7C15ull));
+}
+
+uint64_t hashBytes(uint64_t h, const void* p, size_t n)
+{
+  const unsigned char* b = static_cast<const unsigned char*>(p);
+  for (size_t i = 0; i < n; ++i)
+    h = (h ^ b[i]) * 1099511628211ull;
+  return h;
+}
+
+double since(std::chrono::steady_clock::time_point t)
+{
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+} // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+
+void GridTexture::release()
+{
+  if (Tex)
+    cudaDestroyTextureObject(Tex);
+  if (Array)
+    cudaFreeArray(Array);
+  Tex = 0;
+  Array = nullptr;
+  Bytes = 0;
+  Dims[0] = Dims[1] = Dims[2] = 0;
+}
+
+void GridTexture::assign(const float* device, int64_t nx, int64_t ny, int64_t nz, cudaStream_t stream)
+{
+  NV_CHECK(nx >= 1 && ny >= 1 && nz >= 1 && nx <= 16384 && ny <= 16384 && nz <= 16384,
+    "decoded grid: 1..16384 samples per axis");
+  if (!Array || Dims[0] != nx || Dims[1] != ny || Dims[2] != nz)
+  {
+    release();
+    const cudaChannelFormatDesc desc = cudaCreateChannelDesc<float>();
+    const cudaError_t e = cudaMalloc3DArray(&Array, &desc, make_cudaExtent(nx, ny, nz));
+    if (e == cudaErrorMemoryAllocation)
+    {
+      cudaGetLastError();
+      Array = nullptr;
+      NV_THROW("out of GPU memory for the decoded grid (" + std::to_string(nx) + " x " + std::to_string(ny) + " x " +
+        std::to_string(nz) + ")");
+    }
+    NV_CUDA(e);
+    cudaResourceDesc rd{};
+    rd.resType = cudaResourceTypeArray;
+    rd.res.array.array = Array;
+    cudaTextureDesc td{};
+    td.filterMode = cudaFilterModeLinear;
+    td.addressMode[0] = td.addressMode[1] = td.addressMode[2] = cudaAddressModeClamp;
+    td.readMode = cudaReadModeElementType;
+    td.normalizedCoords = 0;
+    NV_CUDA(cudaCreateTextureObject(&Tex, &rd, &td, nullptr));
+    Dims[0] = nx;
+    Dims[1] = ny;
+    Dims[2] = nz;
+    Bytes = size_t(nx) * ny * nz * sizeof(float);
+  }
+  cudaMemcpy3DParms p{};
+  p.srcPtr = make_cudaPitchedPtr(const_cast<float*>(device), size_t(nx) * sizeof(float), size_t(nx), size_t(ny));
+  p.dstArray = Array;
+  p.extent = make_cudaExtent(nx, ny, nz);
+  p.kind = cudaMemcpyDeviceToDevice;
+  NV_CUDA(cudaMemcpy3DAsync(&p, stream));
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
 GpuRenderer::GpuRenderer(const DeviceModel& dm, cudaStream_t stream)
   : Dm(dm)
   , St(stream)
 {
+  Counters.allocate(1, "render counters");
+  HostCounters.allocate(1);
+  HostScalars.allocate(4);
 }
 
-GpuRenderer::~GpuRenderer() = default;
-
-void GpuRenderer::render(const Model&, uint64_t, const RenderRequest&, RenderResult&, Memory)
+GpuRenderer::~GpuRenderer()
 {
-  NV_THROW("the GPU renderer is not part of this build yet");
+  cudaStreamSynchronize(St);
 }
 
 int64_t GpuRenderer::deviceMemoryBytes() const
 {
-  return 0;
+  size_t b = Tf.bytes() + Majorant.bytes() + Lattice.bytes() + GridLinear.bytes() + Depth.bytes() + Range.bytes() +
+    Grid.bytes() + Image.bytes() + Accum.bytes() + Rays.bytes() + Counts.bytes() + Offsets.bytes() + Points.bytes() +
+    Slots.bytes() +
+    Values.bytes() + ScanTemp.bytes() + Active[0].bytes() + Active[1].bytes();
+  return static_cast<int64_t>(b);
+}
+
+void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s)
+{
+  const int64_t nx = s.gridDims[0], ny = s.gridDims[1], nz = s.gridDims[2];
+  const void* source = q.grid ? q.grid->data : nullptr;
+  if (Grid.texture() && GridVersion == version && GridSource == source && GridDims[0] == nx && GridDims[1] == ny &&
+    GridDims[2] == nz)
+    return;
+  const int64_t n = nx * ny * nz;
+  if (GridLinear.size() < size_t(n))
+    GridLinear.allocate(size_t(n), "decoded grid");
+  if (q.grid)
+  {
+    // The reference grid, normalised like the network's output (non-finite values stay NaN: transparent).
+    const double lo = model.source.valueMin, range = model.source.valueMax - model.source.valueMin;
+    const double inv = range > 0.0 ? 1.0 / range : 0.0;
+    std::vector<float> h(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i)
+    {
+      const double v = q.grid->at(i);
+      h[size_t(i)] = std::isfinite(v) ? static_cast<float>((v - lo) * inv) : std::nanf("");
+    }
+    NV_CUDA(cudaMemcpyAsync(GridLinear.get(), h.data(), n * sizeof(float), cudaMemcpyHostToDevice, St));
+    NV_CUDA(cudaStreamSynchronize(St)); // h goes out of scope
+  }
+  else
+  {
+    launchInference(Dm, nullptr, nx, ny, nz, 0, 0, n, GridLinear.get(), St);
+  }
+  Grid.assign(GridLinear.get(), nx, ny, nz, St);
+  GridDims[0] = nx;
+  GridDims[1] = ny;
+  GridDims[2] = nz;
+  GridVersion = version;
+  GridSource = source;
+}
+
+void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s)
+{
+  RangeKey k;
+  int64_t L[3];
+  if (q.path == RenderPath::Decode)
+  {
+    k.kind = 1;
+    k.version = GridVersion;
+    k.data = GridSource;
+    for (int a = 0; a < 3; ++a)
+      L[a] = GridDims[a];
+  }
+  else
+  {
+    k.kind = 2;
+    k.version = version;
+    for (int a = 0; a < 3; ++a)
+      L[a] = std::max<int64_t>(1, std::min<int64_t>(model.source.dims[a], kMaxLatticeSamples));
+  }
+  for (int a = 0; a < 3; ++a)
+    k.dims[a] = L[a] * 100000 + s.cells.dims[a]; // the cell layout is part of the key
+  if (k == Ranges)
+    return;
+  const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
+  if (Range.size() < size_t(cells))
+    Range.allocate(size_t(cells), "macrocell ranges");
+  const float* lattice = GridLinear.get();
+  float margin = 0.0f;
+  if (k.kind == 2)
+  {
+    const int64_t n = L[0] * L[1] * L[2];
+    if (Lattice.size() < size_t(n))
+      Lattice.allocate(size_t(n), "macrocell lattice");
+    launchInference(Dm, nullptr, L[0], L[1], L[2], 0, 0, n, Lattice.get(), St);
+    lattice = Lattice.get();
+    margin = kNetworkRangeMargin;
+  }
+  cellRangeKernel<<<gridFor(cells), 256, 0, St>>>(s.cells, lattice, L[0], L[1], L[2], margin, Range.get());
+  NV_CUDA_LAUNCH();
+  Ranges = k;
+  ++RangeStamp;
+}
+
+void GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
+{
+  uint64_t h = hashBytes(1469598103934665603ull, &RangeStamp, sizeof(RangeStamp));
+  h = hashBytes(h, s.table.data(), s.table.size() * sizeof(float));
+  h = hashBytes(h, &P.tfScale, sizeof(float));
+  h = hashBytes(h, &P.tfShift, sizeof(float));
+  const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
+  if (h != MajorantKey)
+  {
+    if (Majorant.size() < size_t(cells))
+      Majorant.allocate(size_t(cells), "macrocell majorants");
+    NV_CUDA(cudaMemsetAsync(&Counters.get()->maxMajorantBits, 0, sizeof(unsigned int), St));
+    majorantKernel<<<gridFor(cells), 256, 0, St>>>(Range.get(), cells, Tf.get(), P.tfSize, P.tfScale, P.tfShift,
+      Majorant.get(), Counters.get());
+    NV_CUDA_LAUNCH();
+    NV_CUDA(cudaMemcpyAsync(HostScalars.get(), &Counters.get()->maxMajorantBits, sizeof(unsigned int),
+      cudaMemcpyDeviceToHost, St));
+    NV_CUDA(cudaStreamSynchronize(St));
+    const uint32_t bits = HostScalars.get()[0];
+    std::memcpy(&MaxMajorant, &bits, sizeof(float));
+    MajorantKey = h;
+  }
+  P.majorant = Majorant.get();
+  P.maxMajorant = MaxMajorant;
+}
+
+void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum,
+  RenderStats& st)
+{
+  const int64_t pixels = int64_t(P.width) * P.height;
+  const int K = s.streamingSamples;
+  const int qps = ray::queriesPerStep(P);
+  if (Rays.size() < size_t(pixels))
+  {
+    Rays.allocate(size_t(pixels), "wavefront rays");
+    Active[0].allocate(size_t(pixels), "live rays");
+    Active[1].allocate(size_t(pixels), "live rays");
+    Counts.allocate(size_t(pixels), "query counts");
+    Offsets.allocate(size_t(pixels), "query offsets");
+  }
+  size_t temp = 0;
+  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, Counts.get(), Offsets.get(), static_cast<int>(pixels), St));
+  if (ScanTemp.size() < temp)
+    ScanTemp.allocate(temp, "scan scratch");
+  RenderCounters* c = Counters.get();
+  NV_CUDA(cudaMemsetAsync(c->active, 0, sizeof(c->active), St));
+  initRaysKernel<<<gridFor(pixels), 256, 0, St>>>(P, sample, Rays.get(), Active[0].get(), c, Image.get(), accum);
+  NV_CUDA_LAUNCH();
+  uint32_t* h = HostScalars.get();
+  NV_CUDA(cudaMemcpyAsync(h, &c->active[0], sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
+  NV_CUDA(cudaStreamSynchronize(St));
+  uint32_t live = h[0];
+  // Rays per batch: their slots (K steps of qps queries each) hold at most kMaxStreamQueries points.
+  const int stride = K * qps;
+  const int64_t batch = std::max<int64_t>(1, std::min<int64_t>(pixels, kMaxStreamQueries / stride));
+  const size_t slotPoints = size_t(batch) * stride;
+  if (Slots.size() < 3 * slotPoints)
+  {
+    Slots.allocate(3 * slotPoints, "wavefront query slots");
+    Points.allocate(3 * slotPoints, "wavefront queries");
+    Values.allocate(slotPoints, "wavefront values");
+  }
+  int cur = 0;
+  while (live > 0)
+  {
+    NV_CUDA(cudaMemsetAsync(&c->active[cur ^ 1], 0, sizeof(uint32_t), St));
+    for (int64_t start = 0; start < live; start += batch)
+    {
+      const uint32_t m = static_cast<uint32_t>(std::min<int64_t>(batch, live - start));
+      const uint32_t* act = Active[cur].get() + start;
+      emitKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, stride, Slots.get(), Counts.get());
+      NV_CUDA_LAUNCH();
+      NV_CUDA(cub::DeviceScan::ExclusiveSum(ScanTemp.get(), temp, Counts.get(), Offsets.get(), static_cast<int>(m), St));
+      NV_CUDA(cudaMemcpyAsync(h, Offsets.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
+      NV_CUDA(cudaMemcpyAsync(h + 1, Counts.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
+      NV_CUDA(cudaStreamSynchronize(St));
+      const int64_t total = int64_t(h[0]) + h[1];
+      if (total > 0)
+      {
+        packKernel<<<gridFor(int64_t(m) * stride), 256, 0, St>>>(m, stride, Slots.get(), Counts.get(), Offsets.get(),
+          Points.get());
+        NV_CUDA_LAUNCH();
+        launchInference(Dm, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), St);
+      }
+      consumeKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(), Values.get(),
+        Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
+      NV_CUDA_LAUNCH();
+      ++st.wavefronts;
+    }
+    NV_CUDA(cudaMemcpyAsync(h, &c->active[cur ^ 1], sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
+    NV_CUDA(cudaStreamSynchronize(St));
+    live = h[0];
+    cur ^= 1;
+  }
+}
+
+void GpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& result,
+  Memory where)
+{
+  const RenderSetup s = makeRenderSetup(q, model.source);
+  ray::Params P = s.params;
+  const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
+  const int spp = pt ? q.samplesPerPixel : 1;
+  const int64_t pixels = int64_t(q.width) * q.height;
+  RenderStats st;
+  st.path = q.path;
+  st.device = Device::Cuda;
+  st.rays = pixels * spp;
+
+  const uint64_t imageKey = mixKey(mixKey(s.key, version), static_cast<uint64_t>(q.path) + 1) | 1ull;
+  const bool reuse = !pt && imageKey == ImageKey && Pixels == pixels;
+  if (!reuse)
+  {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Pixels != pixels)
+    {
+      Image.allocate(size_t(pixels), "image");
+      Accum.allocate(size_t(pixels), "accumulation");
+      Pixels = pixels;
+      AccumKey = 0;
+      ImageKey = 0;
+    }
+    if (q.path == RenderPath::Decode)
+      prepareGrid(model, version, q, s);
+    prepareRanges(model, version, q, s);
+    if (Tf.size() < s.table.size())
+      Tf.allocate(s.table.size(), "transfer function");
+    NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice, St));
+    P.tf = Tf.get();
+    prepareMajorants(s, P);
+    if (q.depth)
+    {
+      if (Depth.size() < size_t(pixels))
+        Depth.allocate(size_t(pixels), "depth buffer");
+      NV_CUDA(cudaMemcpyAsync(Depth.get(), q.depth, pixels * sizeof(float), cudaMemcpyHostToDevice, St));
+      P.depth = Depth.get();
+    }
+    NV_CUDA(cudaStreamSynchronize(St));
+    st.decodeMilliseconds = since(t0);
+
+    float4* accum = nullptr;
+    if (pt)
+    {
+      const uint64_t key = mixKey(imageKey, 0x5A17ull);
+      if (!q.accumulate || key != AccumKey)
+      {
+        NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), St));
+        Frames = 0;
+        AccumKey = key;
+      }
+      P.frame = static_cast<uint32_t>(Frames * spp);
+      accum = Accum.get();
+    }
+    RenderCounters* c = Counters.get();
+    NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), St));
+    NV_CUDA(cudaEventRecord(Begin.get(), St));
+    for (int sample = 0; sample < spp; ++sample)
+    {
+      if (q.path == RenderPath::Decode)
+      {
+        marchGridKernel<<<gridFor(pixels), 256, 0, St>>>(P, Grid.texture(), float(GridDims[0] - 1),
+          float(GridDims[1] - 1), float(GridDims[2] - 1), static_cast<uint32_t>(sample), Image.get(), accum, c);
+        NV_CUDA_LAUNCH();
+      }
+      else if (q.path == RenderPath::InShader)
+      {
+        NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), St));
+        InShaderArgs a{};
+        a.P = P;
+        a.total = static_cast<uint32_t>(pixels);
+        a.sample = static_cast<uint32_t>(sample);
+        a.counters = c;
+        a.image = Image.get();
+        a.accum = accum;
+        launchInShader(Dm, a, St);
+      }
+      else
+      {
+        renderStreaming(P, s, static_cast<uint32_t>(sample), accum, st);
+      }
+    }
+    if (pt)
+    {
+      ++Frames;
+      resolveKernel<<<gridFor(pixels), 256, 0, St>>>(Accum.get(), pixels, 1.0f / float(Frames * spp), Image.get());
+      NV_CUDA_LAUNCH();
+    }
+    NV_CUDA(cudaEventRecord(End.get(), St));
+    NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, St));
+    NV_CUDA(cudaStreamSynchronize(St));
+    float ms = 0.0f;
+    NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
+    st.renderMilliseconds = ms;
+    st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
+    st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+    st.accumulatedFrames = pt ? Frames : 0;
+    if (!pt)
+    {
+      ImageKey = imageKey;
+      ImageStats = st;
+    }
+  }
+  else
+  {
+    st = ImageStats;
+    st.reused = true;
+    st.decodeMilliseconds = st.renderMilliseconds = 0.0;
+  }
+
+  if (where == Memory::Device)
+  {
+    result.rgba.clear();
+    result.deviceRgba = reinterpret_cast<const float*>(Image.get());
+  }
+  else
+  {
+    result.rgba.resize(size_t(pixels) * 4);
+    NV_CUDA(cudaMemcpyAsync(result.rgba.data(), Image.get(), pixels * sizeof(float4), cudaMemcpyDeviceToHost, St));
+    NV_CUDA(cudaStreamSynchronize(St));
+    result.deviceRgba = nullptr;
+  }
+  result.stats = st;
 }
 
 } // namespace gpu

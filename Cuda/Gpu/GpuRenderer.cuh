@@ -1,13 +1,41 @@
-// NeuralVolume engine: the GPU renderer of a session (every render path and shading mode).
+// NeuralVolume engine: the GPU renderer of a session (every render path and shading mode). Owns its device state,
+// created on first use and kept: transfer-function table, macrocell ranges and majorants, the decoded grid as a 3D
+// texture, the image and path-tracing accumulation buffers, the wavefront buffers of Sample Streaming. Each piece is
+// refreshed only when what it depends on changes (network version, resolution, transfer function, request).
 #pragma once
 
 #include "Core/Render.h"
+#include "Core/RenderSetup.h"
 #include "GpuInternal.cuh"
+#include "GpuRenderCommon.cuh"
+
+#include <cstdint>
 
 namespace nv
 {
 namespace gpu
 {
+
+/// A float 3D texture (trilinear filtering, clamped, unnormalised coordinates) over a cudaArray; move-only owner.
+class GridTexture
+{
+public:
+  GridTexture() = default;
+  ~GridTexture() { release(); }
+  GridTexture(const GridTexture&) = delete;
+  GridTexture& operator=(const GridTexture&) = delete;
+  /// (Re)create for nx * ny * nz floats and copy them from device memory.
+  void assign(const float* device, int64_t nx, int64_t ny, int64_t nz, cudaStream_t stream);
+  cudaTextureObject_t texture() const { return Tex; }
+  size_t bytes() const { return Bytes; }
+  void release();
+
+private:
+  cudaArray_t Array = nullptr;
+  cudaTextureObject_t Tex = 0;
+  int64_t Dims[3] = { 0, 0, 0 };
+  size_t Bytes = 0;
+};
 
 class GpuRenderer
 {
@@ -20,8 +48,52 @@ public:
   int64_t deviceMemoryBytes() const;
 
 private:
+  /// Which lattice the current macrocell ranges were computed from.
+  struct RangeKey
+  {
+    int kind = 0; ///< 0 none, 1 decoded / reference grid, 2 network lattice
+    uint64_t version = 0;
+    int64_t dims[3] = { 0, 0, 0 };
+    const void* data = nullptr;
+    bool operator==(const RangeKey& o) const
+    {
+      return kind == o.kind && version == o.version && dims[0] == o.dims[0] && dims[1] == o.dims[1] &&
+        dims[2] == o.dims[2] && data == o.data;
+    }
+  };
+
+  void prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
+  void prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
+  void prepareMajorants(const RenderSetup& s, ray::Params& P);
+  void renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum, RenderStats& st);
+
   const DeviceModel& Dm;
   cudaStream_t St;
+  DeviceBuffer<float> Tf, Majorant, Lattice, GridLinear, Depth;
+  DeviceBuffer<float2> Range;
+  GridTexture Grid;
+  int64_t GridDims[3] = { 0, 0, 0 };
+  uint64_t GridVersion = 0;
+  const void* GridSource = nullptr;
+  RangeKey Ranges;
+  uint64_t RangeStamp = 0;   ///< increments whenever Range changes
+  uint64_t MajorantKey = 0;  ///< hash of (RangeStamp, table, mapping)
+  float MaxMajorant = 0.0f;
+  DeviceBuffer<float4> Image, Accum;
+  int64_t Pixels = 0;
+  uint64_t AccumKey = 0;     ///< request key + version + path of the accumulated image
+  int Frames = 0;
+  uint64_t ImageKey = 0;     ///< ray marching: key of the image in Image (0: none)
+  RenderStats ImageStats;
+  DeviceBuffer<RenderCounters> Counters;
+  PinnedBuffer<RenderCounters> HostCounters;
+  // Sample Streaming
+  DeviceBuffer<ray::Ray> Rays;
+  DeviceBuffer<uint32_t> Active[2], Counts, Offsets;
+  DeviceBuffer<float> Slots, Points, Values;
+  DeviceBuffer<unsigned char> ScanTemp;
+  PinnedBuffer<uint32_t> HostScalars;
+  Event Begin, End;
 };
 
 } // namespace gpu

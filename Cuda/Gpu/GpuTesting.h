@@ -34,6 +34,9 @@ double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz,
 double benchSessionInfer(NetworkSession& session, int64_t n, int reps);
 double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps);
 
+/// Copy n floats of device memory to the host (tests of device-memory outputs).
+void copyToHost(const float* device, size_t n, float* host);
+
 /// Name and memory of the device, for reports.
 std::string deviceDescription();
 

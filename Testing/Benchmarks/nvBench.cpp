@@ -4,6 +4,7 @@
 //   nvBench curve DEVICE file.nhdr LOG2T STEPS[,..] [BATCH] [SEED] -> PSNR over all voxels at the given steps
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
+//   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
 // DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h. Prints lines "RESULT {json}".
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
@@ -42,8 +43,22 @@ static std::vector<float> analytic(int n)
   return v;
 }
 
+int renderBenchmark(int argc, char** argv);
+
 int main(int argc, char** argv)
 {
+  if (argc > 1 && std::string(argv[1]) == "render")
+  {
+    try
+    {
+      return renderBenchmark(argc, argv);
+    }
+    catch (const std::exception& e)
+    {
+      std::fprintf(stderr, "error: %s\n", e.what());
+      return 1;
+    }
+  }
   SessionOptions options;
   options.kernels = nvbench::parseKernelFlags(argc, argv);
   if (argc < 3)

@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
 # GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
-# Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvTestFilterTrainingGpu nvBenchGpu nvBench;
-# data/: .nhdr+.raw; ref/: the PyTorch reference scripts). Usage: run_gpu_bench.sh SECTION... with SECTION in
-#   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch
+# Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvTestFilterTrainingGpu nvBenchGpu nvBench
+# nvBenchRender nvTestGpuRender, optionally xz-compressed; data/: the data folders (stent/, walnut/, headsq/ with
+# .nhdr + .raw, as in ../shared/data); ref/: the PyTorch reference scripts). Usage:
+# run_gpu_bench.sh SECTION... with SECTION in
+#   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
+#   render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
 D=.devcarry/data
 O=${OUT:-gpu-bench-out}
 mkdir -p "$O"
+for f in $B/*.xz; do [ -e "$f" ] && xz -d -f "$f" && chmod +x "${f%.xz}"; done
+STENT=$D/stent/stent_128x128x256_int16.nhdr
 for s in "$@"; do
   case $s in
     parity)
@@ -57,19 +62,45 @@ for s in "$@"; do
     seeds)
       # GPU curves over six seeds (the accuracy bar compares means: single runs spread +-0.5 dB at 500 steps)
       for sd in 1 2 3 4 5 6; do for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do
-        $B/nvBench curve cuda $D/$v.nhdr 14 500,1000,2000,4000 65536 $sd; done; done 2>&1 | tee "$O/seeds.log" ;;
+        $B/nvBench curve cuda $D/${v%%_*}/$v.nhdr 14 500,1000,2000,4000 65536 $sd; done; done 2>&1 | tee "$O/seeds.log" ;;
     quality)
       # time to quality: wall from trainer creation (upload included), steps queued back to back between marks
       for r in 1 2 3; do
-        $B/nvBenchGpu ttq $D/stent_128x128x256_int16.nhdr 14 500,1000,1500,2000,2250,2500,3000,4000
-        $B/nvBenchGpu ttq $D/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000
+        $B/nvBenchGpu ttq $D/stent/stent_128x128x256_int16.nhdr 14 500,1000,1500,2000,2250,2500,3000,4000
+        $B/nvBenchGpu ttq $D/walnut/walnut_128x96x114_uint16.nhdr 14 500,1000,2000,4000
       done 2>&1 | tee "$O/quality.log" ;;
     cpucurves)
       # The CPU engine's curves (the accuracy reference), 16 threads of the device machine.
       for v in stent_128x128x256_int16 walnut_128x96x114_uint16; do
-        $B/nvBench curve cpu $D/$v.nhdr 14 500,1000,2000,4000
+        $B/nvBench curve cpu $D/${v%%_*}/$v.nhdr 14 500,1000,2000,4000
       done > "$O/cpu_curves.log" 2>&1 ;;
+    render)
+      # every path x shading mode on the anchor's setup (stent trained to the reference accuracy), 1280x720
+      $B/nvBenchRender cuda $STENT 14 2250 1280 720 decode,stream,inshader rm,grad,shadow,pt,nee 20 2>&1 | tee "$O/render_720.log"
+      $B/nvBenchRender cuda $STENT 14 2250 1920 1080 decode,inshader rm 20 2>&1 | tee "$O/render_1080.log" ;;
+    rendersweep)
+      $B/nvBenchRender cuda $STENT 14 2250 1280 720 sweep 10 2>&1 | tee "$O/render_sweep.log" ;;
+    renderskip)
+      $B/nvBenchRender cuda $STENT 14 2250 1280 720 skip 10 2>&1 | tee "$O/render_skip.log" ;;
+    rendertrain)
+      $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
+    renderlarge)
+      # a second, larger dataset: stent resampled to 255 x 255 x 511 (8x the voxels; the data folder has no larger
+      # regular volume), a 2^19 table (the paper's size), every path x mode
+      $B/nvBenchRender cuda $STENT@2 19 2000 1280 720 decode,stream,inshader rm,grad,shadow,pt,nee 10 2>&1 | tee "$O/render_large.log" ;;
+    renderparity)
+      $B/nvTestGpuRender --data $D 2>&1 | tee "$O/render_parity.log" ;;
+    renderimages)
+      mkdir -p /tmp/img
+      $B/nvBenchRender cuda $STENT 14 2250 320 240 decode,stream,inshader rm,grad,shadow,pt,nee 2 /tmp/img > "$O/render_images.log" 2>&1
+      (cd /tmp/img && tar czf "$O/render_images.tgz" *.ppm) ;;
+    rendersanitize)
+      H=$D/headsq/headsq_64x64x93_int16.nhdr
+      compute-sanitizer --tool memcheck $B/nvBenchRender cuda $H 12 50 48 32 decode,stream,inshader rm,grad,shadow,pt,nee 1 2>&1 | tail -25 | tee "$O/render_memcheck.log"
+      compute-sanitizer --tool racecheck $B/nvBenchRender cuda $H 12 50 48 32 inshader rm,grad 1 2>&1 | tail -8 | tee "$O/render_racecheck.log"
+      # Sample Streaming with many batches per wavefront (K = 1024: 1170 rays per batch)
+      compute-sanitizer --tool memcheck $B/nvBenchRender cuda $H 12 50 200 150 stream grad,rm,nee 1 - 1024 2>&1 | tail -8 | tee -a "$O/render_memcheck.log" ;;
     torch)
-      (cd .devcarry/ref && PYTHONUNBUFFERED=1 timeout 300 python3 quality_torch.py bench_torch.py 2000 14 ../data/stent_128x128x256_int16.nhdr) 2>&1 | tail -15 | tee "$O/torch.log" ;;
+      (cd .devcarry/ref && PYTHONUNBUFFERED=1 timeout 300 python3 quality_torch.py bench_torch.py 2000 14 ../data/stent/stent_128x128x256_int16.nhdr) 2>&1 | tail -15 | tee "$O/torch.log" ;;
   esac
 done

@@ -1,0 +1,191 @@
+#include "CpuGridDecoder.h"
+
+#include "Core/Error.h"
+#include "Core/Model.h"
+#include "CpuInference.h"
+
+#include <algorithm>
+#include <exception>
+#include <new>
+#include <string>
+
+namespace nv
+{
+
+namespace
+{
+/// Largest grid the CPU renderer decodes (8 GiB of floats).
+constexpr int64_t kMaxDecodeSamples = int64_t(1) << 31;
+} // namespace
+
+struct CpuGridDecoder::Job
+{
+  explicit Job(const Model& m)
+    : model(m)
+  {
+  }
+  Model model; ///< a copy: the caller's model may change while the job runs
+  uint64_t version = 0;
+  int64_t dims[3] = { 0, 0, 0 };
+  std::atomic<bool> cancel{ false };
+  std::atomic<bool> done{ false };
+  std::shared_ptr<DecodedGrid> result; ///< null when cancelled or failed
+  std::string error;
+  std::thread thread;
+};
+
+CpuGridDecoder::CpuGridDecoder(ThreadPool& pool, int64_t progressiveSamples)
+  : Pool(pool)
+  , ProgressiveSamples(std::max<int64_t>(1, progressiveSamples))
+  , Background(std::max(1, pool.size() - 1))
+{
+}
+
+CpuGridDecoder::~CpuGridDecoder()
+{
+  cancelJob();
+}
+
+uint64_t CpuGridDecoder::newGridId()
+{
+  static std::atomic<uint64_t> next{ 1 };
+  return next.fetch_add(1);
+}
+
+bool CpuGridDecoder::matches(const DecodedGrid* g, uint64_t version, const int64_t dims[3])
+{
+  return g && g->version == version && g->dims[0] == dims[0] && g->dims[1] == dims[1] && g->dims[2] == dims[2];
+}
+
+void CpuGridDecoder::cancelJob()
+{
+  if (!Running)
+    return;
+  Running->cancel = true;
+  if (Running->thread.joinable())
+    Running->thread.join();
+  Running.reset();
+  Pending = false;
+}
+
+void CpuGridDecoder::coarseDims(const int64_t dims[3], int64_t out[3]) const
+{
+  for (int a = 0; a < 3; ++a)
+    out[a] = dims[a] <= 1 ? 1 : std::max<int64_t>(2, dims[a] / 4);
+  while (out[0] * out[1] * out[2] > std::max<int64_t>(8, ProgressiveSamples / 8) &&
+    (out[0] > 2 || out[1] > 2 || out[2] > 2))
+    for (int a = 0; a < 3; ++a)
+      out[a] = out[a] <= 1 ? 1 : std::max<int64_t>(2, out[a] / 2);
+}
+
+std::shared_ptr<DecodedGrid> CpuGridDecoder::decode(ThreadPool& pool, const Model& model, uint64_t version,
+  const int64_t dims[3], const std::atomic<bool>* cancel)
+{
+  for (int a = 0; a < 3; ++a)
+    NV_CHECK(dims[a] >= 1, "decode grid dimensions must be >= 1");
+  const int64_t samples = dims[0] * dims[1] * dims[2];
+  if (samples > kMaxDecodeSamples)
+    NV_THROW("decode grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+      std::to_string(dims[2]) + " samples is larger than the CPU renderer's limit of 2^31 samples");
+  auto g = std::make_shared<DecodedGrid>();
+  try
+  {
+    g->values.resize(static_cast<size_t>(samples));
+  }
+  catch (const std::bad_alloc&)
+  {
+    NV_THROW("out of memory for a decode grid of " + std::to_string(samples) + " samples");
+  }
+  const CpuInference net(model);
+  // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
+  const int64_t slice = dims[0] * dims[1];
+  const int64_t block = cancel ? std::max<int64_t>(1, (int64_t(1) << 18) / slice) : dims[2];
+  for (int64_t z0 = 0; z0 < dims[2]; z0 += block)
+  {
+    const int64_t z1 = std::min(dims[2], z0 + block);
+    if (cancel && cancel->load())
+      return nullptr;
+    net.decodeGrid(pool, dims[0], dims[1], dims[2], z0, z1, g->values.data() + z0 * slice);
+  }
+  g->id = newGridId();
+  g->version = version;
+  for (int a = 0; a < 3; ++a)
+    g->dims[a] = dims[a];
+  return g;
+}
+
+std::shared_ptr<const DecodedGrid> CpuGridDecoder::decodeNow(const Model& model, uint64_t version,
+  const int64_t dims[3])
+{
+  if (matches(Full.get(), version, dims))
+    return Full;
+  return decode(Pool, model, version, dims, nullptr);
+}
+
+CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t version, const int64_t dims[3])
+{
+  Result r;
+  if (matches(Full.get(), version, dims))
+  {
+    r.grid = Full;
+    return r;
+  }
+  if (Running && Running->version == version && Running->dims[0] == dims[0] && Running->dims[1] == dims[1] &&
+    Running->dims[2] == dims[2])
+  {
+    if (!Running->done.load())
+    {
+      r.grid = Coarse;
+      r.pending = true;
+      return r;
+    }
+    Running->thread.join();
+    std::unique_ptr<Job> job = std::move(Running);
+    Pending = false;
+    if (!job->result)
+      NV_THROW("background decode failed: " + (job->error.empty() ? std::string("cancelled") : job->error));
+    Full = job->result;
+    r.grid = Full;
+    r.decoded = true; // the refined grid is new to the caller
+    return r;
+  }
+  cancelJob(); // a job for another version or resolution: its result would be stale
+  r.decoded = true;
+  if (dims[0] * dims[1] * dims[2] <= ProgressiveSamples)
+  {
+    Full = decode(Pool, model, version, dims, nullptr);
+    r.grid = Full;
+    return r;
+  }
+  int64_t cd[3];
+  coarseDims(dims, cd);
+  if (!matches(Coarse.get(), version, cd))
+    Coarse = decode(Pool, model, version, cd, nullptr);
+  // Check the full grid's size before starting (the job would only fail later).
+  const int64_t samples = dims[0] * dims[1] * dims[2];
+  NV_CHECK(samples <= kMaxDecodeSamples, "decode grid larger than the CPU renderer's limit of 2^31 samples");
+  auto job = std::make_unique<Job>(model);
+  job->version = version;
+  for (int a = 0; a < 3; ++a)
+    job->dims[a] = dims[a];
+  Job* j = job.get();
+  ThreadPool* pool = &Background;
+  Pending = true;
+  job->thread = std::thread([this, j, pool] {
+    try
+    {
+      j->result = decode(*pool, j->model, j->version, j->dims, &j->cancel);
+    }
+    catch (const std::exception& e)
+    {
+      j->error = e.what();
+    }
+    j->done = true;
+  });
+  Running = std::move(job);
+  r.grid = Coarse;
+  r.pending = true;
+  return r;
+}
+
+} // namespace nv

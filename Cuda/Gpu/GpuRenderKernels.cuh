@@ -1,0 +1,181 @@
+// NeuralVolume engine: GPU kernels of the renderer other than In-Shader: macrocells, the Decode path (the ray machine
+// over a 3D texture of the decoded grid), the Sample Streaming wavefront (emit -> batched inference -> consume,
+// compaction of live rays) and image accumulation. All of them run the shared ray machine (Core/RayMachine.h).
+// Included by GpuRenderer.cu only (the kernels are defined here).
+#pragma once
+
+#include "Core/Macrocells.h"
+#include "GpuRenderCommon.cuh"
+
+namespace nv
+{
+namespace gpu
+{
+
+// ---------------------------------------------------------------------------------------------------------
+// Macrocells
+
+__global__ void cellRangeKernel(MacrocellLayout m, const float* __restrict__ lattice, int64_t lx, int64_t ly,
+  int64_t lz, float margin, float2* __restrict__ range)
+{
+  const int cells = m.dims[0] * m.dims[1] * m.dims[2];
+  const int64_t L[3] = { lx, ly, lz };
+  for (int c = blockIdx.x * blockDim.x + threadIdx.x; c < cells; c += gridDim.x * blockDim.x)
+  {
+    const int cx = c % m.dims[0], cy = (c / m.dims[0]) % m.dims[1], cz = c / (m.dims[0] * m.dims[1]);
+    float lo, hi;
+    cellRange(m, lattice, L, cx, cy, cz, margin, lo, hi);
+    range[c] = make_float2(lo, hi);
+  }
+}
+
+__global__ void majorantKernel(const float2* __restrict__ range, int cells, const float* __restrict__ tf,
+  int tfSize, float scale, float shift, float* __restrict__ majorant, RenderCounters* counters)
+{
+  for (int c = blockIdx.x * blockDim.x + threadIdx.x; c < cells; c += gridDim.x * blockDim.x)
+  {
+    const float2 r = range[c];
+    const float m = rangeMajorant(tf, tfSize, scale, shift, r.x, r.y);
+    majorant[c] = m;
+    atomicMax(&counters->maxMajorantBits, __float_as_uint(m));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Decode path: the ray machine over the decoded grid (hardware trilinear filtering of a float 3D texture)
+
+/// Field value at network coordinates u: voxel i sits at i / (n - 1), texel centres at i + 1/2.
+__device__ __forceinline__ float gridValue(cudaTextureObject_t tex, float nx, float ny, float nz, ray::V3 u)
+{
+  return tex3D<float>(tex, u.x * nx + 0.5f, u.y * ny + 0.5f, u.z * nz + 0.5f);
+}
+
+__global__ void __launch_bounds__(256) marchGridKernel(const __grid_constant__ ray::Params P, cudaTextureObject_t tex,
+  float nx1, float ny1, float nz1, uint32_t sample, float4* image, float4* accum, RenderCounters* counters)
+{
+  const int64_t pixels = int64_t(P.width) * P.height;
+  unsigned long long evaluated = 0, plain = 0;
+  const int64_t stride = int64_t(gridDim.x) * blockDim.x;
+  // Whole warps iterate together (the counters' warp reductions need every lane).
+  for (int64_t base = int64_t(blockIdx.x) * blockDim.x; base < pixels; base += stride)
+  {
+    const int64_t i = base + threadIdx.x;
+    if (i < pixels)
+    {
+      ray::Ray r;
+      ray::initRay(P, static_cast<int>(i % P.width), static_cast<int>(i / P.width), r, sample);
+      ray::V3 q[ray::kMaxQueriesPerStep];
+      float v[ray::kMaxQueriesPerStep];
+      for (int guard = 0; r.phase != ray::Done && guard < ray::kMaxIterations; ++guard)
+      {
+        const int n = ray::emit(P, r, 1, q);
+        for (int k = 0; k < n; ++k)
+          v[k] = gridValue(tex, nx1, ny1, nz1, q[k]);
+        ray::consume(P, r, 1, v, n);
+        evaluated += n;
+      }
+      plain += r.plain;
+      writePixel(r, image, accum);
+    }
+  }
+  warpAdd(&counters->evaluated, evaluated);
+  warpAdd(&counters->plain, plain);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Sample Streaming
+
+__global__ void initRaysKernel(const __grid_constant__ ray::Params P, uint32_t sample, ray::Ray* __restrict__ rays,
+  uint32_t* __restrict__ active, RenderCounters* counters, float4* image, float4* accum)
+{
+  const int64_t pixels = int64_t(P.width) * P.height;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < pixels; i += int64_t(gridDim.x) * blockDim.x)
+  {
+    ray::Ray r;
+    ray::initRay(P, static_cast<int>(i % P.width), static_cast<int>(i / P.width), r, sample);
+    if (r.phase == ray::Done)
+    {
+      writePixel(r, image, accum);
+      continue;
+    }
+    rays[i] = r;
+    active[atomicAdd(&counters->active[0], 1u)] = static_cast<uint32_t>(i);
+  }
+}
+
+/// Queries of the next K steps of each live ray, into its slot of `stride` points (one emit per ray, so the count
+/// and the queries come from the same evaluation), and their count.
+__global__ void emitKernel(const __grid_constant__ ray::Params P, const ray::Ray* __restrict__ rays,
+  const uint32_t* __restrict__ active, uint32_t n, int K, int stride, float* __restrict__ slots,
+  uint32_t* __restrict__ counts)
+{
+  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x)
+    counts[i] = static_cast<uint32_t>(
+      ray::emit(P, rays[active[i]], K, reinterpret_cast<ray::V3*>(slots) + size_t(i) * stride));
+}
+
+/// Pack the slots densely: ray i's queries to offsets[i] (exclusive scan of the counts).
+__global__ void packKernel(uint32_t n, int stride, const float* __restrict__ slots,
+  const uint32_t* __restrict__ counts, const uint32_t* __restrict__ offsets, float* __restrict__ points)
+{
+  // One thread per (ray, query) slot.
+  const int64_t items = int64_t(n) * stride;
+  for (int64_t it = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; it < items; it += int64_t(gridDim.x) * blockDim.x)
+  {
+    const int64_t i = it / stride;
+    const int k = static_cast<int>(it - i * stride);
+    if (k >= static_cast<int>(counts[i]))
+      continue;
+    const float* src = slots + 3 * it;
+    float* dst = points + 3 * (int64_t(offsets[i]) + k);
+    dst[0] = src[0];
+    dst[1] = src[1];
+    dst[2] = src[2];
+  }
+}
+
+/// Consume each live ray's values; finished rays write their pixel, the others go to the next live list.
+__global__ void consumeKernel(const __grid_constant__ ray::Params P, ray::Ray* __restrict__ rays,
+  const uint32_t* __restrict__ active, uint32_t n, int K, const uint32_t* __restrict__ counts,
+  const uint32_t* __restrict__ offsets, const float* __restrict__ values, uint32_t* __restrict__ nextActive,
+  unsigned int* nextCount, RenderCounters* counters, float4* image, float4* accum)
+{
+  unsigned long long evaluated = 0, plain = 0;
+  const uint32_t stride = gridDim.x * blockDim.x;
+  for (uint32_t base = blockIdx.x * blockDim.x; base < n; base += stride)
+  {
+    const uint32_t i = base + threadIdx.x;
+    if (i < n)
+    {
+      const uint32_t id = active[i];
+      ray::Ray r = rays[id];
+      ray::consume(P, r, K, values + offsets[i], static_cast<int>(counts[i]));
+      evaluated += counts[i];
+      if (r.phase == ray::Done)
+      {
+        plain += r.plain;
+        writePixel(r, image, accum);
+      }
+      else
+      {
+        rays[id] = r;
+        nextActive[atomicAdd(nextCount, 1u)] = id;
+      }
+    }
+  }
+  warpAdd(&counters->evaluated, evaluated);
+  warpAdd(&counters->plain, plain);
+}
+
+/// image = accum / frames (path tracing).
+__global__ void resolveKernel(const float4* __restrict__ accum, int64_t n, float inv, float4* __restrict__ image)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+  {
+    const float4 a = accum[i];
+    image[i] = make_float4(a.x * inv, a.y * inv, a.z * inv, a.w * inv);
+  }
+}
+
+} // namespace gpu
+} // namespace nv

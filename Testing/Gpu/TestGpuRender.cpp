@@ -1,0 +1,316 @@
+// The GPU renderer against the CPU renderer (the oracle: the same ray machine, macrocells made the GPU's way), the
+// GPU paths against each other, empty-space skipping, accumulation, device-memory output and a real volume
+// (ray marching of the network vs the same marcher on the original data). Label gpu: skipped without a GPU.
+//   nvTestGpuRender [case] [--data DIR] [kernel flags]
+#include "Core/Macrocells.h"
+#include "Core/NetworkSession.h"
+#include "Core/RenderSetup.h"
+#include "Cpu/CpuRenderer.h"
+#include "Cpu/ThreadPool.h"
+#include "Gpu/GpuEngine.h"
+#include "Gpu/GpuTesting.h"
+#include "KernelFlags.h"
+#include "Nhdr.h"
+#include "RenderFixtures.h"
+#include "RenderSetupBench.h"
+#include "TestHarness.h"
+
+#include <cstdio>
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+using namespace nv;
+using namespace nvtest;
+
+namespace
+{
+constexpr int kSkip = 77;
+constexpr int kGrid = 40;
+const char* kPath[] = { "Decode", "Streaming", "In-Shader" };
+const char* kMode[] = { "RM", "RM+grad", "RM+shadow", "PT", "PT+NEE" };
+
+std::string& dataDir()
+{
+  static std::string d;
+  return d;
+}
+KernelOptions& kernels()
+{
+  static KernelOptions k;
+  return k;
+}
+
+ThreadPool& pool()
+{
+  static ThreadPool p(0);
+  return p;
+}
+
+struct Scene
+{
+  std::vector<float> data = blobVolume(kGrid);
+  VolumeView volume = viewOf(data, kGrid, kGrid, kGrid);
+  Model model = trainModel(volume, smallRenderConfig(), 300, 4096);
+};
+Scene& scene()
+{
+  static Scene s;
+  return s;
+}
+
+/// The CPU oracle with the GPU's macrocells (fixed margin, the same lattice).
+CpuRenderer& oracle(int path)
+{
+  static std::unique_ptr<CpuRenderer> r[3];
+  if (!r[path])
+  {
+    CpuRendererOptions o;
+    o.probesPerCell = 0;
+    o.latticeMax = static_cast<int>(kMaxLatticeSamples);
+    r[path] = std::make_unique<CpuRenderer>(pool(), o);
+  }
+  return *r[path];
+}
+
+std::unique_ptr<NetworkSession> gpuSession(const Model& m, bool halfAccumulate)
+{
+  SessionOptions o;
+  o.kernels = kernels();
+  o.kernels.inShaderHalfAccumulate = halfAccumulate;
+  return NetworkSession::create(Device::Cuda, m, o);
+}
+
+/// Path tracing is compared on converged images (one path traced with two seeds is ~22 dB apart at 256 spp).
+RenderRequest request(int path, int mode, int size)
+{
+  RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode(mode), size, size);
+  q.samplesPerPixel = mode >= 3 ? 512 : 1;
+  return q;
+}
+} // namespace
+
+NV_TEST(gpu_matches_cpu_every_path_and_mode)
+{
+  // Ray marching at 64 x 64; path tracing at 24 x 24 and 512 paths per pixel. The thresholds leave room for the
+  // GPU's fp16 table and activations (Decode, Streaming; the CPU oracle's decode is fp32), the texture unit's
+  // 8-bit interpolation weights (Decode) and fp16 accumulation (In-Shader by default).
+  const double minRm[3] = { 38.0, 38.0, 38.0 }, minPt = 30.0;
+  auto gpu = gpuSession(scene().model, true);
+  auto gpu32 = gpuSession(scene().model, false);
+  for (int p = 0; p < 3; ++p)
+    for (int m = 0; m < 5; ++m)
+    {
+      const RenderRequest q = request(p, m, m >= 3 ? 24 : 64);
+      RenderResult c, g;
+      oracle(p).render(scene().model, 1, q, c);
+      gpu->render(q, g, Memory::Host);
+      const double db = psnr(g.rgba, c.rgba);
+      std::printf("    %-9s %-9s GPU vs CPU %.1f dB (evaluated %lld / %lld, plain %lld / %lld)\n", kPath[p], kMode[m], db,
+        (long long)g.stats.samplesEvaluated, (long long)c.stats.samplesEvaluated, (long long)g.stats.samplesPlain,
+        (long long)c.stats.samplesPlain);
+      EXPECT_TRUE(allFinite(g.rgba));
+      EXPECT_TRUE(db >= (m >= 3 ? minPt : minRm[p]));
+      EXPECT_TRUE(g.stats.device == Device::Cuda && g.stats.path == RenderPath(p));
+      if (p == 2)
+      {
+        // fp32 accumulation: the CPU oracle's numerics.
+        RenderResult g32;
+        gpu32->render(q, g32, Memory::Host);
+        const double db32 = psnr(g32.rgba, c.rgba), dbAcc = psnr(g32.rgba, g.rgba);
+        std::printf("    %-9s %-9s fp32-accumulating In-Shader vs CPU %.1f dB, vs fp16-accumulating %.1f dB\n",
+          kPath[p], kMode[m], db32, dbAcc);
+        EXPECT_TRUE(db32 >= (m >= 3 ? minPt : 45.0));
+      }
+    }
+}
+
+NV_TEST(gpu_paths_agree_but_are_not_identical)
+{
+  auto gpu = gpuSession(scene().model, true);
+  for (int m = 0; m < 5; ++m)
+  {
+    RenderResult r[3];
+    for (int p = 0; p < 3; ++p)
+      gpu->render(request(p, m, m >= 3 ? 24 : 64), r[p], Memory::Host);
+    const double ds = psnr(r[0].rgba, r[1].rgba), di = psnr(r[0].rgba, r[2].rgba), si = psnr(r[1].rgba, r[2].rgba);
+    std::printf("    %-9s Decode vs Streaming %.1f dB, Decode vs In-Shader %.1f dB, Streaming vs In-Shader %.1f dB\n",
+      kMode[m], ds, di, si);
+    EXPECT_TRUE(ds >= 30.0 && di >= 30.0 && si >= 30.0);
+    EXPECT_TRUE(r[0].rgba != r[1].rgba && r[0].rgba != r[2].rgba && r[1].rgba != r[2].rgba);
+    // Each path ran its own code: only Sample Streaming has wavefronts.
+    EXPECT_TRUE(r[0].stats.wavefronts == 0 && r[1].stats.wavefronts > 0 && r[2].stats.wavefronts == 0);
+    for (int p = 0; p < 3; ++p)
+      EXPECT_TRUE(r[p].stats.samplesEvaluated > 0);
+  }
+}
+
+NV_TEST(gpu_skipping_does_not_change_the_picture)
+{
+  auto gpu = gpuSession(scene().model, true);
+  for (int p = 0; p < 3; ++p)
+  {
+    RenderRequest q = request(p, 0, 64);
+    RenderResult on, off;
+    gpu->render(q, on, Memory::Host);
+    q.emptySpaceSkipping = false;
+    gpu->render(q, off, Memory::Host);
+    const double db = psnr(on.rgba, off.rgba);
+    const double ratio = double(on.stats.samplesEvaluated) / double(off.stats.samplesEvaluated);
+    std::printf("    %-9s skipping on vs off %.1f dB, samples evaluated %.3f of the plain marcher's\n", kPath[p], db,
+      ratio);
+    EXPECT_TRUE(db >= 45.0);
+    EXPECT_TRUE(ratio < 0.9);
+    // Without skipping, one sample per step up to termination -- Sample Streaming also evaluates the rest of the
+    // last K-step batch of a ray that terminated early (at most K - 1 per ray).
+    const int64_t extra = off.stats.samplesEvaluated - off.stats.samplesPlain;
+    std::printf("    %-9s without skipping: %lld samples beyond the plain marcher's\n", kPath[p], (long long)extra);
+    if (p == 1)
+      EXPECT_TRUE(extra >= 0 && extra <= int64_t(kDefaultStreamingSamples - 1) * off.stats.rays);
+    else
+      EXPECT_TRUE(extra == 0);
+  }
+}
+
+NV_TEST(gpu_accumulation_and_device_output)
+{
+  auto gpu = gpuSession(scene().model, true);
+  RenderRequest q = request(2, 4, 32);
+  q.samplesPerPixel = 4;
+  RenderResult a, b, c;
+  gpu->render(q, a, Memory::Host);
+  gpu->render(q, b, Memory::Host);
+  q.lightDirection[0] = -0.6;
+  gpu->render(q, c, Memory::Host);
+  std::printf("    accumulated frames %d, %d, after a change %d\n", a.stats.accumulatedFrames, b.stats.accumulatedFrames,
+    c.stats.accumulatedFrames);
+  EXPECT_TRUE(a.stats.accumulatedFrames == 1 && b.stats.accumulatedFrames == 2 && c.stats.accumulatedFrames == 1);
+  EXPECT_TRUE(a.rgba != b.rgba);
+  // Ray marching: an unchanged request is not rendered again; the device image equals the host one.
+  RenderRequest r = request(0, 1, 48);
+  RenderResult h, d, again;
+  gpu->render(r, h, Memory::Host);
+  gpu->render(r, again, Memory::Host);
+  EXPECT_TRUE(!h.stats.reused && again.stats.reused && again.rgba == h.rgba);
+  r.lightDirection[2] = -0.4;
+  gpu->render(r, d, Memory::Device);
+  EXPECT_TRUE(d.deviceRgba != nullptr && d.rgba.empty() && !d.stats.reused);
+  std::vector<float> copy(size_t(48) * 48 * 4);
+  gpu::copyToHost(d.deviceRgba, copy.size(), copy.data());
+  RenderResult hd;
+  gpu->render(r, hd, Memory::Host); // the same request: reused, copied to the host
+  EXPECT_TRUE(hd.stats.reused && hd.rgba == copy);
+}
+
+NV_TEST(gpu_depth_buffer_and_inside_camera)
+{
+  auto gpu = gpuSession(scene().model, true);
+  for (int p = 0; p < 3; ++p)
+  {
+    // Opaque geometry in front of the volume over the left half of the image: those pixels stay transparent, the
+    // right half is unchanged.
+    RenderRequest q = request(p, 0, 48);
+    RenderResult full, cut, oracleCut;
+    gpu->render(q, full, Memory::Host);
+    std::vector<float> depth(size_t(48) * 48, 1.0f);
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 24; ++x)
+        depth[size_t(y) * 48 + x] = 0.0f; // on the near plane
+    q.depth = depth.data();
+    gpu->render(q, cut, Memory::Host);
+    oracle(p).render(scene().model, 1, q, oracleCut);
+    double leftAlpha = 0.0, rightDiff = 0.0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x)
+      {
+        const size_t i = (size_t(y) * 48 + x) * 4;
+        if (x < 24)
+          leftAlpha = std::max(leftAlpha, double(cut.rgba[i + 3]));
+        else
+          for (int k = 0; k < 4; ++k)
+            rightDiff = std::max(rightDiff, double(std::fabs(cut.rgba[i + k] - full.rgba[i + k])));
+      }
+    const double db = psnr(cut.rgba, oracleCut.rgba);
+    std::printf("    %-9s occluded half: max alpha %.3g; other half max change %.3g; vs CPU %.1f dB\n", kPath[p],
+      leftAlpha, rightDiff, db);
+    EXPECT_TRUE(leftAlpha == 0.0 && rightDiff == 0.0 && db >= 38.0);
+  }
+  // A camera inside the volume sees it from the near plane on.
+  RenderRequest q = request(2, 0, 32);
+  const Mat4 vp = mul(perspective(70.0, 1.0, 0.01, 10.0), lookAt(std::array<double, 3>{ 0.1, 0.05, 0.2 }.data(),
+    std::array<double, 3>{ 0.3, -0.2, -1.0 }.data(), std::array<double, 3>{ 0, 1, 0 }.data()));
+  setCamera(q, vp);
+  RenderResult in, inCpu;
+  gpu->render(q, in, Memory::Host);
+  oracle(2).render(scene().model, 1, q, inCpu);
+  const double alpha = meanChannel(in.rgba, 3), db = psnr(in.rgba, inCpu.rgba);
+  std::printf("    camera inside: mean alpha %.3f, vs CPU %.1f dB\n", alpha, db);
+  EXPECT_TRUE(alpha > 0.05 && db >= 38.0);
+}
+
+NV_TEST(gpu_real_volume_network_versus_original)
+{
+  // stent trained to the reference accuracy (37.9 dB, the PyTorch reference at 2000 steps), the anchor's view and
+  // transfer function: ray marching of the network (each path) vs the same marcher on the original data.
+  const std::string path = dataDir() + "/stent/stent_128x128x256_int16.nhdr";
+  if (dataDir().empty() || !std::ifstream(path))
+  {
+    std::printf("    SKIP: no stent data (%s)\n", path.c_str());
+    return;
+  }
+  nvbench::RawVolume raw = nvbench::loadNhdr(path);
+  Model m = nvbench::modelFor(raw, 14, 1);
+  SessionOptions so;
+  so.kernels = kernels();
+  auto s = NetworkSession::create(Device::Cuda, m, so);
+  TrainConfig tc;
+  auto t = s->createTrainer(raw.view, tc);
+  t->steps(2250, nullptr);
+  t->publish();
+  const double psnrField = compareToSource(*s, raw.view).psnr;
+  RenderRequest q;
+  q.width = 480;
+  q.height = 270;
+  nvbench::anchorCamera(raw.view.dims, q.width, q.height, 3, q.viewProjection);
+  nvbench::voxelWorldToUnit(raw.view.dims, q.worldToUnit);
+  q.transfer = nvbench::anchorTransfer(raw.view.valueMin, raw.view.valueMax);
+  q.sampleDistance = 1.0;
+  RenderRequest ref = q;
+  ref.path = RenderPath::Decode;
+  ref.grid = &raw.view;
+  RenderResult original;
+  s->render(ref, original, Memory::Host);
+  for (int p = 0; p < 3; ++p)
+  {
+    q.path = RenderPath(p);
+    RenderResult net;
+    s->render(q, net, Memory::Host);
+    const double db = psnr(net.rgba, original.rgba);
+    std::printf("    stent (field %.2f dB): %s of the network vs the original %.1f dB\n", psnrField, kPath[p], db);
+    EXPECT_TRUE(psnrField > 37.5 && db >= 30.0);
+  }
+}
+
+int main(int argc, char** argv)
+{
+  kernels() = nvbench::parseKernelFlags(argc, argv);
+  int out = 1;
+  for (int i = 1; i < argc; ++i)
+  {
+    if (std::string(argv[i]) == "--data" && i + 1 < argc)
+      dataDir() = argv[++i];
+    else
+      argv[out++] = argv[i];
+  }
+  argc = out;
+  std::string why;
+  if (!gpu::deviceUsable(&why))
+  {
+    std::printf("SKIPPED: no usable GPU (%s)\n", why.c_str());
+    return kSkip;
+  }
+  std::printf("GPU: %s\n", gpu::deviceDescription().c_str());
+  return nvtest::runCases(argc, argv);
+}
