@@ -31,8 +31,10 @@ namespace
 {
 /// Entries of the transfer-function table handed to the engine.
 constexpr int kTransferEntries = 1024;
-/// A still render waits for at most this many refinements of a progressive decode.
-constexpr int kMaxRefinements = 64;
+/// A still render polls a progressive decode this often (a render of an unchanged request while the coarse grid is
+/// still in use returns the previous image without marching) and gives up after kMaxDecodeWait.
+constexpr std::chrono::milliseconds kDecodePoll(20);
+constexpr std::chrono::seconds kMaxDecodeWait(600);
 
 uint64_t Mix(uint64_t h, uint64_t v)
 {
@@ -311,7 +313,10 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     auto accumulated = [&]() { return static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel; };
     auto renderOnce = [&]() {
       session.render(q, in.Result);
-      ++in.EngineRenders;
+      if (!in.Result.stats.reused)
+      {
+        ++in.EngineRenders; // the engine rendered (not only returned its previous image)
+      }
       in.Stats = in.Result.stats;
       const size_t expected = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
       if (in.Result.rgba.size() != expected)
@@ -327,9 +332,9 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 
     const bool same = in.HaveImage && key == in.Key;
     bool render = !same;
-    if (same && in.Stats.decodePending && !session.workPending())
+    if (same && in.Stats.decodePending)
     {
-      render = true; // the refined grid is ready
+      render = true; // hands the refined grid out when it is ready (else the engine returns the same image)
     }
     if (same && pathTracing && !interactive && accumulated() < this->TargetSamples)
     {
@@ -341,20 +346,24 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       if (!this->ProgressiveRefinement && !interactive)
       {
         // A still render returns the final picture: wait for the refined grid, accumulate to the target.
-        int refinements = 0;
-        for (int guard = 0; guard < (1 << 20); ++guard)
+        const auto waitStart = std::chrono::steady_clock::now();
+        for (int guard = 0; guard < (1 << 24); ++guard)
         {
           if (in.Stats.decodePending)
           {
-            // Nothing left running (or an engine that never finishes refining): this is the final picture.
-            if (!session.workPending() || ++refinements > kMaxRefinements)
+            // The engine keeps workPending() until a render hands the refined grid out: render again until the
+            // picture no longer uses a coarse grid. Nothing running, or too long: keep the coarse picture.
+            if (!session.workPending())
             {
               break;
             }
-            while (session.workPending())
+            if (std::chrono::steady_clock::now() - waitStart > kMaxDecodeWait)
             {
-              std::this_thread::sleep_for(std::chrono::milliseconds(2));
+              vtkWarningMacro("Neural Volume: the full decode grid is not ready after "
+                << kMaxDecodeWait.count() << " s; showing the coarse grid.");
+              break;
             }
+            std::this_thread::sleep_for(kDecodePoll);
             renderOnce();
           }
           else if (pathTracing && accumulated() < this->TargetSamples)

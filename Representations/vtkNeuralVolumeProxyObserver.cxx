@@ -484,6 +484,7 @@ bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vt
   }
   // As if the user picked the array: fit the maps to its range.
   vtkSMPVRepresentationProxy::RescaleTransferFunctionToDataRange(representation, true);
+  // The GUI's default; scripts (pvpython, pvbatch) run with manual colour bars, as for the stock Volume.
   if (vtkPVGeneralSettings::GetInstance()->GetScalarBarMode() ==
     vtkPVGeneralSettings::AUTOMATICALLY_SHOW_AND_HIDE_SCALAR_BARS)
   {

@@ -210,8 +210,10 @@ void vtkNeuralVolumeRefreshDriver::OnViewRendered(vtkObject* caller, unsigned lo
     vtkSMProperty* work = representation->GetProperty("WorkPending");
     vtkSMProxy* neural = work ? work->GetParent() : nullptr;
     vtkNew<vtkPVNeuralVolumeInformation> information;
-    if (neural && neural->GatherInformation(information, vtkPVSession::RENDER_SERVER))
+    if (neural)
     {
+      // (A client-server session's GatherInformation returns false even when it gathered: check Valid.)
+      neural->GatherInformation(information, vtkPVSession::RENDER_SERVER);
       pending = information->GetValid() && information->GetWorkPending();
     }
   }
