@@ -24,11 +24,16 @@ SIZE = [128, 128]
 PATHS = ["Decode", "Sample Streaming", "In-Shader"]
 MODES = ["Ray Marching", "Ray Marching + Gradient Shading", "Ray Marching + Shadows", "Path Tracing",
          "Path Tracing + Next-Event Estimation"]
-TARGET_SAMPLES = 16  # path tracing: paths per pixel a still render accumulates
+TARGET_SAMPLES = 64  # path tracing: paths per pixel a still render accumulates
 
 BASELINE_DB = 40.0
 PATHS_AGREE_DB = 30.0    # the issue's bar: a network path against the Decode path's grid
-PT_PATHS_AGREE_DB = 20.0  # path tracing: the paths' random walks diverge where their field values differ
+# Path tracing: the paths' random walks diverge where their field values differ, so their noise differs (a firefly
+# in one image is not in the other); the comparison is on 4x4-pixel means (measured at 64 paths per pixel: 39 dB with
+# next-event estimation). Without it the 5-degree sun is found only by chance: a pixel is black or a saturated
+# firefly, and the images agree only on 8x8-pixel means at a lower bar (measured 28.8 dB at 64 paths per pixel).
+PT_BLOCK = 4
+PT_PLAIN_BLOCK, PT_PLAIN_AGREE_DB = 8, 25.0
 IDENTICAL_DB = 99.0      # above this two images are the same picture (a fallback)
 SKIPPING_DB = 45.0       # skipping must not change the picture
 DIFFERENT_MAX_DB = 35.0  # a mode that shades differently must show it
@@ -47,7 +52,7 @@ pwf = GetOpacityTransferFunction("RTData")
 # Transparent below 65% of the range: empty macrocells for the skipping checks, structure for the shading modes.
 threshold = vmin + 0.65 * (vmax - vmin)
 pwf.Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
-nvtest.set_camera(view, [110.0, -80.0, 150.0])
+nvtest.set_camera(view, [55.0, -40.0, 75.0])
 display.TargetSamples = TARGET_SAMPLES
 display.SamplesPerPixel = 1
 display.Ambient = 0.2
@@ -93,13 +98,22 @@ for mode in MODES:
         nvtest.baseline(png, "TestNeuralVolumePaths_%s_%s" % (tag(path), tag(mode)), BASELINE_DB, label)
 
 # --- the paths agree, and the network paths are not the Decode path ------------------------------
+def block_means(pixels, k):
+    rows, cols = pixels.shape[0] // k * k, pixels.shape[1] // k * k
+    return pixels[:rows, :cols].reshape(rows // k, k, cols // k, k, 3).mean(axis=(1, 3))
+
+
 for mode in MODES:
     reference = images[("Decode", mode)]
     for path in PATHS[1:]:
         db = nvtest.image_psnr(images[(path, mode)], reference)
-        bar = PT_PATHS_AGREE_DB if mode.startswith("Path Tracing") else PATHS_AGREE_DB
-        log("%s vs Decode, %s: %.2f dB" % (path, mode, db))
-        check(db >= bar, "%s agrees with Decode for %s (%.2f dB < %.1f)" % (path, mode, db, bar))
+        agree, bar = db, PATHS_AGREE_DB
+        if mode.startswith("Path Tracing"):
+            block = PT_BLOCK if mode == "Path Tracing + Next-Event Estimation" else PT_PLAIN_BLOCK
+            bar = PATHS_AGREE_DB if mode == "Path Tracing + Next-Event Estimation" else PT_PLAIN_AGREE_DB
+            agree = nvtest.image_psnr(block_means(images[(path, mode)], block), block_means(reference, block))
+        log("%s vs Decode, %s: %.2f dB (compared: %.2f dB)" % (path, mode, db, agree))
+        check(agree >= bar, "%s agrees with Decode for %s (%.2f dB < %.1f)" % (path, mode, agree, bar))
         check(db < IDENTICAL_DB, "%s is not the Decode picture for %s (%.2f dB)" % (path, mode, db))
 
 # --- each shading mode shades differently ------------------------------------------------------------
