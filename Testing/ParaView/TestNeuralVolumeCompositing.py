@@ -20,7 +20,7 @@ out_dir = nvtest.output_dir()
 SIZE = [240, 240]
 BACKGROUND = (0.32, 0.34, 0.43)
 
-STOCK_DB = 35.0      # Neural Volume (Decode) vs the stock ray caster on the decoded output: measured 42-49 dB
+STOCK_DB = 35.0      # Neural Volume (Decode) vs the stock ray caster on the decoded output: measured 49-58 dB
 SAME_DB = 45.0       # a region that must show exactly the reference there
 DIFFERENT_MAX_DB = 30.0
 
