@@ -1,6 +1,7 @@
 #include "vtkNeuralCompress.h"
 
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralNetworkArray.h"
 
 #include "Core/Error.h"
 #include "Core/Serialization.h"
@@ -182,6 +183,7 @@ int vtkNeuralCompress::RequestData(
     return 0;
   }
   output->Initialize();
+  this->Session.reset(); // the previous output's network
   InitializeLog(log);
 
   if (!this->Execute(inputObject, inputVector, output, log))
@@ -353,7 +355,9 @@ bool vtkNeuralCompress::Compress(
 
     nv::SessionOptions sessionOptions;
     sessionOptions.threads = this->Threads;
-    const std::unique_ptr<nv::NetworkSession> session = nv::NetworkSession::create(device, model, sessionOptions);
+    // Kept by the filter while its output holds this network: renderers of this process use it (the
+    // registry of vtkNeuralNetworkArray) instead of loading the bytes again.
+    std::shared_ptr<nv::NetworkSession> session = nv::NetworkSession::create(device, model, sessionOptions);
 
     // Training.
     nvi::TrainingResult result;
@@ -452,11 +456,8 @@ bool vtkNeuralCompress::Compress(
       output->GetPointData()->SetScalars(decoded);
     }
     vtkFieldData* fd = output->GetFieldData();
-    vtkNew<vtkUnsignedCharArray> network;
-    network->SetName("NeuralNetwork");
-    network->SetNumberOfTuples(static_cast<vtkIdType>(bytes.size()));
-    std::memcpy(network->GetPointer(0), bytes.data(), bytes.size());
-    fd->AddArray(network);
+    vtkNeuralNetworkArray::Write(fd, bytes, session);
+    this->Session = session;
     AddFieldValue<vtkDoubleArray>(fd, "NeuralTrainingSeconds", result.Seconds);
     AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", result.Steps);
     AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", error.psnr);

@@ -10,7 +10,9 @@
  * Output port 0: vtkImageData with the input's bounds (spacing adapted when OutputResolution
  * is set) holding the decoded field (float) under the input array's name, point data for a
  * point array, cell data for a cell array. Its field data carries the serialized network
- * (`NeuralNetwork`, vtkUnsignedCharArray) and the metadata arrays `NeuralTrainingSeconds`,
+ * (`NeuralNetwork`, vtkUnsignedCharArray, and `NeuralNetworkSession`, the key of the trained
+ * session for renderers of the same process; see vtkNeuralNetworkArray) and the metadata arrays
+ * `NeuralTrainingSeconds`,
  * `NeuralSteps`, `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`,
  * `NeuralModelBytes`, `NeuralInvalidSamples` and `NeuralDevice`.
  *
@@ -34,9 +36,15 @@
 #include "NeuralVolumeFiltersModule.h" // for export macro
 #include "vtkDataObjectAlgorithm.h"
 
+#include <memory> // for std::shared_ptr
+
 class vtkDataArray;
 class vtkImageData;
 class vtkTable;
+namespace nv
+{
+class NetworkSession;
+}
 
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
 {
@@ -219,6 +227,10 @@ private:
   /// caller) after reporting an error.
   bool Compress(vtkImageData* input, vtkDataArray* array, int association, vtkImageData* output,
     vtkTable* log);
+
+  /// The session holding the network of the current output (registered for the renderers of this
+  /// process through vtkNeuralNetworkArray).
+  std::shared_ptr<nv::NetworkSession> Session;
 };
 
 #endif

@@ -1,276 +1,414 @@
 #include "vtkNeuralVolumeMapper.h"
 
-#include "Core/Engine.h"
-#include "Core/Error.h"
-#include "Core/Model.h"
+#include "vtkNeuralImageCompositor.h"
+#include "vtkNeuralNetworkArray.h"
+#include "vtkNeuralRenderRequest.h"
+
 #include "Core/NetworkSession.h"
-#include "Core/Serialization.h"
+#include "Core/Render.h"
+#include "Core/RenderSetup.h"
 
 #include "vtkFieldData.h"
-#include "vtkFloatArray.h"
 #include "vtkImageData.h"
-#include "vtkMatrix3x3.h"
 #include "vtkObjectFactory.h"
-#include "vtkPointData.h"
 #include "vtkRenderWindow.h"
 #include "vtkRenderer.h"
-#include "vtkSmartPointer.h"
-#include "vtkMultiBlockVolumeMapper.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
+#include "vtkVolumeProperty.h"
 
 #include <algorithm>
-#include <cstring>
-#include <memory>
+#include <chrono>
+#include <cmath>
+#include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 vtkStandardNewMacro(vtkNeuralVolumeMapper);
 
+namespace
+{
+/// Entries of the transfer-function table handed to the engine.
+constexpr int kTransferEntries = 1024;
+/// A still render polls a progressive decode this often (a render of an unchanged request while the coarse grid is
+/// still in use returns the previous image without marching) and gives up after kMaxDecodeWait.
+constexpr std::chrono::milliseconds kDecodePoll(20);
+constexpr std::chrono::seconds kMaxDecodeWait(600);
+
+uint64_t Mix(uint64_t h, uint64_t v)
+{
+  h ^= v + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+  return h;
+}
+} // namespace
+
 struct vtkNeuralVolumeMapper::vtkInternals
 {
-  // Cache key: the network's size and stored CRC-32, and the requested resolution.
-  size_t NetworkSize = 0;
-  uint32_t NetworkCrc = 0;
-  int Resolution[3] = { -1, -1, -1 };
-  bool KeyValid = false;
+  // The network: the array it came from and its session.
+  vtkUnsignedCharArray* NetworkArray = nullptr;
+  vtkMTimeType NetworkTime = 0;
+  std::shared_ptr<nv::NetworkSession> Session;
+  bool FromBytes = false;
 
-  bool HaveModel = false;
-  nv::Model Model;
-  std::unique_ptr<nv::NetworkSession> Session;
-  nv::Device Device = nv::Device::Cpu;
-  int64_t Dims[3] = { 0, 0, 0 };
-  int64_t Decoded = 0; // z-slices decoded
-  std::vector<float> Grid;
-  int DecodeCount = 0;
+  // Transfer function sampled from the volume property (resampled when the property changes).
+  vtkVolumeProperty* TfProperty = nullptr;
+  vtkMTimeType TfTime = 0;
+  nv::TransferFunction Tf;
+
+  // The last image and what it shows.
+  vtkNeuralImageCompositor Compositor;
+  nv::RenderResult Result;
+  nv::RenderStats Stats;
+  uint64_t Key = 0;
+  bool HaveImage = false;
+  int Size[2] = { 0, 0 };
+  int EngineRenders = 0;
+  bool WorkPending = false;
+  std::vector<float> Depth;
+
   std::string LastError;
-  bool ReportedMissing = false;
-
-  vtkNew<vtkMultiBlockVolumeMapper> RenderMapper;
-  vtkSmartPointer<vtkImageData> Shown;
-  int64_t ShownSlices = -1;
+  std::string Reported;
+  std::set<int> WarnedBlendModes;
+  bool WarnedDepth = false;
 };
 
 //------------------------------------------------------------------------------
 vtkNeuralVolumeMapper::vtkNeuralVolumeMapper()
-  : Internals(new vtkInternals)
+  : StreamingSamples(nv::kDefaultStreamingSamples)
+  , Internals(new vtkInternals)
 {
-  std::string note;
-  try
-  {
-    this->Internals->Device = nv::resolveDevice(nv::Device::Auto, &note);
-  }
-  catch (const std::exception&)
-  {
-    this->Internals->Device = nv::Device::Cpu;
-  }
 }
 
-vtkNeuralVolumeMapper::~vtkNeuralVolumeMapper()
-{
-  delete this->Internals;
-}
+vtkNeuralVolumeMapper::~vtkNeuralVolumeMapper() = default;
 
 //------------------------------------------------------------------------------
-void vtkNeuralVolumeMapper::SetDecodeResolution(int x, int y, int z)
+int vtkNeuralVolumeMapper::GetLastRenderPath() const
 {
-  if (x != this->DecodeResolution[0] || y != this->DecodeResolution[1] ||
-    z != this->DecodeResolution[2])
-  {
-    this->DecodeResolution[0] = std::max(0, x);
-    this->DecodeResolution[1] = std::max(0, y);
-    this->DecodeResolution[2] = std::max(0, z);
-    this->Modified();
-  }
+  return static_cast<int>(this->Internals->Stats.path);
 }
-
-int vtkNeuralVolumeMapper::GetDecodedSlices() const
+double vtkNeuralVolumeMapper::GetLastSamplesEvaluated() const
 {
-  return static_cast<int>(this->Internals->Decoded);
+  return static_cast<double>(this->Internals->Stats.samplesEvaluated);
 }
-
-int vtkNeuralVolumeMapper::GetTotalSlices() const
+double vtkNeuralVolumeMapper::GetLastSamplesPlain() const
 {
-  return static_cast<int>(this->Internals->Dims[2]);
+  return static_cast<double>(this->Internals->Stats.samplesPlain);
 }
-
-int vtkNeuralVolumeMapper::GetDecodeCount() const
+double vtkNeuralVolumeMapper::GetLastWavefronts() const
 {
-  return this->Internals->DecodeCount;
+  return static_cast<double>(this->Internals->Stats.wavefronts);
 }
-
+int vtkNeuralVolumeMapper::GetLastAccumulatedFrames() const
+{
+  return this->Internals->Stats.accumulatedFrames;
+}
+void vtkNeuralVolumeMapper::GetLastImageSize(int size[2]) const
+{
+  size[0] = this->Internals->Size[0];
+  size[1] = this->Internals->Size[1];
+}
+bool vtkNeuralVolumeMapper::GetLastDecodePending() const
+{
+  return this->Internals->Stats.decodePending;
+}
+double vtkNeuralVolumeMapper::GetLastRenderMilliseconds() const
+{
+  return this->Internals->Stats.renderMilliseconds + this->Internals->Stats.decodeMilliseconds;
+}
+int vtkNeuralVolumeMapper::GetEngineRenderCount() const
+{
+  return this->Internals->EngineRenders;
+}
+bool vtkNeuralVolumeMapper::GetWorkPending() const
+{
+  return this->Internals->WorkPending;
+}
 bool vtkNeuralVolumeMapper::HasNetwork() const
 {
-  return this->Internals->HaveModel;
+  return this->Internals->Session != nullptr;
 }
-
+bool vtkNeuralVolumeMapper::GetSessionFromBytes() const
+{
+  return this->Internals->FromBytes;
+}
 const char* vtkNeuralVolumeMapper::GetLastError() const
 {
   return this->Internals->LastError.c_str();
 }
 
-vtkMultiBlockVolumeMapper* vtkNeuralVolumeMapper::GetRenderMapper()
+void vtkNeuralVolumeMapper::ReleaseGraphicsResources(vtkWindow* window)
 {
-  return this->Internals->RenderMapper;
-}
-
-void vtkNeuralVolumeMapper::ReleaseGraphicsResources(vtkWindow* w)
-{
-  this->Internals->RenderMapper->ReleaseGraphicsResources(w);
+  this->Internals->Compositor.ReleaseGraphicsResources(window);
 }
 
 //------------------------------------------------------------------------------
 void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 {
   vtkInternals& in = *this->Internals;
+  // Hardware selection passes draw ids, not colours: the volume takes no part in them.
+  if (!ren || !vol || !ren->GetRenderWindow() || ren->GetSelector())
+  {
+    return;
+  }
   if (this->GetInputAlgorithm())
   {
     this->GetInputAlgorithm()->Update();
   }
-  vtkImageData* input = vtkImageData::SafeDownCast(this->GetInput());
-  if (!input)
-  {
-    return;
-  }
-  vtkUnsignedCharArray* network = vtkUnsignedCharArray::SafeDownCast(
-    input->GetFieldData()->GetAbstractArray("NeuralNetwork"));
-  if (!network || network->GetNumberOfComponents() != 1 || network->GetNumberOfTuples() < 8)
-  {
-    in.HaveModel = false;
-    in.KeyValid = false;
-    in.Decoded = 0;
-    in.Dims[0] = in.Dims[1] = in.Dims[2] = 0;
-    in.LastError = "the input has no 'NeuralNetwork' field data array";
-    if (!in.ReportedMissing)
-    {
-      // The representation reports this to the user; keep the mapper quiet but traceable.
-      vtkDebugMacro(<< in.LastError);
-      in.ReportedMissing = true;
-    }
-    return;
-  }
-  in.ReportedMissing = false;
 
-  // Cache check: the serialized format ends with the CRC-32 of everything before it.
-  const size_t size = static_cast<size_t>(network->GetNumberOfTuples());
-  const unsigned char* bytes = network->GetPointer(0);
-  uint32_t crc = 0;
-  std::memcpy(&crc, bytes + size - 4, 4);
-  const bool sameKey = in.KeyValid && in.NetworkSize == size && in.NetworkCrc == crc &&
-    std::equal(this->DecodeResolution, this->DecodeResolution + 3, in.Resolution);
-  if (!sameKey)
+  // Draw nothing on failure: forget the last image and say why once.
+  auto fail = [&](const std::string& message, bool report) {
+    in.LastError = message;
+    in.HaveImage = false;
+    in.WorkPending = false;
+    in.Compositor.Clear();
+    if (report && message != in.Reported)
+    {
+      vtkErrorMacro("Neural Volume: " << message);
+      in.Reported = message;
+    }
+  };
+
+  vtkImageData* image = vtkImageData::SafeDownCast(this->GetInput());
+  vtkUnsignedCharArray* network = image ? vtkNeuralNetworkArray::Find(image->GetFieldData()) : nullptr;
+  if (!network)
   {
-    in.KeyValid = true;
-    in.NetworkSize = size;
-    in.NetworkCrc = crc;
-    std::copy(this->DecodeResolution, this->DecodeResolution + 3, in.Resolution);
-    in.HaveModel = false;
-    in.Decoded = 0;
-    in.ShownSlices = -1;
+    // The representation reports a missing network to the user (once per input).
+    in.Session.reset();
+    in.NetworkArray = nullptr;
+    fail(std::string("the input has no '") + vtkNeuralNetworkArray::GetArrayName() +
+        "' field data array",
+      false);
+    return;
+  }
+  if (network != in.NetworkArray || network->GetMTime() != in.NetworkTime || !in.Session)
+  {
+    in.NetworkArray = network;
+    in.NetworkTime = network->GetMTime();
+    in.Session.reset();
+    in.HaveImage = false;
     try
     {
-      in.Model = nv::deserialize(bytes, size);
-      in.Session = nv::NetworkSession::create(in.Device, in.Model);
-      in.HaveModel = true;
-      in.LastError.clear();
+      in.Session = vtkNeuralNetworkArray::Session(image->GetFieldData(), &in.FromBytes);
     }
     catch (const std::exception& e)
     {
-      in.LastError = std::string("cannot read the NeuralNetwork array: ") + e.what();
-      vtkErrorMacro("Neural Volume: " << in.LastError);
+      fail(std::string("cannot use the input's network: ") + e.what(), true);
       return;
     }
-    const bool useSource = this->DecodeResolution[0] <= 0 || this->DecodeResolution[1] <= 0 ||
-      this->DecodeResolution[2] <= 0;
-    for (int d = 0; d < 3; ++d)
-    {
-      in.Dims[d] = useSource ? in.Model.source.dims[d] : this->DecodeResolution[d];
-    }
-    in.Grid.assign(static_cast<size_t>(in.Dims[0] * in.Dims[1] * in.Dims[2]), 0.0f);
-    ++in.DecodeCount;
   }
-  if (!in.HaveModel)
-  {
-    return;
-  }
+  nv::NetworkSession& session = *in.Session;
 
-  // Progressive decode.
-  const int64_t nx = in.Dims[0], ny = in.Dims[1], nz = in.Dims[2];
-  const int64_t remaining = nz - in.Decoded;
-  if (remaining > 0)
+  try
   {
-    vtkRenderWindow* win = ren ? ren->GetRenderWindow() : nullptr;
-    const bool interactive = win && win->GetDesiredUpdateRate() > 1.0;
-    const int64_t count = interactive && this->SlicesPerRender > 0
-      ? std::min<int64_t>(this->SlicesPerRender, remaining)
-      : remaining;
-    try
+    vtkRenderWindow* window = ren->GetRenderWindow();
+    const bool interactive = window->GetDesiredUpdateRate() > 1.0;
+    int vw = 0, vh = 0, vx = 0, vy = 0;
+    ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
+    if (vw < 1 || vh < 1)
     {
-      nv::decodeGridValues(*in.Session, nx, ny, nz, in.Decoded, in.Decoded + count,
-        in.Grid.data() + in.Decoded * nx * ny);
-    }
-    catch (const std::exception& e)
-    {
-      in.LastError = std::string("decoding failed: ") + e.what();
-      vtkErrorMacro("Neural Volume: " << in.LastError);
-      in.HaveModel = false;
       return;
     }
-    in.Decoded += count;
-  }
+    const double scale = interactive ? this->InteractiveImageScale : 1.0;
 
-  // The slices decoded so far, as an image sharing the grid's memory.
-  const int64_t slices = in.Decoded;
-  if (slices < std::min<int64_t>(2, nz))
-  {
-    return;
-  }
-  if (slices != in.ShownSlices || !in.Shown)
-  {
-    const nv::SourceInfo& src = in.Model.source;
-    vtkNew<vtkImageData> shown;
-    shown->SetExtent(0, static_cast<int>(nx - 1), 0, static_cast<int>(ny - 1), 0,
-      static_cast<int>(slices - 1));
-    double origin[3], spacing[3];
-    for (int d = 0; d < 3; ++d)
+    nv::RenderRequest q;
+    q.width = std::max(1, static_cast<int>(std::lround(vw * scale)));
+    q.height = std::max(1, static_cast<int>(std::lround(vh * scale)));
+    vtkNeuralRenderRequest::ViewProjection(ren, q.viewProjection);
+    std::string message;
+    if (!vtkNeuralRenderRequest::WorldToUnit(vol, image, session.model().source, q.worldToUnit, message))
     {
-      const double lo = src.bounds[2 * d], hi = src.bounds[2 * d + 1];
-      const int64_t n = in.Dims[d];
-      spacing[d] = n > 1 ? (hi - lo) / static_cast<double>(n - 1) : std::max(src.spacing[d], 1e-12);
-      if (!(spacing[d] > 0.0))
+      fail(message, true);
+      return;
+    }
+
+    vtkVolumeProperty* property = vol->GetProperty();
+    if (property != in.TfProperty || property->GetMTime() != in.TfTime)
+    {
+      vtkNeuralRenderRequest::SampleTransferFunction(property, kTransferEntries, in.Tf);
+      in.TfProperty = property;
+      in.TfTime = property->GetMTime();
+    }
+    q.transfer = in.Tf;
+
+    q.path = static_cast<nv::RenderPath>(this->RenderPath);
+    int shading = this->ShadingMode;
+    if (shading == RAY_MARCHING && property->GetShade(0))
+    {
+      shading = RAY_MARCHING_GRADIENT;
+    }
+    q.shading = static_cast<nv::ShadingMode>(shading);
+    switch (this->BlendMode)
+    {
+      case COMPOSITE_BLEND:
+        q.blend = nv::BlendMode::Composite;
+        break;
+      case MAXIMUM_INTENSITY_BLEND:
+        q.blend = nv::BlendMode::Maximum;
+        break;
+      case MINIMUM_INTENSITY_BLEND:
+        q.blend = nv::BlendMode::Minimum;
+        break;
+      case AVERAGE_INTENSITY_BLEND:
+        q.blend = nv::BlendMode::Average;
+        break;
+      case ADDITIVE_BLEND:
+        q.blend = nv::BlendMode::Additive;
+        break;
+      default:
+        q.blend = nv::BlendMode::Composite;
+        if (in.WarnedBlendModes.insert(this->BlendMode).second)
+        {
+          vtkWarningMacro("Neural Volume: the "
+            << (this->BlendMode == ISOSURFACE_BLEND ? "Isosurface"
+                 : this->BlendMode == SLICE_BLEND   ? "Slice"
+                                                    : "requested")
+            << " blend mode is not available for a network; rendering with Composite.");
+        }
+        break;
+    }
+    for (int k = 0; k < 2; ++k)
+    {
+      q.averageRange[k] = std::max(-1e30, std::min(1e30, this->AverageIPScalarRange[k]));
+    }
+    q.sampleDistance = this->SampleDistance;
+    if (this->FollowViewLight)
+    {
+      vtkNeuralRenderRequest::ViewLightDirection(ren, q.lightDirection);
+    }
+    else
+    {
+      std::copy(this->LightDirection, this->LightDirection + 3, q.lightDirection);
+    }
+    q.lightIntensity = 1.0;
+    q.ambient = property->GetAmbient(0);
+    q.diffuse = property->GetDiffuse(0);
+    q.specular = property->GetSpecular(0);
+    q.specularPower = property->GetSpecularPower(0);
+    q.anisotropy = property->GetScatteringAnisotropy();
+    q.maxBounces = this->MaxBounces;
+    q.samplesPerPixel = interactive ? 1 : this->SamplesPerPixel;
+    q.accumulate = true;
+    q.streamingSamples = this->StreamingSamples;
+    q.emptySpaceSkipping = this->EmptySpaceSkipping;
+    std::copy(this->DecodeResolution, this->DecodeResolution + 3, q.decodeResolution);
+    q.seed = 1;
+
+    // Opaque geometry drawn before the volumes hides what lies behind it.
+    if (in.Compositor.ReadDepth(ren, q.width, q.height, in.Depth, message))
+    {
+      q.depth = in.Depth.data();
+    }
+    else if (!in.WarnedDepth)
+    {
+      vtkWarningMacro("Neural Volume: cannot read the depth buffer ("
+        << message << "); opaque geometry does not hide the volume.");
+      in.WarnedDepth = true;
+    }
+
+    // Everything that changes the picture; the engine's own key plus the network.
+    const nv::RenderSetup setup = nv::makeRenderSetup(q, session.model().source);
+    const uint64_t key = Mix(Mix(setup.key, session.version()), reinterpret_cast<uintptr_t>(&session));
+    const bool pathTracing = shading >= PATH_TRACING;
+    auto accumulated = [&]() { return static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel; };
+    auto renderOnce = [&]() {
+      session.render(q, in.Result);
+      if (!in.Result.stats.reused)
       {
-        spacing[d] = 1.0;
+        ++in.EngineRenders; // the engine rendered (not only returned its previous image)
       }
-      origin[d] = n > 1 ? lo : 0.5 * (lo + hi);
+      in.Stats = in.Result.stats;
+      const size_t expected = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
+      if (in.Result.rgba.size() != expected)
+      {
+        throw std::runtime_error("the engine returned an image of the wrong size");
+      }
+      in.Compositor.SetImage(std::move(in.Result.rgba), q.width, q.height);
+      in.Size[0] = q.width;
+      in.Size[1] = q.height;
+      in.Key = key;
+      in.HaveImage = true;
+    };
+
+    const bool same = in.HaveImage && key == in.Key;
+    bool render = !same;
+    if (same && in.Stats.decodePending)
+    {
+      render = true; // hands the refined grid out when it is ready (else the engine returns the same image)
     }
-    shown->SetOrigin(origin);
-    shown->SetSpacing(spacing);
-    shown->SetDirectionMatrix(input->GetDirectionMatrix());
-    vtkNew<vtkFloatArray> values;
-    values->SetName(src.arrayName.empty() ? "NeuralField" : src.arrayName.c_str());
-    values->SetArray(in.Grid.data(), nx * ny * slices, /*save=*/1);
-    shown->GetPointData()->SetScalars(values);
-    in.Shown = shown;
-    in.ShownSlices = slices;
-    in.RenderMapper->SetInputData(in.Shown);
+    if (same && pathTracing && !interactive && accumulated() < this->TargetSamples)
+    {
+      render = true; // one more frame into the average
+    }
+    if (render)
+    {
+      renderOnce();
+      if (!this->ProgressiveRefinement && !interactive)
+      {
+        // A still render returns the final picture: wait for the refined grid, accumulate to the target.
+        const auto waitStart = std::chrono::steady_clock::now();
+        for (int guard = 0; guard < (1 << 24); ++guard)
+        {
+          if (in.Stats.decodePending)
+          {
+            // The engine keeps workPending() until a render hands the refined grid out: render again until the
+            // picture no longer uses a coarse grid. Nothing running, or too long: keep the coarse picture.
+            if (!session.workPending())
+            {
+              break;
+            }
+            if (std::chrono::steady_clock::now() - waitStart > kMaxDecodeWait)
+            {
+              vtkWarningMacro("Neural Volume: the full decode grid is not ready after "
+                << kMaxDecodeWait.count() << " s; showing the coarse grid.");
+              break;
+            }
+            std::this_thread::sleep_for(kDecodePoll);
+            renderOnce();
+          }
+          else if (pathTracing && accumulated() < this->TargetSamples)
+          {
+            renderOnce();
+          }
+          else
+          {
+            break;
+          }
+        }
+      }
+    }
+    in.WorkPending = in.Stats.decodePending || session.workPending() ||
+      (pathTracing && !interactive && accumulated() < this->TargetSamples);
+    in.LastError.clear();
+    in.Reported.clear();
+  }
+  catch (const std::exception& e)
+  {
+    fail(std::string("rendering failed: ") + e.what(), true);
+    return;
   }
 
-  vtkMultiBlockVolumeMapper* rm = in.RenderMapper;
-  rm->SetBlendMode(this->BlendMode);
-  rm->SetAverageIPScalarRange(this->AverageIPScalarRange);
-  rm->SetCropping(this->Cropping);
-  rm->SetCroppingRegionPlanes(this->CroppingRegionPlanes);
-  rm->SetCroppingRegionFlags(this->CroppingRegionFlags);
-  rm->Render(ren, vol);
+  in.Compositor.Draw(ren);
 }
 
 //------------------------------------------------------------------------------
 void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
-  os << indent << "DecodeResolution: " << this->DecodeResolution[0] << " "
-     << this->DecodeResolution[1] << " " << this->DecodeResolution[2] << "\n";
-  os << indent << "SlicesPerRender: " << this->SlicesPerRender << "\n";
-  os << indent << "DecodedSlices: " << this->GetDecodedSlices() << " / " << this->GetTotalSlices()
-     << "\n";
+  os << indent << "RenderPath: " << this->RenderPath << "\n"
+     << indent << "ShadingMode: " << this->ShadingMode << "\n"
+     << indent << "SampleDistance: " << this->SampleDistance << "\n"
+     << indent << "StreamingSamples: " << this->StreamingSamples << "\n"
+     << indent << "SamplesPerPixel: " << this->SamplesPerPixel << "\n"
+     << indent << "MaxBounces: " << this->MaxBounces << "\n"
+     << indent << "TargetSamples: " << this->TargetSamples << "\n"
+     << indent << "FollowViewLight: " << this->FollowViewLight << "\n"
+     << indent << "LightDirection: " << this->LightDirection[0] << " " << this->LightDirection[1] << " "
+     << this->LightDirection[2] << "\n"
+     << indent << "EmptySpaceSkipping: " << this->EmptySpaceSkipping << "\n"
+     << indent << "DecodeResolution: " << this->DecodeResolution[0] << " " << this->DecodeResolution[1] << " "
+     << this->DecodeResolution[2] << "\n"
+     << indent << "InteractiveImageScale: " << this->InteractiveImageScale << "\n"
+     << indent << "ProgressiveRefinement: " << this->ProgressiveRefinement << "\n"
+     << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n";
 }

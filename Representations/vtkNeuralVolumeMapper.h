@@ -1,17 +1,28 @@
 /**
  * @class   vtkNeuralVolumeMapper
- * @brief   volume mapper that decodes a neural representation and ray casts the result
+ * @brief   volume mapper that renders a trained neural network with the NeuralVolume engine
  *
- * The input is a vtkImageData whose field data carries a serialized network (`NeuralNetwork`,
- * written by vtkNeuralCompress). The mapper decodes the network to a grid of DecodeResolution
- * samples (0 0 0 = the resolution the network was trained on) spanning the trained field's
- * bounds, and renders that grid through a stock vtkMultiBlockVolumeMapper with the volume's
- * property (color and opacity transfer functions).
+ * The input is a vtkImageData whose field data carries a network (`NeuralNetwork`, written by
+ * vtkNeuralCompress; see vtkNeuralNetworkArray). Each render gathers an engine request from VTK's
+ * state -- the camera's view-projection for the renderer's tiled viewport, the volume's matrix and
+ * the image's direction (world -> network coordinates), the colour and scalar-opacity functions of
+ * the vtkVolumeProperty sampled over their range, its unit distance, Shade, Ambient, Diffuse,
+ * Specular, SpecularPower and scattering anisotropy, the blend mode, the view's key light, and the
+ * window depth of the opaque geometry already drawn -- renders it with the network's session
+ * (the session the filter trained when it lives in this process) and composites the premultiplied
+ * RGBA image over the framebuffer as a textured quad.
  *
- * Decoding is progressive: an interactive render (render window desired update rate > 1, as
- * set by vtkPVRenderView::InteractiveRender) decodes SlicesPerRender more z-slices and shows
- * the slices decoded so far; a still render decodes everything left. The decoded grid is cached
- * and only decoded again when the network (its size and checksum) or DecodeResolution changes.
+ * Nothing is rendered again while the request, the depth buffer and the network are unchanged: the
+ * last image is drawn again (path tracing instead accumulates one more frame until TargetSamples
+ * paths per pixel). An interactive render (render window desired update rate > 1, ParaView's
+ * InteractiveRender) renders InteractiveImageScale of the viewport with one path per pixel.
+ *
+ * Still renders block until the picture is final (the Decode path's background refinement done,
+ * path tracing at TargetSamples) unless ProgressiveRefinement is on: then every render does one
+ * step and GetWorkPending() says that another render would refine the picture (the GUI's refresh
+ * driver, vtkNeuralVolumeRefreshDriver, renders again while it is true).
+ *
+ * Engine errors are reported once with vtkErrorMacro and nothing is drawn.
  */
 #ifndef vtkNeuralVolumeMapper_h
 #define vtkNeuralVolumeMapper_h
@@ -19,7 +30,7 @@
 #include "NeuralVolumeRepresentationsModule.h" // for export macro
 #include "vtkVolumeMapper.h"
 
-class vtkMultiBlockVolumeMapper;
+#include <memory> // for std::unique_ptr
 
 class NEURALVOLUMEREPRESENTATIONS_EXPORT vtkNeuralVolumeMapper : public vtkVolumeMapper
 {
@@ -28,48 +39,146 @@ public:
   vtkTypeMacro(vtkNeuralVolumeMapper, vtkVolumeMapper);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
+  /// Values as in the engine (nv::RenderPath, nv::ShadingMode).
+  enum RenderPaths
+  {
+    DECODE = 0,
+    SAMPLE_STREAMING = 1,
+    IN_SHADER = 2
+  };
+  enum ShadingModes
+  {
+    RAY_MARCHING = 0,
+    RAY_MARCHING_GRADIENT = 1,
+    RAY_MARCHING_SHADOWS = 2,
+    PATH_TRACING = 3,
+    PATH_TRACING_NEE = 4
+  };
+
   ///@{
-  /// Samples per axis of the decoded grid; 0 0 0 (or any 0) = the trained field's dimensions.
-  void SetDecodeResolution(int x, int y, int z);
-  void SetDecodeResolution(const int r[3]) { this->SetDecodeResolution(r[0], r[1], r[2]); }
+  /// How the network is evaluated: Decode (decoded to a grid, refined in the background), Sample
+  /// Streaming (wavefronts of K samples per ray, batched inference) or In-Shader (network inside
+  /// the marching loop).
+  vtkSetClampMacro(RenderPath, int, DECODE, IN_SHADER);
+  vtkGetMacro(RenderPath, int);
+  ///@}
+
+  ///@{
+  /// Light transport. Ray Marching with the volume property's Shade on is gradient shading.
+  vtkSetClampMacro(ShadingMode, int, RAY_MARCHING, PATH_TRACING_NEE);
+  vtkGetMacro(ShadingMode, int);
+  ///@}
+
+  ///@{
+  /// World distance between samples; 0 = one sample per voxel of the trained field.
+  vtkSetClampMacro(SampleDistance, double, 0.0, VTK_DOUBLE_MAX);
+  vtkGetMacro(SampleDistance, double);
+  ///@}
+
+  ///@{
+  /// Sample Streaming: samples each ray advances per wavefront (K); 0 = the engine's default.
+  vtkSetClampMacro(StreamingSamples, int, 0, 1024);
+  vtkGetMacro(StreamingSamples, int);
+  ///@}
+
+  ///@{
+  /// Path tracing: paths per pixel per render, scattering events per path, and the paths per pixel
+  /// a still view accumulates to.
+  vtkSetClampMacro(SamplesPerPixel, int, 1, 4096);
+  vtkGetMacro(SamplesPerPixel, int);
+  vtkSetClampMacro(MaxBounces, int, 0, 1024);
+  vtkGetMacro(MaxBounces, int);
+  vtkSetClampMacro(TargetSamples, int, 1, 1 << 20);
+  vtkGetMacro(TargetSamples, int);
+  ///@}
+
+  ///@{
+  /// The light: the view's key light (FollowViewLight on, the default) or LightDirection (world
+  /// space, towards the light).
+  vtkSetMacro(FollowViewLight, bool);
+  vtkGetMacro(FollowViewLight, bool);
+  vtkSetVector3Macro(LightDirection, double);
+  vtkGetVector3Macro(LightDirection, double);
+  ///@}
+
+  ///@{
+  /// Skip empty macrocells (and use local majorants for path tracing). Does not change the picture.
+  vtkSetMacro(EmptySpaceSkipping, bool);
+  vtkGetMacro(EmptySpaceSkipping, bool);
+  ///@}
+
+  ///@{
+  /// Decode path: samples per axis of the decoded grid; 0 0 0 = the trained field's dimensions.
+  vtkSetVector3Macro(DecodeResolution, int);
   vtkGetVector3Macro(DecodeResolution, int);
   ///@}
 
   ///@{
-  /// Z-slices decoded per interactive render (0 = all at once).
-  vtkSetClampMacro(SlicesPerRender, int, 0, VTK_INT_MAX);
-  vtkGetMacro(SlicesPerRender, int);
+  /// Fraction of the viewport size rendered by an interactive render (0.05 - 1).
+  vtkSetClampMacro(InteractiveImageScale, double, 0.05, 1.0);
+  vtkGetMacro(InteractiveImageScale, double);
   ///@}
 
-  /// Slices of the current grid decoded so far, and the grid's number of slices.
-  int GetDecodedSlices() const;
-  int GetTotalSlices() const;
-  /// How many times a (new) network or resolution started a decode (for cache tests).
-  int GetDecodeCount() const;
-  /// False when the input carries no usable network (nothing is rendered).
+  ///@{
+  /// Off (default): a still render returns the final picture. On: one refinement step per render.
+  vtkSetMacro(ProgressiveRefinement, bool);
+  vtkGetMacro(ProgressiveRefinement, bool);
+  ///@}
+
+  ///@{
+  /// About the last render: the path the engine ran, field evaluations, evaluations of a plain
+  /// marcher (no skipping), Sample Streaming wavefronts, path-tracing frames accumulated, the image
+  /// size, whether the Decode path showed a coarser grid, and the engine's render time.
+  int GetLastRenderPath() const;
+  double GetLastSamplesEvaluated() const;
+  double GetLastSamplesPlain() const;
+  double GetLastWavefronts() const;
+  int GetLastAccumulatedFrames() const;
+  void GetLastImageSize(int size[2]) const;
+  bool GetLastDecodePending() const;
+  double GetLastRenderMilliseconds() const;
+  ///@}
+
+  /// session->render() calls so far (a render that reuses the last image does not count).
+  int GetEngineRenderCount() const;
+  /// True when another render would refine the picture (background decode still running, or path
+  /// tracing below TargetSamples).
+  bool GetWorkPending() const;
+  /// True when the input carries a network the engine accepted.
   bool HasNetwork() const;
-  /// Message of the last failure to read the network ("" when none).
+  /// True when the network's session was created from the serialized bytes (not the session the
+  /// Neural Compress filter of this process trained).
+  bool GetSessionFromBytes() const;
+  /// Last error reported ("" when the last render succeeded).
   const char* GetLastError() const;
 
   void Render(vtkRenderer* ren, vtkVolume* vol) override;
   void ReleaseGraphicsResources(vtkWindow*) override;
 
-  /// The stock mapper that renders the decoded grid.
-  vtkMultiBlockVolumeMapper* GetRenderMapper();
-
 protected:
   vtkNeuralVolumeMapper();
   ~vtkNeuralVolumeMapper() override;
 
+  int RenderPath = DECODE;
+  int ShadingMode = RAY_MARCHING;
+  double SampleDistance = 0.0;
+  int StreamingSamples;
+  int SamplesPerPixel = 1;
+  int MaxBounces = 4;
+  int TargetSamples = 64;
+  bool FollowViewLight = true;
+  double LightDirection[3] = { 0.0, 0.0, 1.0 };
+  bool EmptySpaceSkipping = true;
   int DecodeResolution[3] = { 0, 0, 0 };
-  int SlicesPerRender = 8;
+  double InteractiveImageScale = 0.5;
+  bool ProgressiveRefinement = false;
 
 private:
   vtkNeuralVolumeMapper(const vtkNeuralVolumeMapper&) = delete;
   void operator=(const vtkNeuralVolumeMapper&) = delete;
 
   struct vtkInternals;
-  vtkInternals* Internals;
+  std::unique_ptr<vtkInternals> Internals;
 };
 
 #endif

@@ -1,22 +1,22 @@
 #include "vtkNeuralVolumeRepresentation.h"
 
+#include "vtkNeuralNetworkArray.h"
 #include "vtkNeuralVolumeMapper.h"
 
-#include "vtkFieldData.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
-#include "vtkMultiBlockVolumeMapper.h"
 #include "vtkObjectFactory.h"
-#include "vtkUnsignedCharArray.h"
+
+#include <algorithm>
 
 vtkStandardNewMacro(vtkNeuralVolumeRepresentation);
 
 //------------------------------------------------------------------------------
 vtkNeuralVolumeRepresentation::vtkNeuralVolumeRepresentation()
 {
-  // Swap the stock mapper for ours; everything else (delivery, outline, transfer functions,
-  // blend mode, cropping) stays with vtkImageVolumeRepresentation.
+  // Swap the stock mapper for ours; delivery, outline, transfer functions, blend mode and the
+  // volume property stay with vtkImageVolumeRepresentation.
   this->VolumeMapper = this->NeuralMapper.GetPointer();
 }
 
@@ -28,55 +28,104 @@ vtkNeuralVolumeMapper* vtkNeuralVolumeRepresentation::GetNeuralMapper()
 }
 
 //------------------------------------------------------------------------------
-void vtkNeuralVolumeRepresentation::SetDecodeResolution(int x, int y, int z)
-{
-  this->NeuralMapper->SetDecodeResolution(x, y, z);
-}
-
-void vtkNeuralVolumeRepresentation::SetSlicesPerRender(int slices)
-{
-  this->NeuralMapper->SetSlicesPerRender(slices);
-}
-
-int vtkNeuralVolumeRepresentation::GetDecodedSlices()
-{
-  return this->NeuralMapper->GetDecodedSlices();
-}
-
-int vtkNeuralVolumeRepresentation::GetTotalSlices()
-{
-  return this->NeuralMapper->GetTotalSlices();
-}
-
-int vtkNeuralVolumeRepresentation::GetDecodeCount()
-{
-  return this->NeuralMapper->GetDecodeCount();
-}
-
-void vtkNeuralVolumeRepresentation::SetRequestedRenderMode(int mode)
-{
-  this->Superclass::SetRequestedRenderMode(mode);
-  this->NeuralMapper->GetRenderMapper()->SetRequestedRenderMode(mode);
-}
-
 void vtkNeuralVolumeRepresentation::SetRenderPath(int path)
 {
-  if (path < DECODE || path > IN_SHADER)
-  {
-    vtkErrorMacro("Neural Volume: unknown render path " << path << "; using Decode.");
-    path = DECODE;
-  }
-  if (path != DECODE)
-  {
-    vtkWarningMacro("Neural Volume: the '"
-      << (path == SAMPLE_STREAMING ? "Sample Streaming" : "In-Shader")
-      << "' render path arrives in a later version of NeuralVolume; rendering with Decode.");
-  }
-  if (path != this->RenderPath)
-  {
-    this->RenderPath = path;
-    this->Modified();
-  }
+  this->NeuralMapper->SetRenderPath(path);
+}
+void vtkNeuralVolumeRepresentation::SetShadingMode(int mode)
+{
+  this->NeuralMapper->SetShadingMode(mode);
+}
+void vtkNeuralVolumeRepresentation::SetSampleDistance(double distance)
+{
+  this->NeuralMapper->SetSampleDistance(distance);
+}
+void vtkNeuralVolumeRepresentation::SetStreamingSamples(int k)
+{
+  this->NeuralMapper->SetStreamingSamples(k);
+}
+void vtkNeuralVolumeRepresentation::SetSamplesPerPixel(int spp)
+{
+  this->NeuralMapper->SetSamplesPerPixel(spp);
+}
+void vtkNeuralVolumeRepresentation::SetMaxBounces(int bounces)
+{
+  this->NeuralMapper->SetMaxBounces(bounces);
+}
+void vtkNeuralVolumeRepresentation::SetTargetSamples(int spp)
+{
+  this->NeuralMapper->SetTargetSamples(spp);
+}
+void vtkNeuralVolumeRepresentation::SetFollowViewLight(int follow)
+{
+  this->NeuralMapper->SetFollowViewLight(follow != 0);
+}
+void vtkNeuralVolumeRepresentation::SetLightDirection(double x, double y, double z)
+{
+  this->NeuralMapper->SetLightDirection(x, y, z);
+}
+void vtkNeuralVolumeRepresentation::SetEmptySpaceSkipping(int skip)
+{
+  this->NeuralMapper->SetEmptySpaceSkipping(skip != 0);
+}
+void vtkNeuralVolumeRepresentation::SetDecodeResolution(int x, int y, int z)
+{
+  this->NeuralMapper->SetDecodeResolution(std::max(0, x), std::max(0, y), std::max(0, z));
+}
+void vtkNeuralVolumeRepresentation::SetInteractiveImageScale(double scale)
+{
+  this->NeuralMapper->SetInteractiveImageScale(scale);
+}
+void vtkNeuralVolumeRepresentation::SetProgressiveRefinement(int progressive)
+{
+  this->NeuralMapper->SetProgressiveRefinement(progressive != 0);
+}
+
+//------------------------------------------------------------------------------
+int vtkNeuralVolumeRepresentation::GetLastRenderPath()
+{
+  return this->NeuralMapper->GetLastRenderPath();
+}
+double vtkNeuralVolumeRepresentation::GetLastSamplesEvaluated()
+{
+  return this->NeuralMapper->GetLastSamplesEvaluated();
+}
+double vtkNeuralVolumeRepresentation::GetLastSamplesPlain()
+{
+  return this->NeuralMapper->GetLastSamplesPlain();
+}
+double vtkNeuralVolumeRepresentation::GetLastWavefronts()
+{
+  return this->NeuralMapper->GetLastWavefronts();
+}
+int vtkNeuralVolumeRepresentation::GetLastAccumulatedFrames()
+{
+  return this->NeuralMapper->GetLastAccumulatedFrames();
+}
+int* vtkNeuralVolumeRepresentation::GetLastImageSize()
+{
+  this->NeuralMapper->GetLastImageSize(this->LastImageSize);
+  return this->LastImageSize;
+}
+double vtkNeuralVolumeRepresentation::GetLastRenderMilliseconds()
+{
+  return this->NeuralMapper->GetLastRenderMilliseconds();
+}
+int vtkNeuralVolumeRepresentation::GetEngineRenderCount()
+{
+  return this->NeuralMapper->GetEngineRenderCount();
+}
+int vtkNeuralVolumeRepresentation::GetWorkPending()
+{
+  return this->NeuralMapper->GetWorkPending() ? 1 : 0;
+}
+int vtkNeuralVolumeRepresentation::GetSessionFromBytes()
+{
+  return this->NeuralMapper->GetSessionFromBytes() ? 1 : 0;
+}
+int vtkNeuralVolumeRepresentation::GetMapperHasNetwork()
+{
+  return this->NeuralMapper->HasNetwork() ? 1 : 0;
 }
 
 //------------------------------------------------------------------------------
@@ -88,19 +137,19 @@ int vtkNeuralVolumeRepresentation::RequestData(
   if (inputVector[0]->GetNumberOfInformationObjects() == 1)
   {
     vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
-    vtkUnsignedCharArray* network = image
-      ? vtkUnsignedCharArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralNetwork"))
-      : nullptr;
-    if (network && network->GetNumberOfTuples() > 0)
+    if (image && vtkNeuralNetworkArray::Find(image->GetFieldData()))
     {
       this->HasNetwork = 1;
+      this->ReportedMissing = false;
     }
-    else
+    else if (!this->ReportedMissing)
     {
-      vtkErrorMacro("Neural Volume: the input has no 'NeuralNetwork' field data array, so there "
-                    "is no network to render. Apply the Neural Compress filter (Filters > Neural) "
-                    "and show its output with the Neural Volume representation. Nothing is "
-                    "rendered.");
+      vtkErrorMacro("Neural Volume: the input has no '"
+        << vtkNeuralNetworkArray::GetArrayName()
+        << "' field data array, so there is no network to render. Apply the Neural Compress "
+           "filter (Filters > Neural) and show its output with the Neural Volume representation. "
+           "Nothing is rendered.");
+      this->ReportedMissing = true;
     }
   }
   return ok;
@@ -110,6 +159,5 @@ int vtkNeuralVolumeRepresentation::RequestData(
 void vtkNeuralVolumeRepresentation::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
-  os << indent << "RenderPath: " << this->RenderPath << "\n";
   os << indent << "HasNetwork: " << this->HasNetwork << "\n";
 }

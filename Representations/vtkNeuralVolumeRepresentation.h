@@ -4,13 +4,12 @@
  *
  * A vtkImageVolumeRepresentation whose volume mapper is a vtkNeuralVolumeMapper: instead of the
  * image's arrays it renders the network stored in the image's field data (`NeuralNetwork`,
- * written by the Neural Compress filter), decoded progressively to a grid of DecodeResolution.
- * Color and opacity come from the usual transfer functions (the ParaView proxy shares them with
- * the stock Volume representation).
- *
- * RenderPath selects how the network reaches the screen: Decode (0) decodes to a grid and ray
- * casts it; Sample Streaming (1) and In-Shader (2) arrive in a later version and fall back to
- * Decode with a warning.
+ * written by the Neural Compress filter) with the NeuralVolume engine. Colour and opacity maps,
+ * Shade, lighting coefficients, scattering anisotropy, the opacity unit distance and the blend mode
+ * come from the stock volume properties (the ParaView proxy shares them with the Volume
+ * representation); the engine's own settings (render path, shading mode, sampling, path tracing,
+ * light, decode resolution) are forwarded to the mapper. The Get* methods report the last render
+ * (information properties of the proxy).
  */
 #ifndef vtkNeuralVolumeRepresentation_h
 #define vtkNeuralVolumeRepresentation_h
@@ -29,33 +28,39 @@ public:
   vtkTypeMacro(vtkNeuralVolumeRepresentation, vtkImageVolumeRepresentation);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  enum RenderPaths
-  {
-    DECODE = 0,
-    SAMPLE_STREAMING = 1,
-    IN_SHADER = 2
-  };
-
   ///@{
-  /// Forwarded to vtkNeuralVolumeMapper.
-  void SetDecodeResolution(int x, int y, int z);
-  void SetSlicesPerRender(int slices);
-  int GetDecodedSlices();
-  int GetTotalSlices();
-  int GetDecodeCount();
-  ///@}
-
-  ///@{
-  /// DECODE, SAMPLE_STREAMING or IN_SHADER (the latter two render with DECODE for now).
+  /// Forwarded to vtkNeuralVolumeMapper (see there).
   void SetRenderPath(int path);
-  vtkGetMacro(RenderPath, int);
+  void SetShadingMode(int mode);
+  void SetSampleDistance(double distance);
+  void SetStreamingSamples(int k);
+  void SetSamplesPerPixel(int spp);
+  void SetMaxBounces(int bounces);
+  void SetTargetSamples(int spp);
+  void SetFollowViewLight(int follow);
+  void SetLightDirection(double x, double y, double z);
+  void SetEmptySpaceSkipping(int skip);
+  void SetDecodeResolution(int x, int y, int z);
+  void SetInteractiveImageScale(double scale);
+  void SetProgressiveRefinement(int progressive);
   ///@}
 
-  /// Hides vtkImageVolumeRepresentation::SetRequestedRenderMode (which only knows the stock
-  /// mappers) to forward the Volume Rendering Mode to the mapper that renders the decoded grid.
-  void SetRequestedRenderMode(int mode);
+  ///@{
+  /// The last render (see vtkNeuralVolumeMapper).
+  int GetLastRenderPath();
+  double GetLastSamplesEvaluated();
+  double GetLastSamplesPlain();
+  double GetLastWavefronts();
+  int GetLastAccumulatedFrames();
+  int* GetLastImageSize() VTK_SIZEHINT(2);
+  double GetLastRenderMilliseconds();
+  int GetEngineRenderCount();
+  int GetWorkPending();
+  int GetSessionFromBytes();
+  int GetMapperHasNetwork();
+  ///@}
 
-  /// 1 when the last input carried a readable NeuralNetwork array.
+  /// 1 when the last input carried a NeuralNetwork array.
   vtkGetMacro(HasNetwork, int);
 
   vtkNeuralVolumeMapper* GetNeuralMapper();
@@ -66,8 +71,9 @@ protected:
 
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
-  int RenderPath = DECODE;
   int HasNetwork = 0;
+  bool ReportedMissing = false;
+  int LastImageSize[2] = { 0, 0 };
   vtkNew<vtkNeuralVolumeMapper> NeuralMapper;
 
 private:

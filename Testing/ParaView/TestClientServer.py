@@ -29,7 +29,7 @@ def free_port():
     return port
 
 
-def pipeline_and_render(png):
+def pipeline_and_render(png, remote):
     src = Wavelet(WholeExtent=[-24, 24, -24, 24, -24, 24])
     nc = NeuralCompress(Input=src, **PARAMS)
     nc.SelectInputScalars = ["POINTS", "RTData"]
@@ -48,6 +48,13 @@ def pipeline_and_render(png):
     view.ResetCamera()
     Render(view)
     SaveScreenshot(png, view, ImageResolution=[300, 300])
+    check(rep.Representation == "Neural Volume" and list(rep.ColorArrayName) == ["POINTS", "RTData"],
+          "shown as Neural Volume coloured by the network")
+    if not remote:
+        # (Information properties are read on the client, which does not render in a client-server session; the
+        # remote render is checked through its image below.)
+        check(nvtest.info(rep, "EngineRenderCount") >= 1, "the engine rendered")
+        check(nvtest.info(rep, "SessionFromBytes") == 0, "the renderer uses the session the filter trained")
     return data
 
 
@@ -73,7 +80,7 @@ try:
     LoadPlugin(nvtest.plugin_path(), remote=True, ns=globals())
     LoadPlugin(nvtest.plugin_path(), remote=False, ns=globals())
     remote_png = os.path.join(out_dir, "ClientServer_remote.png")
-    remote = pipeline_and_render(remote_png)
+    remote = pipeline_and_render(remote_png, True)
     net = remote.GetFieldData().GetArray("NeuralNetwork")
     check(net is not None and net.GetNumberOfTuples() > 1000, "NeuralNetwork delivered to the client")
     remote_bytes = bytes(vtk_to_numpy(net)) if net is not None else b""
@@ -93,7 +100,7 @@ finally:
 Connect()
 LoadPlugin(nvtest.plugin_path(), remote=False, ns=globals())
 local_png = os.path.join(out_dir, "ClientServer_builtin.png")
-local = pipeline_and_render(local_png)
+local = pipeline_and_render(local_png, False)
 local_bytes = bytes(vtk_to_numpy(local.GetFieldData().GetArray("NeuralNetwork")))
 # Training time differs between runs; everything else in the serialized model must match.
 check(len(local_bytes) == len(remote_bytes), "same network size in both sessions")

@@ -22,7 +22,10 @@ SAME_DB = 45.0  # training is deterministic (fixed seed and threads): measured i
 FILTER_PROPS = dict(TrainingSteps=200, BatchSize=8192, Levels=8, FeaturesPerLevel=2, NetworkWidth=32,
                     HiddenLayers=2, Loss="L2", Threads=2, Seed=7, PSNRInterval=25,
                     TargetCompressionRatio=1.5, StoragePrecision="Float32")
-DISPLAY_PROPS = dict(DecodeResolution=[24, 28, 20], SlicesPerRender=4, RenderPath="Decode")
+DISPLAY_PROPS = dict(RenderPath="In-Shader", ShadingMode="Ray Marching + Shadows", SampleDistance=0.7,
+                     StreamingSamples=4, DecodeResolution=[24, 28, 20], SamplesPerPixel=2, TargetSamples=6,
+                     MaxBounces=3, FollowViewLight=0, LightDirection=[1.0, 0.0, 0.5], EmptySpaceSkipping=0,
+                     InteractiveImageScale=0.3)
 
 paraview.simple._DisableFirstRenderCameraReset()
 wavelet = Wavelet(WholeExtent=[-15, 16, -15, 16, -15, 16])
@@ -52,6 +55,7 @@ SaveState(STATE)
 text = open(STATE).read()
 check("Neural Volume" in text and "DecodeResolution" in text and 'type="NeuralCompress"' in text,
       "the state file records the filter and the representation")
+check("ProgressiveRefinement" not in text, "the GUI-only ProgressiveRefinement is not saved")
 
 ResetSession()
 check(FindSource("NeuralRoundTrip") is None, "session reset")
@@ -70,16 +74,20 @@ for key, value in FILTER_PROPS.items():
     actual = nc2.GetPropertyValue(key)
     check(actual == value or actual == str(value), "filter %s restored (%r)" % (key, actual))
 check(list(nc2.SelectInputScalars) == ["POINTS", "RTData"], "input array restored")
-check(list(display2.DecodeResolution) == DISPLAY_PROPS["DecodeResolution"], "DecodeResolution restored")
-check(display2.SlicesPerRender == 4, "SlicesPerRender restored")
-check(display2.RenderPath == "Decode", "RenderPath restored")
+for key, value in DISPLAY_PROPS.items():
+    actual = display2.GetPropertyValue(key)
+    actual = list(actual) if isinstance(value, list) else actual
+    check(actual == value, "display %s restored (%r)" % (key, actual))
 check(list(display2.ColorArrayName) == ["POINTS", "RTData"], "coloring restored")
+lut2 = GetColorTransferFunction("RTData")
+check((lut2.RGBPoints[0], lut2.RGBPoints[-4]) == (40.0, 260.0),
+      "the saved colour map range is kept (not refitted on load): %r" % ((lut2.RGBPoints[0], lut2.RGBPoints[-4]),))
 
 Render(view2)
 after = os.path.join(out_dir, "state_after.png")
 SaveScreenshot(after, view2, ImageResolution=SIZE)
-display2.SMProxy.UpdatePropertyInformation()
-check(display2.SMProxy.GetProperty("TotalSlices").GetElement(0) == 20, "restored grid has 20 slices")
+check(nvtest.info(display2, "LastRenderPath") == 2, "the restored In-Shader path renders")
+check(nvtest.info(display2, "LastImageSize") == SIZE, "full-size still render after loading")
 psnr_after = nvtest.field_value(servermanager.Fetch(nc2), "NeuralPSNR")
 check(psnr_after == psnr_before, "re-training after LoadState is deterministic (%r vs %r)"
       % (psnr_before, psnr_after))

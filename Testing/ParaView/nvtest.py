@@ -24,9 +24,13 @@ def plugin_path():
     return path
 
 
+_namespace = {}
+
+
 def load_plugin(namespace):
     from paraview.simple import LoadPlugin
     LoadPlugin(plugin_path(), remote=False, ns=namespace)
+    _namespace.update(namespace)
 
 
 def output_dir():
@@ -159,3 +163,86 @@ def write_diff(diff, path):
     writer.SetInputData(image)
     writer.Write()
     log("difference image written to " + path)
+
+
+# --- rendering helpers of the Neural Volume tests ------------------------------------------------
+
+# A small network of the 64^3 Wavelet that trains in a few seconds on two cores (~38 dB).
+WAVELET_NETWORK = dict(TrainingSteps=300, BatchSize=16384, Levels=12, FeaturesPerLevel=2, NetworkWidth=32,
+                       HiddenLayers=2, Loss="L2", TargetCompressionRatio=5, Threads=2, PSNRInterval=0)
+
+
+def wavelet_network(half=31, **overrides):
+    """A Wavelet on [-half, half+1]^3 and a Neural Compress of its RTData (fixed seed: deterministic)."""
+    from paraview.simple import Wavelet
+    wavelet = Wavelet(WholeExtent=[-half, half + 1] * 3)
+    params = dict(WAVELET_NETWORK)
+    params.update(overrides)
+    network = _namespace["NeuralCompress"](Input=wavelet, SelectInputScalars=["POINTS", "RTData"], **params)
+    network.UpdatePipeline()
+    return wavelet, network
+
+
+def render_view(size, background=(0.32, 0.34, 0.43)):
+    """A render view of a fixed size and plain background, no orientation axes."""
+    from paraview.simple import CreateView
+    view = CreateView("RenderView")
+    view.ViewSize = list(size)
+    view.OrientationAxesVisibility = 0
+    view.Background = list(background)
+    try:
+        view.UseColorPaletteForBackground = 0
+    except AttributeError:
+        pass
+    return view
+
+
+def set_camera(view, position, focal=(0.5, 0.5, 0.5), up=(0.0, 0.0, 1.0), angle=30.0, parallel=0, scale=50.0):
+    view.CameraPosition = list(position)
+    view.CameraFocalPoint = list(focal)
+    view.CameraViewUp = list(up)
+    view.CameraViewAngle = angle
+    view.CameraParallelProjection = parallel
+    view.CameraParallelScale = scale
+
+
+def info(display, name):
+    """Value(s) of an information property of a representation (a scalar for one element)."""
+    display.SMProxy.UpdatePropertyInformation()
+    prop = display.SMProxy.GetProperty(name)
+    values = [prop.GetElement(i) for i in range(prop.GetNumberOfElements())]
+    return values[0] if len(values) == 1 else values
+
+
+def shot(view, path, size):
+    from paraview.simple import SaveScreenshot
+    SaveScreenshot(path, view, ImageResolution=list(size))
+    return path
+
+
+def region_psnr(a, b, mask):
+    """PSNR over the pixels where mask is true (inf when equal there, -inf when the mask is empty)."""
+    import numpy as np
+    if not mask.any():
+        return -math.inf
+    mse = float(np.mean((a[mask] - b[mask]) ** 2))
+    return math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
+
+
+def is_uniform(pixels, tolerance=1.0):
+    return float((pixels.max(axis=(0, 1)) - pixels.min(axis=(0, 1))).max()) <= tolerance
+
+
+def baseline(test_png, name, threshold_db, label):
+    """Compare with Baseline/<name>.png, or write it when NV_GENERATE_BASELINE is set. A missing baseline fails."""
+    import shutil
+    directory = os.environ.get("NV_BASELINE_DIR", os.path.join(os.path.dirname(__file__), "Baseline"))
+    reference = os.path.join(directory, name + ".png")
+    if os.environ.get("NV_GENERATE_BASELINE"):
+        os.makedirs(directory, exist_ok=True)
+        shutil.copyfile(test_png, reference)
+        log("baseline written to " + reference)
+        return math.inf
+    if not check(os.path.exists(reference), "%s: baseline %s exists" % (label, reference)):
+        return -math.inf
+    return compare_images(test_png, reference, threshold_db, label)

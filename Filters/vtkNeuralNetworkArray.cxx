@@ -1,0 +1,135 @@
+#include "vtkNeuralNetworkArray.h"
+
+#include "vtkNeuralSessionRegistry.h"
+
+#include "Core/Error.h"
+#include "Core/NetworkSession.h"
+#include "Core/Serialization.h"
+
+#include "vtkFieldData.h"
+#include "vtkNew.h"
+#include "vtkTypeUInt64Array.h"
+#include "vtkUnsignedCharArray.h"
+
+#include <cstring>
+
+namespace
+{
+/// Size and stored CRC-32 of serialized bytes, after checking that the CRC matches the content
+/// (so that bytes changed in place never pass for the registered network).
+vtkNeuralSessionRegistry::Fingerprint VerifiedFingerprint(const uint8_t* bytes, size_t size)
+{
+  // Messages for users: no file:line decoration.
+  if (size <= 8)
+  {
+    throw nv::Error("the NeuralNetwork array is too short to hold a network");
+  }
+  uint32_t stored = 0;
+  std::memcpy(&stored, bytes + size - 4, 4);
+  if (nv::crc32(bytes, size - 4) != stored)
+  {
+    throw nv::Error("the NeuralNetwork array is corrupt or not a NeuralVolume network (checksum mismatch)");
+  }
+  vtkNeuralSessionRegistry::Fingerprint f;
+  f.Size = size;
+  f.Crc = stored;
+  return f;
+}
+} // namespace
+
+const char* vtkNeuralNetworkArray::GetArrayName()
+{
+  return "NeuralNetwork";
+}
+
+const char* vtkNeuralNetworkArray::GetSessionKeyArrayName()
+{
+  return "NeuralNetworkSession";
+}
+
+void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
+  const std::shared_ptr<nv::NetworkSession>& session)
+{
+  if (!fd)
+  {
+    throw nv::Error("no field data to write the network to");
+  }
+  vtkNew<vtkUnsignedCharArray> network;
+  network->SetName(GetArrayName());
+  network->SetNumberOfTuples(static_cast<vtkIdType>(bytes.size()));
+  if (!bytes.empty())
+  {
+    std::memcpy(network->GetPointer(0), bytes.data(), bytes.size());
+  }
+  fd->AddArray(network);
+  fd->RemoveArray(GetSessionKeyArrayName());
+  if (session)
+  {
+    const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(
+      session, VerifiedFingerprint(bytes.data(), bytes.size()));
+    vtkNew<vtkTypeUInt64Array> keyArray;
+    keyArray->SetName(GetSessionKeyArrayName());
+    keyArray->SetNumberOfTuples(2);
+    keyArray->SetValue(0, key.Process);
+    keyArray->SetValue(1, key.Serial);
+    fd->AddArray(keyArray);
+  }
+}
+
+vtkUnsignedCharArray* vtkNeuralNetworkArray::Find(vtkFieldData* fd)
+{
+  auto* array =
+    fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(GetArrayName())) : nullptr;
+  if (!array || array->GetNumberOfComponents() != 1 || array->GetNumberOfTuples() < 1)
+  {
+    return nullptr;
+  }
+  return array;
+}
+
+nv::Model vtkNeuralNetworkArray::Read(vtkFieldData* fd)
+{
+  vtkUnsignedCharArray* array = Find(fd);
+  if (!array)
+  {
+    throw nv::Error(std::string("no '") + GetArrayName() + "' field data array");
+  }
+  return nv::deserialize(array->GetPointer(0), static_cast<size_t>(array->GetNumberOfTuples()));
+}
+
+std::shared_ptr<nv::NetworkSession> vtkNeuralNetworkArray::Session(vtkFieldData* fd, bool* fromBytes)
+{
+  vtkUnsignedCharArray* array = Find(fd);
+  if (!array)
+  {
+    throw nv::Error(std::string("no '") + GetArrayName() + "' field data array");
+  }
+  const uint8_t* bytes = array->GetPointer(0);
+  const size_t size = static_cast<size_t>(array->GetNumberOfTuples());
+  const vtkNeuralSessionRegistry::Fingerprint fingerprint = VerifiedFingerprint(bytes, size);
+  vtkNeuralSessionRegistry& registry = vtkNeuralSessionRegistry::Instance();
+
+  auto* keyArray = vtkTypeUInt64Array::SafeDownCast(fd->GetAbstractArray(GetSessionKeyArrayName()));
+  if (keyArray && keyArray->GetNumberOfValues() == 2)
+  {
+    vtkNeuralSessionRegistry::Key key;
+    key.Process = keyArray->GetValue(0);
+    key.Serial = keyArray->GetValue(1);
+    if (std::shared_ptr<nv::NetworkSession> session = registry.Find(key, fingerprint))
+    {
+      if (fromBytes)
+      {
+        *fromBytes = false;
+      }
+      return session;
+    }
+  }
+  if (fromBytes)
+  {
+    *fromBytes = true;
+  }
+  return registry.FindOrCreate(fingerprint, [&]() {
+    const nv::Model model = nv::deserialize(bytes, size);
+    return std::shared_ptr<nv::NetworkSession>(nv::NetworkSession::create(nv::Device::Auto, model));
+  });
+}

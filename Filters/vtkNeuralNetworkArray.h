@@ -1,0 +1,64 @@
+/**
+ * @class   vtkNeuralNetworkArray
+ * @brief   the NeuralNetwork field-data contract: name, writing, reading, the session behind it
+ *
+ * A trained network travels with a vtkImageData as two field-data arrays:
+ * - `NeuralNetwork` (vtkUnsignedCharArray, one component): the model in the engine's versioned
+ *   binary format (nv::serialize), ending with the CRC-32 of everything before it;
+ * - `NeuralNetworkSession` (vtkTypeUInt64Array, two values): the vtkNeuralSessionRegistry key of the
+ *   session that holds this network in the process that wrote it (meaningless elsewhere).
+ *
+ * This class is the only code that knows these names and the format: the filter writes through
+ * Write(), the mapper gets its session through Session() and never parses the bytes itself.
+ * Not wrapped; engine errors are nv::Error exceptions for the caller to report.
+ */
+#ifndef vtkNeuralNetworkArray_h
+#define vtkNeuralNetworkArray_h
+
+#include "NeuralVolumeFiltersModule.h" // for export macro
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+class vtkFieldData;
+class vtkUnsignedCharArray;
+
+namespace nv
+{
+class Model;
+class NetworkSession;
+}
+
+class NEURALVOLUMEFILTERS_EXPORT vtkNeuralNetworkArray
+{
+public:
+  /// Name of the array holding the serialized network.
+  static const char* GetArrayName();
+  /// Name of the array holding the registry key of the session.
+  static const char* GetSessionKeyArrayName();
+
+  /// Store `bytes` (nv::serialize of the session's current network) in `fd`; when `session` is
+  /// given it is registered so that renderers of this process use it instead of the bytes.
+  static void Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
+    const std::shared_ptr<nv::NetworkSession>& session);
+
+  /// The NeuralNetwork array of `fd`, or null when there is none or it is not a single-component
+  /// unsigned char array (its content is not checked here).
+  static vtkUnsignedCharArray* Find(vtkFieldData* fd);
+
+  /// The model stored in `fd` (format, version and checksum checked); throws nv::Error.
+  static nv::Model Read(vtkFieldData* fd);
+
+  /// The session of the network stored in `fd`: the one registered by the filter of this process
+  /// when its key and bytes match, else a session created once from the bytes and shared by every
+  /// caller with the same bytes. `fromBytes` (optional) tells which. Throws nv::Error (no array,
+  /// corrupt bytes, no usable device).
+  static std::shared_ptr<nv::NetworkSession> Session(vtkFieldData* fd, bool* fromBytes = nullptr);
+
+private:
+  vtkNeuralNetworkArray() = delete;
+};
+
+#endif

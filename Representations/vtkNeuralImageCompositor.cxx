@@ -1,0 +1,167 @@
+#include "vtkNeuralImageCompositor.h"
+
+#include "vtkOpenGLQuadHelper.h"
+#include "vtkOpenGLRenderUtilities.h"
+#include "vtkOpenGLRenderWindow.h"
+#include "vtkOpenGLShaderCache.h"
+#include "vtkOpenGLState.h"
+#include "vtkRenderer.h"
+#include "vtkShaderProgram.h"
+#include "vtkTextureObject.h"
+#include "vtk_glew.h"
+
+#include <algorithm>
+#include <utility>
+
+vtkNeuralImageCompositor::vtkNeuralImageCompositor() = default;
+vtkNeuralImageCompositor::~vtkNeuralImageCompositor() = default;
+
+//------------------------------------------------------------------------------
+bool vtkNeuralImageCompositor::ReadDepth(
+  vtkRenderer* ren, int width, int height, std::vector<float>& depth, std::string& message)
+{
+  auto* window = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  if (!window)
+  {
+    message = "not an OpenGL render window";
+    return false;
+  }
+  int vw = 0, vh = 0, vx = 0, vy = 0;
+  ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
+  if (vw < 1 || vh < 1)
+  {
+    message = "empty viewport";
+    return false;
+  }
+  vtkOpenGLState* state = window->GetState();
+  // Read from the framebuffer being drawn into (opaque geometry is already there).
+  GLint drawBinding = 0, samples = 0;
+  state->vtkglGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &drawBinding);
+  state->vtkglGetIntegerv(GL_SAMPLES, &samples);
+  if (samples > 0)
+  {
+    message = "the framebuffer is multisampled";
+    return false;
+  }
+  while (glGetError() != GL_NO_ERROR)
+  {
+  }
+  state->PushReadFramebufferBinding();
+  state->vtkglBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<unsigned int>(drawBinding));
+  state->vtkglPixelStorei(GL_PACK_ALIGNMENT, 4);
+  this->Scratch.resize(static_cast<size_t>(vw) * static_cast<size_t>(vh));
+  glReadPixels(vx, vy, vw, vh, GL_DEPTH_COMPONENT, GL_FLOAT, this->Scratch.data());
+  const GLenum error = glGetError();
+  state->PopReadFramebufferBinding();
+  if (error != GL_NO_ERROR)
+  {
+    message = "glReadPixels of the depth buffer failed";
+    return false;
+  }
+  depth.resize(static_cast<size_t>(width) * static_cast<size_t>(height));
+  if (width == vw && height == vh)
+  {
+    std::copy(this->Scratch.begin(), this->Scratch.end(), depth.begin());
+    return true;
+  }
+  // A reduced image: the depth at each of its pixel centres.
+  for (int y = 0; y < height; ++y)
+  {
+    const int sy = std::min(vh - 1, static_cast<int>((y + 0.5) * vh / height));
+    for (int x = 0; x < width; ++x)
+    {
+      const int sx = std::min(vw - 1, static_cast<int>((x + 0.5) * vw / width));
+      depth[static_cast<size_t>(y) * width + x] = this->Scratch[static_cast<size_t>(sy) * vw + sx];
+    }
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralImageCompositor::SetImage(std::vector<float>&& rgba, int width, int height)
+{
+  this->Image = std::move(rgba);
+  this->Width = width;
+  this->Height = height;
+  this->Uploaded = false;
+}
+
+void vtkNeuralImageCompositor::Clear()
+{
+  this->Image.clear();
+  this->Width = this->Height = 0;
+  this->Uploaded = false;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
+{
+  auto* window = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  if (!window || this->Width < 1 || this->Height < 1)
+  {
+    return;
+  }
+  if (!this->Texture)
+  {
+    this->Texture = vtkSmartPointer<vtkTextureObject>::New();
+  }
+  if (!this->Uploaded || this->Texture->GetHandle() == 0 || this->Texture->GetContext() != window)
+  {
+    this->Texture->SetContext(window);
+    this->Texture->SetMinificationFilter(vtkTextureObject::Linear);
+    this->Texture->SetMagnificationFilter(vtkTextureObject::Linear);
+    this->Texture->SetWrapS(vtkTextureObject::ClampToEdge);
+    this->Texture->SetWrapT(vtkTextureObject::ClampToEdge);
+    this->Texture->Create2DFromRaw(static_cast<unsigned int>(this->Width),
+      static_cast<unsigned int>(this->Height), 4, VTK_FLOAT, this->Image.data());
+    this->Uploaded = true;
+  }
+
+  vtkOpenGLState* state = window->GetState();
+  vtkOpenGLState::ScopedglEnableDisable blend(state, GL_BLEND);
+  vtkOpenGLState::ScopedglEnableDisable depthTest(state, GL_DEPTH_TEST);
+  vtkOpenGLState::ScopedglBlendFuncSeparate blendFunc(state);
+  vtkOpenGLState::ScopedglDepthMask depthMask(state);
+  vtkOpenGLState::ScopedglViewport viewport(state);
+
+  int vw = 0, vh = 0, vx = 0, vy = 0;
+  ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
+  state->vtkglViewport(vx, vy, vw, vh);
+  state->vtkglEnable(GL_BLEND);
+  // Premultiplied colour over the framebuffer.
+  state->vtkglBlendFuncSeparate(GL_ONE, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  state->vtkglDisable(GL_DEPTH_TEST);
+  state->vtkglDepthMask(GL_FALSE);
+
+  this->Texture->Activate();
+  if (!this->Quad)
+  {
+    std::string fs = vtkOpenGLRenderUtilities::GetFullScreenQuadFragmentShaderTemplate();
+    vtkShaderProgram::Substitute(fs, "//VTK::FSQ::Decl", "uniform sampler2D image;");
+    vtkShaderProgram::Substitute(
+      fs, "//VTK::FSQ::Impl", "gl_FragData[0] = texture2D(image, texCoord);");
+    this->Quad.reset(new vtkOpenGLQuadHelper(
+      window, vtkOpenGLRenderUtilities::GetFullScreenQuadVertexShader().c_str(), fs.c_str(), ""));
+  }
+  else
+  {
+    window->GetShaderCache()->ReadyShaderProgram(this->Quad->Program);
+  }
+  if (this->Quad->Program)
+  {
+    this->Quad->Program->SetUniformi("image", this->Texture->GetTextureUnit());
+    this->Quad->Render();
+  }
+  this->Texture->Deactivate();
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralImageCompositor::ReleaseGraphicsResources(vtkWindow* window)
+{
+  if (this->Texture)
+  {
+    this->Texture->ReleaseGraphicsResources(window);
+  }
+  this->Quad.reset();
+  this->Uploaded = false;
+}

@@ -1,0 +1,494 @@
+#include "vtkNeuralVolumeProxyObserver.h"
+
+#include "vtkCommand.h"
+#include "vtkDataObject.h"
+#include "vtkDataSetAttributes.h"
+#include "vtkObjectFactory.h"
+#include "vtkPVArrayInformation.h"
+#include "vtkPVDataInformation.h"
+#include "vtkPVDataSetAttributesInformation.h"
+#include "vtkPVGeneralSettings.h"
+#include "vtkPVXMLElement.h"
+#include "vtkSMEnumerationDomain.h"
+#include "vtkSMPVRepresentationProxy.h"
+#include "vtkSMProperty.h"
+#include "vtkSMPropertyGroup.h"
+#include "vtkSMPropertyHelper.h"
+#include "vtkSMProxyIterator.h"
+#include "vtkSMProxyManager.h"
+#include "vtkSMSessionProxyManager.h"
+#include "vtkSMSourceProxy.h"
+#include "vtkSMViewProxy.h"
+#include "vtkSmartPointer.h"
+#include "vtkNew.h"
+#include "vtkWeakPointer.h"
+
+#include <cstring>
+#include <map>
+#include <set>
+#include <string>
+
+vtkStandardNewMacro(vtkNeuralVolumeProxyObserver);
+
+namespace
+{
+const char* const kNeuralVolume = "Neural Volume";
+
+/// Panel groups of the stock representation whose properties do nothing for a network (surface styling, scalar
+/// mapping of polygons, ray-tracing materials, miscellaneous polygon settings): hidden as a whole for Neural Volume.
+const char* const kGroupsUnusedByNeuralVolume[] = { "Scalar Coloring", "Styling", "Edge Styling",
+  "Backface Styling", "Miscellaneous", "Ray Tracing" };
+
+/// Properties of the groups Neural Volume shows that it does not use: in "Volume Rendering" the 2D transfer
+/// functions, separate opacity arrays, the stock mappers' modes and scattering model, isosurface and slice
+/// blending and cropping; in "Transforming" the coordinate shift. In "Lighting" everything but kLightingUsed.
+const char* const kUnusedByNeuralVolume[] = { "TransferFunction2D", "UseSeparateOpacityArray",
+  "OpacityArrayName", "OpacityComponent", "UseTransfer2D", "UseGradientForTransfer2D", "ColorArray2Name",
+  "ColorArray2Component", "VolumeRenderingMode", "GlobalIlluminationReach", "VolumetricScatteringBlending",
+  "IsosurfaceValues", "SliceFunction", "UseCropping", "CoordinateShiftScaleMethod" };
+const char* const kLightingUsed[] = { "Ambient", "Diffuse", "Specular", "SpecularPower" };
+
+/// Blend modes of vtkVolumeMapper that the engine renders and ParaView 5.11 does not list.
+const struct
+{
+  const char* Text;
+  int Value;
+} kEngineBlendModes[] = { { "Maximum Intensity", 1 }, { "Minimum Intensity", 2 }, { "Average Intensity", 3 },
+  { "Additive", 4 } };
+
+bool IsNeuralVolume(vtkSMProxy* representation)
+{
+  vtkSMProperty* type = representation ? representation->GetProperty("Representation") : nullptr;
+  const char* text = type ? vtkSMPropertyHelper(type).GetAsString() : nullptr;
+  return text && std::strcmp(text, kNeuralVolume) == 0;
+}
+
+bool LoadingState(vtkSMProxy* proxy)
+{
+  vtkSMSessionProxyManager* pxm = proxy ? proxy->GetSessionProxyManager() : nullptr;
+  return pxm && pxm->GetInLoadXMLState();
+}
+
+vtkSmartPointer<vtkPVXMLElement> VisibilityDecorator(const char* property, const char* value, bool inverse)
+{
+  auto e = vtkSmartPointer<vtkPVXMLElement>::New();
+  e->SetName("PropertyWidgetDecorator");
+  e->AddAttribute("type", "GenericDecorator");
+  e->AddAttribute("mode", "visibility");
+  e->AddAttribute("property", property);
+  e->AddAttribute("value", value);
+  if (inverse)
+  {
+    e->AddAttribute("inverse", "1");
+  }
+  return e;
+}
+
+/// True when `parent` has a direct GenericDecorator child on Representation == Neural Volume.
+bool HasNeuralDecorator(vtkPVXMLElement* parent)
+{
+  for (unsigned int i = 0; parent && i < parent->GetNumberOfNestedElements(); ++i)
+  {
+    vtkPVXMLElement* e = parent->GetNestedElement(i);
+    const char* property = e->GetAttribute("property");
+    const char* value = e->GetAttribute("value");
+    if (property && value && std::strcmp(property, "Representation") == 0 &&
+      std::strcmp(value, kNeuralVolume) == 0)
+    {
+      return true;
+    }
+  }
+  return false;
+}
+
+/// The stock group's decorator is "Representation is Volume or NVIDIA IndeX": add Neural Volume to the "or".
+void ShowVolumeRenderingGroup(vtkSMProxy* representation)
+{
+  for (size_t g = 0; g < representation->GetNumberOfPropertyGroups(); ++g)
+  {
+    vtkSMPropertyGroup* group = representation->GetPropertyGroup(g);
+    const char* label = group ? group->GetXMLLabel() : nullptr;
+    vtkPVXMLElement* hints = group ? group->GetHints() : nullptr;
+    if (!label || std::strcmp(label, "Volume Rendering") != 0 || !hints)
+    {
+      continue;
+    }
+    for (unsigned int i = 0; i < hints->GetNumberOfNestedElements(); ++i)
+    {
+      vtkPVXMLElement* decorator = hints->GetNestedElement(i);
+      const char* type = decorator->GetAttribute("type");
+      vtkPVXMLElement* expression = decorator->FindNestedElementByName("Expression");
+      const char* op = expression ? expression->GetAttribute("type") : nullptr;
+      if (type && std::strcmp(type, "CompositeDecorator") == 0 && op && std::strcmp(op, "or") == 0 &&
+        !HasNeuralDecorator(expression))
+      {
+        expression->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, false));
+      }
+    }
+  }
+}
+
+/// Hide a whole panel group while the representation is Neural Volume (every decorator must agree to show a
+/// widget, so this one adds to the group's own).
+void HideGroupForNeuralVolume(vtkSMPropertyGroup* group)
+{
+  vtkPVXMLElement* hints = group->GetHints();
+  if (!hints)
+  {
+    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
+    created->SetName("Hints");
+    group->SetHints(created);
+    hints = group->GetHints();
+  }
+  if (!HasNeuralDecorator(hints))
+  {
+    hints->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
+  }
+}
+
+bool Contains(const char* const* list, size_t n, const char* name)
+{
+  for (size_t i = 0; i < n; ++i)
+    if (name && std::strcmp(list[i], name) == 0)
+      return true;
+  return false;
+}
+
+/// Hide a property's widget while the representation is Neural Volume.
+void HideForNeuralVolume(vtkSMProperty* property)
+{
+  vtkPVXMLElement* hints = property->GetHints();
+  if (!hints)
+  {
+    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
+    created->SetName("Hints");
+    property->SetHints(created);
+    hints = property->GetHints();
+  }
+  if (!HasNeuralDecorator(hints))
+  {
+    hints->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
+  }
+}
+
+/// VolumeAnisotropy (Henyey-Greenstein g) matters to Neural Volume only when path tracing.
+void ShowAnisotropyForPathTracing(vtkSMProperty* property)
+{
+  vtkPVXMLElement* hints = property->GetHints();
+  if (!hints)
+  {
+    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
+    created->SetName("Hints");
+    property->SetHints(created);
+    hints = property->GetHints();
+  }
+  for (unsigned int i = 0; i < hints->GetNumberOfNestedElements(); ++i)
+  {
+    const char* marker = hints->GetNestedElement(i)->GetAttribute("neural_volume");
+    if (marker)
+    {
+      return;
+    }
+  }
+  auto composite = vtkSmartPointer<vtkPVXMLElement>::New();
+  composite->SetName("PropertyWidgetDecorator");
+  composite->AddAttribute("type", "CompositeDecorator");
+  composite->AddAttribute("neural_volume", "1");
+  auto any = vtkSmartPointer<vtkPVXMLElement>::New();
+  any->SetName("Expression");
+  any->AddAttribute("type", "or");
+  any->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
+  any->AddNestedElement(VisibilityDecorator("ShadingMode", "3", false));
+  any->AddNestedElement(VisibilityDecorator("ShadingMode", "4", false));
+  composite->AddNestedElement(any);
+  hints->AddNestedElement(composite);
+}
+
+void AddEngineBlendModes(vtkSMProxy* representation)
+{
+  vtkSMProperty* blend = representation->GetProperty("BlendMode");
+  auto* domain = blend ? blend->FindDomain<vtkSMEnumerationDomain>() : nullptr;
+  if (!domain)
+  {
+    return;
+  }
+  for (const auto& mode : kEngineBlendModes)
+  {
+    unsigned int index = 0;
+    if (!domain->HasEntryText(mode.Text) && !domain->IsInDomain(mode.Value, index))
+    {
+      domain->AddEntry(mode.Text, mode.Value);
+    }
+  }
+}
+
+/// The network's array: the active scalars of the points, else of the cells, else the first point or cell array.
+bool NetworkArray(vtkSMProxy* representation, std::string& name, int& association)
+{
+  vtkSMPropertyHelper input(representation, "Input", /*quiet=*/true);
+  auto* producer = vtkSMSourceProxy::SafeDownCast(input.GetAsProxy());
+  if (!producer)
+  {
+    return false;
+  }
+  vtkPVDataInformation* info = producer->GetDataInformation(input.GetOutputPort());
+  if (!info)
+  {
+    return false;
+  }
+  const int associations[2] = { vtkDataObject::POINT, vtkDataObject::CELL };
+  for (int a : associations)
+  {
+    vtkPVDataSetAttributesInformation* attributes = info->GetAttributeInformation(a);
+    vtkPVArrayInformation* scalars =
+      attributes ? attributes->GetAttributeInformation(vtkDataSetAttributes::SCALARS) : nullptr;
+    if (scalars && scalars->GetName())
+    {
+      name = scalars->GetName();
+      association = a;
+      return true;
+    }
+  }
+  for (int a : associations)
+  {
+    vtkPVDataSetAttributesInformation* attributes = info->GetAttributeInformation(a);
+    vtkPVArrayInformation* first =
+      attributes && attributes->GetNumberOfArrays() > 0 ? attributes->GetArrayInformation(0) : nullptr;
+    if (first && first->GetName())
+    {
+      name = first->GetName();
+      association = a;
+      return true;
+    }
+  }
+  return false;
+}
+} // namespace
+
+//------------------------------------------------------------------------------
+struct vtkNeuralVolumeProxyObserver::vtkInternals
+{
+  vtkWeakPointer<vtkSMProxyManager> Manager;
+  unsigned long RegisterTag = 0;
+  unsigned long UnRegisterTag = 0;
+  std::map<vtkSMProxy*, unsigned long> Representations; // observer tags
+  std::map<vtkSMProxy*, unsigned long> Views;
+  std::set<vtkSMProxy*> AwaitingView; // shown as Neural Volume before joining their view
+};
+
+vtkNeuralVolumeProxyObserver::vtkNeuralVolumeProxyObserver()
+  : Internals(new vtkInternals)
+{
+}
+
+vtkNeuralVolumeProxyObserver::~vtkNeuralVolumeProxyObserver()
+{
+  vtkInternals& in = *this->Internals;
+  for (auto& r : in.Representations)
+    r.first->RemoveObserver(r.second);
+  for (auto& v : in.Views)
+    v.first->RemoveObserver(v.second);
+  if (in.Manager)
+  {
+    in.Manager->RemoveObserver(in.RegisterTag);
+    in.Manager->RemoveObserver(in.UnRegisterTag);
+  }
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeProxyObserver::Install()
+{
+  vtkInternals& in = *this->Internals;
+  if (in.Manager || !vtkSMProxyManager::IsInitialized())
+  {
+    return;
+  }
+  vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+  in.Manager = manager;
+  in.RegisterTag = manager->AddObserver(vtkCommand::RegisterEvent, this, &vtkNeuralVolumeProxyObserver::OnRegister);
+  in.UnRegisterTag =
+    manager->AddObserver(vtkCommand::UnRegisterEvent, this, &vtkNeuralVolumeProxyObserver::OnUnRegister);
+
+  // Proxies registered before the plugin was loaded.
+  if (vtkSMSessionProxyManager* pxm = manager->GetActiveSessionProxyManager())
+  {
+    vtkNew<vtkSMProxyIterator> it;
+    it->SetSessionProxyManager(pxm);
+    for (it->Begin(); !it->IsAtEnd(); it->Next())
+    {
+      vtkSMProxy* proxy = it->GetProxy();
+      const char* group = it->GetGroup();
+      if (group && std::strcmp(group, "views") == 0)
+        this->AddView(proxy);
+      else if (group && std::strcmp(group, "representations") == 0)
+        this->AddRepresentation(proxy);
+    }
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::OnRegister(vtkObject*, unsigned long, void* data)
+{
+  auto* info = static_cast<vtkSMProxyManager::RegisteredProxyInformation*>(data);
+  if (!info || info->Type != vtkSMProxyManager::RegisteredProxyInformation::PROXY || !info->Proxy ||
+    !info->GroupName)
+  {
+    return;
+  }
+  if (std::strcmp(info->GroupName, "views") == 0)
+    this->AddView(info->Proxy);
+  else if (std::strcmp(info->GroupName, "representations") == 0)
+    this->AddRepresentation(info->Proxy);
+}
+
+void vtkNeuralVolumeProxyObserver::OnUnRegister(vtkObject*, unsigned long, void* data)
+{
+  auto* info = static_cast<vtkSMProxyManager::RegisteredProxyInformation*>(data);
+  if (!info || info->Type != vtkSMProxyManager::RegisteredProxyInformation::PROXY || !info->Proxy)
+  {
+    return;
+  }
+  vtkInternals& in = *this->Internals;
+  for (auto* map : { &in.Representations, &in.Views })
+  {
+    auto it = map->find(info->Proxy);
+    if (it != map->end())
+    {
+      info->Proxy->RemoveObserver(it->second);
+      map->erase(it);
+    }
+  }
+  in.AwaitingView.erase(info->Proxy);
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeProxyObserver::AddRepresentation(vtkSMProxy* representation)
+{
+  vtkInternals& in = *this->Internals;
+  const char* xmlName = representation->GetXMLName();
+  if (!xmlName || std::strcmp(xmlName, "UniformGridRepresentation") != 0 ||
+    in.Representations.count(representation))
+  {
+    return;
+  }
+  ShowVolumeRenderingGroup(representation);
+  for (size_t g = 0; g < representation->GetNumberOfPropertyGroups(); ++g)
+  {
+    vtkSMPropertyGroup* group = representation->GetPropertyGroup(g);
+    const char* label = group ? group->GetXMLLabel() : nullptr;
+    if (!label)
+    {
+      continue;
+    }
+    if (Contains(kGroupsUnusedByNeuralVolume, sizeof(kGroupsUnusedByNeuralVolume) / sizeof(char*), label))
+    {
+      HideGroupForNeuralVolume(group);
+    }
+    else if (std::strcmp(label, "Lighting") == 0)
+    {
+      for (unsigned int i = 0; i < group->GetNumberOfProperties(); ++i)
+      {
+        if (!Contains(kLightingUsed, sizeof(kLightingUsed) / sizeof(char*), group->GetPropertyName(i)))
+        {
+          HideForNeuralVolume(group->GetProperty(i));
+        }
+      }
+    }
+  }
+  for (const char* name : kUnusedByNeuralVolume)
+  {
+    if (vtkSMProperty* property = representation->GetProperty(name))
+    {
+      HideForNeuralVolume(property);
+    }
+  }
+  if (vtkSMProperty* anisotropy = representation->GetProperty("VolumeAnisotropy"))
+  {
+    ShowAnisotropyForPathTracing(anisotropy);
+  }
+  AddEngineBlendModes(representation);
+  in.Representations[representation] = representation->AddObserver(
+    vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnRepresentationModified);
+  // Show() picks the representation type before registering the representation and adds it to its view
+  // afterwards: colour once it is in the view.
+  if (IsNeuralVolume(representation) && !LoadingState(representation) &&
+    !ColorByNetwork(representation, nullptr))
+  {
+    in.AwaitingView.insert(representation);
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::AddView(vtkSMProxy* view)
+{
+  vtkInternals& in = *this->Internals;
+  if (!vtkSMViewProxy::SafeDownCast(view) || in.Views.count(view))
+  {
+    return;
+  }
+  in.Views[view] =
+    view->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnViewModified);
+}
+
+void vtkNeuralVolumeProxyObserver::OnRepresentationModified(vtkObject* caller, unsigned long, void* name)
+{
+  auto* representation = vtkSMProxy::SafeDownCast(caller);
+  const char* property = static_cast<const char*>(name);
+  if (!representation || !property || std::strcmp(property, "Representation") != 0 ||
+    LoadingState(representation))
+  {
+    return;
+  }
+  if (IsNeuralVolume(representation) && !ColorByNetwork(representation, nullptr))
+  {
+    this->Internals->AwaitingView.insert(representation);
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::OnViewModified(vtkObject* caller, unsigned long, void* name)
+{
+  vtkInternals& in = *this->Internals;
+  auto* view = vtkSMProxy::SafeDownCast(caller);
+  const char* property = static_cast<const char*>(name);
+  if (!view || !property || std::strcmp(property, "Representations") != 0 || in.AwaitingView.empty())
+  {
+    return;
+  }
+  vtkSMPropertyHelper members(view, "Representations");
+  for (unsigned int i = 0; i < members.GetNumberOfElements(); ++i)
+  {
+    vtkSMProxy* representation = members.GetAsProxy(i);
+    if (in.AwaitingView.erase(representation) && !LoadingState(representation))
+    {
+      ColorByNetwork(representation, view);
+    }
+  }
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vtkSMProxy* view)
+{
+  if (!IsNeuralVolume(representation) || vtkSMPVRepresentationProxy::GetUsingScalarColoring(representation))
+  {
+    return false;
+  }
+  view = view ? view : vtkSMViewProxy::FindView(representation);
+  if (!view)
+  {
+    return false; // colour with the colour bar once the representation is in its view
+  }
+  std::string array;
+  int association = vtkDataObject::POINT;
+  if (!NetworkArray(representation, array, association) ||
+    !vtkSMPVRepresentationProxy::SetScalarColoring(representation, array.c_str(), association))
+  {
+    return false;
+  }
+  // As if the user picked the array: fit the maps to its range.
+  vtkSMPVRepresentationProxy::RescaleTransferFunctionToDataRange(representation, true);
+  // The GUI's default; scripts (pvpython, pvbatch) run with manual colour bars, as for the stock Volume.
+  if (vtkPVGeneralSettings::GetInstance()->GetScalarBarMode() ==
+    vtkPVGeneralSettings::AUTOMATICALLY_SHOW_AND_HIDE_SCALAR_BARS)
+  {
+    vtkSMPVRepresentationProxy::SetScalarBarVisibility(representation, view, true);
+  }
+  return true;
+}

@@ -1,0 +1,239 @@
+#include "vtkNeuralVolumeRefreshDriver.h"
+
+#include "vtkCommand.h"
+#include "vtkNew.h"
+#include "vtkObjectFactory.h"
+#include "vtkPVNeuralVolumeInformation.h"
+#include "vtkPVSession.h"
+#include "vtkRenderWindowInteractor.h"
+#include "vtkSMProperty.h"
+#include "vtkSMPropertyHelper.h"
+#include "vtkSMProxyIterator.h"
+#include "vtkSMProxyManager.h"
+#include "vtkSMSessionProxyManager.h"
+#include "vtkSMViewProxy.h"
+#include "vtkWeakPointer.h"
+
+#include <cstring>
+#include <map>
+
+vtkStandardNewMacro(vtkNeuralVolumeRefreshDriver);
+
+namespace
+{
+bool IsNeuralVolume(vtkSMProxy* representation)
+{
+  const char* xmlName = representation ? representation->GetXMLName() : nullptr;
+  vtkSMProperty* type = representation ? representation->GetProperty("Representation") : nullptr;
+  const char* text = type ? vtkSMPropertyHelper(type).GetAsString() : nullptr;
+  return xmlName && std::strcmp(xmlName, "UniformGridRepresentation") == 0 && text &&
+    std::strcmp(text, "Neural Volume") == 0;
+}
+
+/// An interactor whose timers fire from an event loop that runs anyway (the GUI's).
+bool DrivesTimers(vtkRenderWindowInteractor* interactor)
+{
+  return interactor && interactor->IsA("QVTKInteractor");
+}
+} // namespace
+
+struct vtkNeuralVolumeRefreshDriver::vtkInternals
+{
+  struct View
+  {
+    vtkWeakPointer<vtkRenderWindowInteractor> Interactor;
+    unsigned long ModifiedTag = 0;
+    unsigned long RenderedTag = 0;
+    unsigned long TimerTag = 0;
+    int TimerId = -1;
+  };
+  vtkWeakPointer<vtkSMProxyManager> Manager;
+  unsigned long RegisterTag = 0;
+  unsigned long UnRegisterTag = 0;
+  std::map<vtkSMProxy*, View> Views;
+};
+
+vtkNeuralVolumeRefreshDriver::vtkNeuralVolumeRefreshDriver()
+  : Internals(new vtkInternals)
+{
+}
+
+vtkNeuralVolumeRefreshDriver::~vtkNeuralVolumeRefreshDriver()
+{
+  while (!this->Internals->Views.empty())
+  {
+    this->RemoveView(this->Internals->Views.begin()->first);
+  }
+  if (this->Internals->Manager)
+  {
+    this->Internals->Manager->RemoveObserver(this->Internals->RegisterTag);
+    this->Internals->Manager->RemoveObserver(this->Internals->UnRegisterTag);
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::Install()
+{
+  vtkInternals& in = *this->Internals;
+  if (in.Manager || !vtkSMProxyManager::IsInitialized())
+  {
+    return;
+  }
+  vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+  in.Manager = manager;
+  in.RegisterTag = manager->AddObserver(vtkCommand::RegisterEvent, this, &vtkNeuralVolumeRefreshDriver::OnRegister);
+  in.UnRegisterTag =
+    manager->AddObserver(vtkCommand::UnRegisterEvent, this, &vtkNeuralVolumeRefreshDriver::OnUnRegister);
+  if (vtkSMSessionProxyManager* pxm = manager->GetActiveSessionProxyManager())
+  {
+    vtkNew<vtkSMProxyIterator> it;
+    it->SetSessionProxyManager(pxm);
+    it->SetModeToOneGroup();
+    for (it->Begin("views"); !it->IsAtEnd(); it->Next())
+    {
+      this->AddView(it->GetProxy());
+    }
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::OnRegister(vtkObject*, unsigned long, void* data)
+{
+  auto* info = static_cast<vtkSMProxyManager::RegisteredProxyInformation*>(data);
+  if (info && info->Type == vtkSMProxyManager::RegisteredProxyInformation::PROXY && info->GroupName &&
+    std::strcmp(info->GroupName, "views") == 0)
+  {
+    this->AddView(info->Proxy);
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::OnUnRegister(vtkObject*, unsigned long, void* data)
+{
+  auto* info = static_cast<vtkSMProxyManager::RegisteredProxyInformation*>(data);
+  if (info && info->Type == vtkSMProxyManager::RegisteredProxyInformation::PROXY && info->Proxy)
+  {
+    this->RemoveView(info->Proxy);
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::AddView(vtkSMProxy* proxy)
+{
+  vtkInternals& in = *this->Internals;
+  auto* view = vtkSMViewProxy::SafeDownCast(proxy);
+  if (!view || in.Views.count(proxy) || !view->GetProperty("Representations"))
+  {
+    return;
+  }
+  vtkInternals::View& v = in.Views[proxy];
+  v.ModifiedTag =
+    proxy->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewModified);
+  v.RenderedTag = proxy->AddObserver(vtkCommand::EndEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewRendered);
+}
+
+void vtkNeuralVolumeRefreshDriver::RemoveView(vtkSMProxy* proxy)
+{
+  vtkInternals& in = *this->Internals;
+  auto it = in.Views.find(proxy);
+  if (it == in.Views.end())
+  {
+    return;
+  }
+  vtkInternals::View& v = it->second;
+  proxy->RemoveObserver(v.ModifiedTag);
+  proxy->RemoveObserver(v.RenderedTag);
+  if (v.Interactor)
+  {
+    if (v.TimerId >= 0)
+    {
+      v.Interactor->DestroyTimer(v.TimerId);
+    }
+    v.Interactor->RemoveObserver(v.TimerTag);
+  }
+  in.Views.erase(it);
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeRefreshDriver::OnViewModified(vtkObject* caller, unsigned long, void* name)
+{
+  auto* view = vtkSMViewProxy::SafeDownCast(caller);
+  const char* property = static_cast<const char*>(name);
+  if (!view || !property || std::strcmp(property, "Representations") != 0)
+  {
+    return;
+  }
+  vtkInternals::View& v = this->Internals->Views[view];
+  if (!v.Interactor)
+  {
+    vtkRenderWindowInteractor* interactor = view->GetRenderWindow() ? view->GetInteractor() : nullptr;
+    if (!DrivesTimers(interactor))
+    {
+      return; // a script: still renders stay blocking
+    }
+    v.Interactor = interactor;
+    v.TimerTag = interactor->AddObserver(vtkCommand::TimerEvent, this, &vtkNeuralVolumeRefreshDriver::OnTimer);
+  }
+  // Representations of image data in this view render progressively (Neural Volume uses it; the others ignore it).
+  vtkSMPropertyHelper members(view, "Representations");
+  for (unsigned int i = 0; i < members.GetNumberOfElements(); ++i)
+  {
+    vtkSMProxy* representation = members.GetAsProxy(i);
+    vtkSMProperty* progressive = representation ? representation->GetProperty("ProgressiveRefinement") : nullptr;
+    if (progressive && vtkSMPropertyHelper(progressive).GetAsInt() == 0)
+    {
+      vtkSMPropertyHelper(progressive).Set(1);
+      representation->UpdateVTKObjects();
+    }
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::OnViewRendered(vtkObject* caller, unsigned long, void* data)
+{
+  auto* view = vtkSMViewProxy::SafeDownCast(caller);
+  auto it = view ? this->Internals->Views.find(view) : this->Internals->Views.end();
+  if (it == this->Internals->Views.end() || !it->second.Interactor || it->second.TimerId >= 0)
+  {
+    return;
+  }
+  const int* interactive = static_cast<const int*>(data);
+  if (interactive && *interactive)
+  {
+    return; // the still render that ends the interaction comes next
+  }
+  bool pending = false;
+  vtkSMPropertyHelper members(view, "Representations");
+  for (unsigned int i = 0; i < members.GetNumberOfElements() && !pending; ++i)
+  {
+    vtkSMProxy* representation = members.GetAsProxy(i);
+    if (!IsNeuralVolume(representation) || vtkSMPropertyHelper(representation, "Visibility").GetAsInt() == 0)
+    {
+      continue;
+    }
+    // From the render server (information properties would be read on the client).
+    vtkSMProperty* work = representation->GetProperty("WorkPending");
+    vtkSMProxy* neural = work ? work->GetParent() : nullptr;
+    vtkNew<vtkPVNeuralVolumeInformation> information;
+    if (neural)
+    {
+      // (A client-server session's GatherInformation returns false even when it gathered: check Valid.)
+      neural->GatherInformation(information, vtkPVSession::RENDER_SERVER);
+      pending = information->GetValid() && information->GetWorkPending();
+    }
+  }
+  if (pending)
+  {
+    it->second.TimerId = it->second.Interactor->CreateOneShotTimer(this->IntervalMilliseconds);
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::OnTimer(vtkObject* caller, unsigned long, void* data)
+{
+  const int id = data ? *static_cast<int*>(data) : -1;
+  for (auto& entry : this->Internals->Views)
+  {
+    vtkInternals::View& v = entry.second;
+    if (v.Interactor == caller && v.TimerId >= 0 && v.TimerId == id)
+    {
+      v.TimerId = -1;
+      vtkSMViewProxy::SafeDownCast(entry.first)->StillRender();
+      return;
+    }
+  }
+}
