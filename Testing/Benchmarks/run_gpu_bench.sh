@@ -13,6 +13,8 @@ D=.devcarry/data
 O=${OUT:-gpu-bench-out}
 mkdir -p "$O"
 for f in $B/*.xz; do [ -e "$f" ] && xz -d -f "$f" && chmod +x "${f%.xz}"; done
+# plugin builds link the engine as a shared library (libNeuralEngine.so, carried next to the binaries)
+export LD_LIBRARY_PATH=$PWD/$B${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 STENT=$D/stent/stent_128x128x256_int16.nhdr
 for s in "$@"; do
   case $s in
@@ -99,7 +101,8 @@ for s in "$@"; do
       compute-sanitizer --tool memcheck $B/nvBenchRender cuda $H 12 50 48 32 decode,stream,inshader rm,grad,shadow,pt,nee 1 2>&1 | tail -25 | tee "$O/render_memcheck.log"
       compute-sanitizer --tool racecheck $B/nvBenchRender cuda $H 12 50 48 32 inshader rm,grad 1 2>&1 | tail -8 | tee "$O/render_racecheck.log"
       # Sample Streaming with many batches per wavefront (K = 1024: 1170 rays per batch)
-      compute-sanitizer --tool memcheck $B/nvBenchRender cuda $H 12 50 200 150 stream grad,rm,nee 1 - 1024 2>&1 | tail -8 | tee -a "$O/render_memcheck.log" ;;
+      compute-sanitizer --tool memcheck $B/nvBenchRender cuda $H 12 50 200 150 stream grad,rm,nee 1 - 1024 2>&1 | tail -8 | tee -a "$O/render_memcheck.log"
+      compute-sanitizer --tool memcheck $B/nvTestGpuRender gpu_depth_buffer_and_inside_camera 2>&1 | tail -4 | tee -a "$O/render_memcheck.log" ;;
     torch)
       (cd .devcarry/ref && PYTHONUNBUFFERED=1 timeout 300 python3 quality_torch.py bench_torch.py 2000 14 ../data/stent/stent_128x128x256_int16.nhdr) 2>&1 | tail -15 | tee "$O/torch.log" ;;
   esac
