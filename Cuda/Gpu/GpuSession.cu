@@ -9,8 +9,10 @@
 #include "GpuRenderer.cuh"
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <mutex>
+#include <thread>
 
 namespace nv
 {
@@ -130,6 +132,8 @@ public:
 
   void render(const RenderRequest& request, RenderResult& result, Memory where) override
   {
+    while (PublishWaiting.load() > 0) // a trained network is ready: let it in first
+      std::this_thread::yield();
     std::lock_guard<std::mutex> lock(Mutex);
     Renderer->render(M, Version, request, result, where);
   }
@@ -139,7 +143,7 @@ public:
   int64_t deviceMemoryBytes() const override
   {
     std::lock_guard<std::mutex> lock(Mutex);
-    size_t b = Dm.bytes() + Dm.encScratch.bytes() + Params32.bytes();
+    size_t b = Dm.bytes() + Dm.encScratch.bytes() + Params32.bytes() + Back.bytes() + BackParams.bytes();
     for (int k = 0; k < kSlots; ++k)
       b += DIn[k].bytes() + DOut[k].bytes();
     return static_cast<int64_t>(b) + Renderer->deviceMemoryBytes();
@@ -158,15 +162,37 @@ private:
     St.sync();
   }
 
-  /// Trainer::publish: the trainer's fp32 parameters become this session's, on the trainer's stream.
+  /// Trainer::publish: the trainer's fp32 parameters become this session's. They are packed into the back copy of
+  /// the network on the trainer's stream while renders go on, then swapped in between two renders; a waiting publish
+  /// goes before the next render (render() yields to it), so training that publishes often is not starved by a
+  /// render loop and never waits for more than the frame in flight.
   void publish(const float* dParams, cudaStream_t stream)
   {
-    std::lock_guard<std::mutex> lock(Mutex);
-    NV_CUDA(cudaMemcpyAsync(Params32.get(), dParams, Params32.bytes(), cudaMemcpyDeviceToDevice, stream));
-    packParams(Params32.get(), Dm, stream);
+    std::lock_guard<std::mutex> one(PublishMutex); // one publish at a time
+    {
+      std::lock_guard<std::mutex> lock(Mutex);
+      if (Back.table16.size() != Dm.table16.size() || Back.w16.size() != Dm.w16.size() ||
+        BackParams.size() != Params32.size())
+      {
+        Back.options = Dm.options;
+        allocateDeviceModel(M, Back);
+        BackParams.allocate(Params32.size(), "parameters (back copy)");
+      }
+    }
+    NV_CUDA(cudaMemcpyAsync(BackParams.get(), dParams, BackParams.bytes(), cudaMemcpyDeviceToDevice, stream));
+    packParams(BackParams.get(), Back, stream);
     NV_CUDA(cudaStreamSynchronize(stream));
-    HostStale = true;
-    ++Version;
+    ++PublishWaiting;
+    {
+      std::lock_guard<std::mutex> lock(Mutex);
+      std::swap(Dm.table16, Back.table16);
+      std::swap(Dm.w16, Back.w16);
+      std::swap(Dm.wout, Back.wout);
+      std::swap(Params32, BackParams);
+      HostStale = true;
+      ++Version;
+    }
+    --PublishWaiting;
   }
 
   void syncLocked()
@@ -238,6 +264,10 @@ private:
   Stream St, Copy;
   DeviceModel Dm;
   DeviceBuffer<float> Params32;
+  DeviceModel Back;               ///< publish(): the next network, packed while renders use Dm
+  DeviceBuffer<float> BackParams;
+  std::mutex PublishMutex;
+  std::atomic<int> PublishWaiting{ 0 };
   DeviceBuffer<float> DIn[kSlots], DOut[kSlots];
   PinnedBuffer<float> HIn[kSlots], HOut[kSlots];
   Event Filled[kSlots], Done[kSlots];

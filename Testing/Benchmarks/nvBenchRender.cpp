@@ -249,6 +249,7 @@ int main(int argc, char** argv)
         std::printf("RESULT {\"what\":\"training_alone\",\"steps_per_s\":%.1f}\n", done / (ms(a, Clock::now()) * 1e-3));
       }
       for (RenderPath p : { RenderPath::Decode, RenderPath::InShader })
+        for (double pace : { 0.0, 1000.0 / 60.0 }) // back to back; a frame every 1/60 s, as an interactive view
       {
         std::atomic<bool> stop{ false };
         std::atomic<int64_t> done{ 0 };
@@ -270,6 +271,8 @@ int main(int argc, char** argv)
           const auto t = Clock::now();
           session->render(b.request(p, ShadingMode::RayMarch, f), r, Memory::Device);
           frame.push_back(ms(t, Clock::now()));
+          if (pace > 0.0)
+            std::this_thread::sleep_until(t + std::chrono::microseconds(static_cast<int64_t>(pace * 1000.0)));
           const uint64_t v = session->version();
           versions += v != last ? 1 : 0;
           last = v;
@@ -278,10 +281,10 @@ int main(int argc, char** argv)
         stop = true;
         worker.join();
         std::sort(frame.begin(), frame.end());
-        std::printf("RESULT {\"what\":\"render_while_training\",\"path\":\"%s\",\"width\":%d,\"height\":%d,"
+        std::printf("RESULT {\"what\":\"render_while_training\",\"path\":\"%s\",\"paced_ms\":%.1f,\"width\":%d,\"height\":%d,"
                     "\"frames\":%zu,\"fps\":%.1f,\"ms_median\":%.3f,\"ms_p95\":%.3f,\"frames_with_new_network\":%lld,"
                     "\"training_steps_per_s\":%.1f}\n",
-          renderPathName(p), W, H, frame.size(), frame.size() / (elapsed * 1e-3), frame[frame.size() / 2],
+          renderPathName(p), pace, W, H, frame.size(), frame.size() / (elapsed * 1e-3), frame[frame.size() / 2],
           frame[frame.size() * 95 / 100], (long long)versions, done.load() / (elapsed * 1e-3));
       }
       return 0;
