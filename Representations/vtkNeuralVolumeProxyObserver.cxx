@@ -128,18 +128,24 @@ void ShowVolumeRenderingGroup(vtkSMProxy* representation)
   }
 }
 
+/// The Hints element of a property or property group, created when it has none.
+template <typename T>
+vtkPVXMLElement* HintsOf(T* owner)
+{
+  if (!owner->GetHints())
+  {
+    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
+    created->SetName("Hints");
+    owner->SetHints(created);
+  }
+  return owner->GetHints();
+}
+
 /// Hide a whole panel group while the representation is Neural Volume (every decorator must agree to show a
 /// widget, so this one adds to the group's own).
 void HideGroupForNeuralVolume(vtkSMPropertyGroup* group)
 {
-  vtkPVXMLElement* hints = group->GetHints();
-  if (!hints)
-  {
-    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
-    created->SetName("Hints");
-    group->SetHints(created);
-    hints = group->GetHints();
-  }
+  vtkPVXMLElement* hints = HintsOf(group);
   if (!HasNeuralDecorator(hints))
   {
     hints->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
@@ -157,14 +163,7 @@ bool Contains(const char* const* list, size_t n, const char* name)
 /// Hide a property's widget while the representation is Neural Volume.
 void HideForNeuralVolume(vtkSMProperty* property)
 {
-  vtkPVXMLElement* hints = property->GetHints();
-  if (!hints)
-  {
-    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
-    created->SetName("Hints");
-    property->SetHints(created);
-    hints = property->GetHints();
-  }
+  vtkPVXMLElement* hints = HintsOf(property);
   if (!HasNeuralDecorator(hints))
   {
     hints->AddNestedElement(VisibilityDecorator("Representation", kNeuralVolume, true));
@@ -174,14 +173,7 @@ void HideForNeuralVolume(vtkSMProperty* property)
 /// VolumeAnisotropy (Henyey-Greenstein g) matters to Neural Volume only when path tracing.
 void ShowAnisotropyForPathTracing(vtkSMProperty* property)
 {
-  vtkPVXMLElement* hints = property->GetHints();
-  if (!hints)
-  {
-    auto created = vtkSmartPointer<vtkPVXMLElement>::New();
-    created->SetName("Hints");
-    property->SetHints(created);
-    hints = property->GetHints();
-  }
+  vtkPVXMLElement* hints = HintsOf(property);
   for (unsigned int i = 0; i < hints->GetNumberOfNestedElements(); ++i)
   {
     const char* marker = hints->GetNestedElement(i)->GetAttribute("neural_volume");

@@ -3,7 +3,7 @@
 
 #include "Macrocells.h"
 #include "Model.h"
-#include "RayMachine.h"
+#include "RayState.h"
 #include "Render.h"
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // NeuralVolume engine: arguments and launch of the In-Shader render kernel (GpuRenderInShader.cu).
 #pragma once
 
-#include "Core/RayMachine.h"
+#include "Core/RayState.h"
 #include "GpuInternal.cuh"
 
 namespace nv

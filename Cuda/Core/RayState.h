@@ -1,0 +1,153 @@
+// NeuralVolume engine: the state of a ray and the parameters every ray reads (host-device plain data). See
+// RayMachine.h for how a ray is driven.
+#pragma once
+
+#include "HashGridMath.h"
+#include "HostDevice.h"
+
+#include <cstdint>
+
+#if !defined(__CUDACC__)
+#include <cmath>
+#endif
+
+namespace nv
+{
+namespace ray
+{
+
+struct V3
+{
+  float x, y, z;
+};
+NV_HD V3 mk(float x, float y, float z)
+{
+  return { x, y, z };
+}
+NV_HD V3 operator+(V3 a, V3 b)
+{
+  return { a.x + b.x, a.y + b.y, a.z + b.z };
+}
+NV_HD V3 operator-(V3 a, V3 b)
+{
+  return { a.x - b.x, a.y - b.y, a.z - b.z };
+}
+NV_HD V3 operator*(V3 a, float s)
+{
+  return { a.x * s, a.y * s, a.z * s };
+}
+NV_HD float dot(V3 a, V3 b)
+{
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+NV_HD V3 cross(V3 a, V3 b)
+{
+  return { a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x };
+}
+NV_HD V3 normalize(V3 a)
+{
+  const float l = sqrtf(dot(a, a));
+  return l > 0.0f ? a * (1.0f / l) : a;
+}
+NV_HD float clamp01(float x)
+{
+  return x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
+}
+NV_HD float fminf_(float a, float b)
+{
+  return a < b ? a : b;
+}
+NV_HD float fmaxf_(float a, float b)
+{
+  return a > b ? a : b;
+}
+
+enum Phase : int
+{
+  Done = 0,
+  March = 1,  ///< ray marching along the primary ray
+  Shadow = 2, ///< ray marching with shadows: the shadow ray of a pending sample
+  Track = 3,  ///< path tracing: delta tracking along the current path segment
+  Nee = 4     ///< path tracing: ratio-tracked shadow ray towards the sun
+};
+
+/// Values as in Render.h (ShadingMode, BlendMode).
+enum Shading : int
+{
+  RayMarch = 0,
+  RayMarchGradient = 1,
+  RayMarchShadows = 2,
+  PathTrace = 3,
+  PathTraceNee = 4
+};
+enum Blend : int
+{
+  Composite = 0,
+  Maximum = 1,
+  Minimum = 2,
+  Average = 3,
+  Additive = 4
+};
+
+constexpr int kMaxQueriesPerStep = 7; ///< gradient shading: centre and six neighbours
+constexpr int kMaxIterations = 1 << 20; ///< safety bound of the emit/consume loop
+
+/// Everything a ray needs; plain data, copied to the GPU by value. Pointers live in the executing memory space.
+struct Params
+{
+  int width, height;
+  float clipToWorld[16]; ///< inverse view-projection, row-major
+  float worldToUnit[12]; ///< rows of the affine map world -> network coordinates
+  float dt;              ///< world distance between samples of a primary ray
+  float dtShadow;        ///< world distance between samples of a shadow ray (ray marching with shadows)
+  float termination;     ///< early ray termination opacity (>= 1: off)
+  float gradH[3];        ///< central-difference half steps in network coordinates
+  // Transfer function: entries (r, g, b, extinction per world unit), linear between entries; the entry coordinate
+  // of a normalised value y is y * tfScale + tfShift, clamped to [0, tfSize - 1].
+  const float* tf;
+  int tfSize;
+  float tfScale, tfShift;
+  float unitDistance;    ///< for the raw opacity of an entry: 1 - exp(-extinction * unitDistance)
+  // Macrocells: per cell the largest extinction the transfer function gives over the cell's value range (0: empty).
+  const float* majorant;
+  int mc[3];
+  float mcScale[3];      ///< cell index along axis a = floor(u_a * mcScale[a])
+  float maxMajorant;     ///< the largest majorant of all cells (tracking without skipping)
+  int skipping;          ///< 1: skip empty cells (marching) and use local majorants (tracking)
+  int shading, blend;
+  float avgLo, avgHi;    ///< Average blend: normalised range (avgLo >= avgHi: every value)
+  V3 lightW;             ///< world direction towards the light, unit length
+  float ambient, diffuse, specular, specularPower, intensity;
+  float sunCos;          ///< cosine of the sun's angular radius
+  float g;               ///< Henyey-Greenstein anisotropy of the phase function (0: isotropic)
+  int maxBounces;
+  uint32_t seed, frame;
+  const float* depth;    ///< window depth of opaque geometry per pixel, or null
+};
+
+struct Ray
+{
+  V3 o, d;          ///< network coordinates: p(t) = o + t d, t in world units
+  V3 dW;            ///< world direction of the current segment (unit length)
+  float t0, tEnd;   ///< marching: first segment start; end of the current segment (box exit / opaque depth)
+  float t;          ///< tracking: current distance
+  int j;            ///< marching: index of the next sample, at t0 + (j + 1/2) dt
+  V3 so, sd;        ///< shadow / NEE ray
+  float stEnd, sT;  ///< its end and transmittance
+  int sj;           ///< shadow marching: next sample index
+  float c[4];       ///< accumulated premultiplied colour and opacity
+  float pend[4];    ///< marching with shadows: the pending sample's shaded colour (rgb) and alpha; NEE: phase weight
+  float thr[3];     ///< path tracing: throughput
+  float acc;        ///< Maximum / Minimum / Average / Additive accumulator
+  int count;        ///< Average: samples in range
+  uint32_t pixel;
+  uint32_t sample;  ///< path index within the pixel (several paths per pixel per render)
+  uint32_t nFlight; ///< counter of the free-flight random stream
+  uint32_t nEvent;  ///< counter of the event random stream
+  int phase;
+  int bounces;
+  int plain;        ///< samples a plain marcher takes on this ray (set when marching ends)
+};
+
+} // namespace ray
+} // namespace nv
