@@ -307,8 +307,7 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     }
 
     // Everything that changes the picture; the engine's own key plus the network.
-    const nv::RenderSetup setup = nv::makeRenderSetup(q, session.model().source);
-    const uint64_t key = Mix(Mix(setup.key, session.version()), reinterpret_cast<uintptr_t>(&session));
+    const uint64_t key = Mix(Mix(nv::renderKey(q), session.version()), reinterpret_cast<uintptr_t>(&session));
     const bool pathTracing = shading >= PATH_TRACING;
     auto accumulated = [&]() { return static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel; };
     auto renderOnce = [&]() {

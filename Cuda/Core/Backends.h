@@ -11,6 +11,10 @@
 namespace nv
 {
 
+/// The checked training configuration of a session's trainer: `config` validated, a non-empty volume, and the
+/// session's thread count where the configuration leaves it to the session (0).
+TrainConfig trainerConfig(const VolumeView& volume, const TrainConfig& config, const SessionOptions& options);
+
 std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options);
 
 /// True when the CUDA backend can run here (built with CUDA, driver present, a supported GPU); else `why`.

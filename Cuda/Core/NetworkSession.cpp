@@ -19,6 +19,16 @@ std::unique_ptr<NetworkSession> NetworkSession::create(Device device, const Mode
   return createCpuSession(model, options);
 }
 
+TrainConfig trainerConfig(const VolumeView& volume, const TrainConfig& config, const SessionOptions& options)
+{
+  validate(config);
+  NV_CHECK(volume.data != nullptr && volume.count() > 0, "empty source volume");
+  TrainConfig c = config;
+  if (c.threads == 0)
+    c.threads = options.threads;
+  return c;
+}
+
 namespace
 {
 template <typename T>

@@ -204,12 +204,7 @@ NV_HD V3 phaseDir(float g, V3 w, float u1, float u2)
   const float s = (1.0f - g * g) / (1.0f - g + 2.0f * g * u1);
   float ct = (1.0f + g * g - s * s) / (2.0f * g);
   ct = ct < -1.0f ? -1.0f : (ct > 1.0f ? 1.0f : ct);
-  const float st = sqrtf(fmaxf_(0.0f, 1.0f - ct * ct));
-  const float phi = 6.28318530718f * u2;
-  const V3 h = fabsf(w.x) > 0.9f ? mk(0.0f, 1.0f, 0.0f) : mk(1.0f, 0.0f, 0.0f);
-  const V3 b1 = normalize(cross(h, w));
-  const V3 b2 = cross(w, b1);
-  return b1 * (st * cosf(phi)) + b2 * (st * sinf(phi)) + w * ct;
+  return aroundAxis(w, ct, u2);
 }
 
 /// New direction after a scattering event at p (NEE done or not used).

@@ -242,16 +242,21 @@ NV_HD V3 sphereDir(float u1, float u2)
   return { s * cosf(phi), s * sinf(phi), z };
 }
 
-/// Uniform direction in the cone of cosine cosMax around axis a (unit length).
-NV_HD V3 coneDir(V3 a, float cosMax, float u1, float u2)
+/// The unit direction at cosine ct from axis a (unit length) and azimuth 2 pi u.
+NV_HD V3 aroundAxis(V3 a, float ct, float u)
 {
-  const float ct = 1.0f - u1 * (1.0f - cosMax);
   const float st = sqrtf(fmaxf_(0.0f, 1.0f - ct * ct));
-  const float phi = 6.28318530718f * u2;
+  const float phi = 6.28318530718f * u;
   const V3 h = fabsf(a.x) > 0.9f ? mk(0.0f, 1.0f, 0.0f) : mk(1.0f, 0.0f, 0.0f);
   const V3 b1 = normalize(cross(h, a));
   const V3 b2 = cross(a, b1);
   return b1 * (st * cosf(phi)) + b2 * (st * sinf(phi)) + a * ct;
+}
+
+/// Uniform direction in the cone of cosine cosMax around axis a (unit length).
+NV_HD V3 coneDir(V3 a, float cosMax, float u1, float u2)
+{
+  return aroundAxis(a, 1.0f - u1 * (1.0f - cosMax), u2);
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -32,11 +32,16 @@ struct RenderSetup
   int64_t gridDims[3] = { 1, 1, 1 }; ///< Decode path: grid samples per axis
   int streamingSamples = 8;         ///< K of Sample Streaming after defaults
   uint64_t key = 0;                 ///< hash of everything that changes the picture except the frame (accumulation)
+  uint64_t tableKey = 0;            ///< hash of `table` and its value mapping (what the majorants depend on)
 };
 
 /// `source` gives the network's extent (dims) and value range (the transfer function is defined on source values).
 /// params.frame is 0: the backend sets the path-tracing accumulation index (it restarts when `key` changes).
 RenderSetup makeRenderSetup(const RenderRequest& request, const SourceInfo& source);
+
+/// Hash of everything in a request that changes the picture (RenderSetup::key), without the rest of the setup:
+/// what a caller compares to know whether the last image still holds.
+uint64_t renderKey(const RenderRequest& request);
 
 /// Default K of Sample Streaming: the K sweep on an H100 (stent, 1280 x 720, ray marching; results/gpu_render_*)
 /// gave 8.3 / 4.7 / 3.0 / 2.4 / 2.1 / 1.2 / 1.3 ms for K = 1 / 2 / 4 / 8 / 16 / 32 / 64.

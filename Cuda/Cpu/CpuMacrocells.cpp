@@ -87,19 +87,10 @@ bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout
   return true;
 }
 
-bool CpuMacrocells::updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift)
+bool CpuMacrocells::updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift,
+  uint64_t tableKey)
 {
-  // FNV-1a over the table and its mapping: the majorants depend on nothing else.
-  uint64_t h = 1469598103934665603ull;
-  auto add = [&h](const void* p, size_t n) {
-    const unsigned char* c = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i)
-      h = (h ^ c[i]) * 1099511628211ull;
-  };
-  add(tf, sizeof(float) * 4 * static_cast<size_t>(size));
-  add(&size, sizeof(size));
-  add(&scale, sizeof(scale));
-  add(&shift, sizeof(shift));
+  const uint64_t h = tableKey;
   if (MajorantRanges == RangesVersion && h == TfHash && Majorant.size() == Lo.size())
     return false;
   MajorantRanges = RangesVersion;

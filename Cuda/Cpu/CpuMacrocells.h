@@ -32,9 +32,9 @@ public:
   static constexpr float kProbeSafety = 2.0f;
   static constexpr float kNetworkFloor = 2.0f / 1024.0f; ///< covers the fp16 rounding of the In-Shader numerics
 
-  /// Majorants for a transfer-function table (entries r, g, b, extinction; entry coordinate y * scale + shift).
-  /// Returns true when they were recomputed.
-  bool updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift);
+  /// Majorants for a transfer-function table (entries r, g, b, extinction; entry coordinate y * scale + shift) whose
+  /// RenderSetup::tableKey is `tableKey`. Returns true when they were recomputed (new ranges or a new table).
+  bool updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift, uint64_t tableKey);
 
   const float* majorants() const { return Majorant.data(); }
   float maxMajorant() const { return MaxMajorant; }

@@ -155,7 +155,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     else
       Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, kNetworkRangeMargin);
   }
-  Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift);
+  Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift, setup.tableKey);
   P.tf = setup.table.data();
   P.majorant = Cells.majorants();
   P.maxMajorant = Cells.maxMajorant();

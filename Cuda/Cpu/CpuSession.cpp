@@ -46,11 +46,7 @@ const CpuInference& CpuSession::evaluator()
 
 std::unique_ptr<Trainer> CpuSession::createTrainer(const VolumeView& volume, const TrainConfig& config)
 {
-  validate(config);
-  NV_CHECK(volume.data != nullptr && volume.count() > 0, "empty source volume");
-  TrainConfig c = config;
-  if (c.threads == 0)
-    c.threads = Options.threads;
+  const TrainConfig c = trainerConfig(volume, config, Options);
   std::lock_guard<std::mutex> lock(Mutex);
   // The trainer must not outlive the session (documented in NetworkSession::createTrainer).
   return std::unique_ptr<Trainer>(new CpuTrainer(M, volume, c, [this](const std::vector<float>& p) {

@@ -28,14 +28,6 @@ uint64_t mixKey(uint64_t a, uint64_t b)
   return mix64(a ^ (b * 0x9E3779B97F4A7C15ull));
 }
 
-uint64_t hashBytes(uint64_t h, const void* p, size_t n)
-{
-  const unsigned char* b = static_cast<const unsigned char*>(p);
-  for (size_t i = 0; i < n; ++i)
-    h = (h ^ b[i]) * 1099511628211ull;
-  return h;
-}
-
 double since(std::chrono::steady_clock::time_point t)
 {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
@@ -201,10 +193,7 @@ void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
 
 void GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
 {
-  uint64_t h = hashBytes(1469598103934665603ull, &RangeStamp, sizeof(RangeStamp));
-  h = hashBytes(h, s.table.data(), s.table.size() * sizeof(float));
-  h = hashBytes(h, &P.tfScale, sizeof(float));
-  h = hashBytes(h, &P.tfShift, sizeof(float));
+  const uint64_t h = mixKey(s.tableKey, RangeStamp);
   const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
   if (h != MajorantKey)
   {

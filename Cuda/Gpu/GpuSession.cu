@@ -78,11 +78,7 @@ public:
 
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override
   {
-    validate(config);
-    NV_CHECK(volume.data != nullptr && volume.count() > 0, "empty source volume");
-    TrainConfig c = config;
-    if (c.threads == 0)
-      c.threads = Options.threads;
+    const TrainConfig c = trainerConfig(volume, config, Options);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked(); // the trainer starts from the current parameters
     // The trainer must not outlive the session (NetworkSession::createTrainer).
