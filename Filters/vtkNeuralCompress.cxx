@@ -1,6 +1,9 @@
 #include "vtkNeuralCompress.h"
 
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressState.h"
+#include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralNetworkArray.h"
 
 #include "Core/Error.h"
@@ -14,6 +17,7 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkMatrix3x3.h"
 #include "vtkIntArray.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
@@ -29,7 +33,6 @@
 #include <limits>
 #include <sstream>
 
-namespace nvi = vtkNeuralCompressInternals;
 
 vtkStandardNewMacro(vtkNeuralCompress);
 
@@ -42,58 +45,23 @@ bool IsCellAssociation(vtkInformation* arrayInfo)
     arrayInfo->Get(vtkDataObject::FIELD_ASSOCIATION()) == vtkDataObject::FIELD_ASSOCIATION_CELLS;
 }
 
-template <typename ArrayT, typename ValueT>
-void AddFieldValue(vtkFieldData* fd, const char* name, ValueT value)
-{
-  vtkNew<ArrayT> a;
-  a->SetName(name);
-  a->SetNumberOfTuples(1);
-  a->SetValue(0, value);
-  fd->AddArray(a);
-}
-
-void InitializeLog(vtkTable* log)
-{
-  log->Initialize();
-  for (const char* name : { "Step", "Loss", "LearningRate", "ElapsedSeconds", "PSNR" })
-  {
-    vtkNew<vtkDoubleArray> column;
-    column->SetName(name);
-    log->AddColumn(column);
-  }
-}
-
-std::string FormatBytes(double bytes)
-{
-  std::ostringstream s;
-  s.precision(3);
-  if (bytes >= 1024.0 * 1024.0)
-  {
-    s << bytes / (1024.0 * 1024.0) << " MiB";
-  }
-  else if (bytes >= 1024.0)
-  {
-    s << bytes / 1024.0 << " KiB";
-  }
-  else
-  {
-    s << bytes << " B";
-  }
-  return s.str();
-}
-
 } // namespace
 
 //------------------------------------------------------------------------------
 vtkNeuralCompress::vtkNeuralCompress()
+  : Internals(new vtkInternals)
 {
   this->SetNumberOfInputPorts(1);
-  this->SetNumberOfOutputPorts(2);
+  this->SetNumberOfOutputPorts(3);
   this->SetInputArrayToProcess(0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS,
     vtkDataSetAttributes::SCALARS);
 }
 
-vtkNeuralCompress::~vtkNeuralCompress() = default;
+
+vtkNeuralCompress::~vtkNeuralCompress()
+{
+  this->Internals->Current.reset();
+}
 
 //------------------------------------------------------------------------------
 int vtkNeuralCompress::FillInputPortInformation(int, vtkInformation* info)
@@ -117,6 +85,8 @@ int vtkNeuralCompress::RequestDataObject(
     VTK_IMAGE_DATA, outputVector->GetInformationObject(0), /*exact=*/true);
   vtkDataObjectAlgorithm::SetOutputDataObject(
     VTK_TABLE, outputVector->GetInformationObject(1), /*exact=*/true);
+  vtkDataObjectAlgorithm::SetOutputDataObject(
+    VTK_TABLE, outputVector->GetInformationObject(2), /*exact=*/true);
   return 1;
 }
 
@@ -174,25 +144,35 @@ int vtkNeuralCompress::RequestUpdateExtent(
 int vtkNeuralCompress::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
+  // An abort request belongs to the execution it interrupted.
+  this->SetAbortExecute(0);
   vtkDataObject* inputObject = vtkDataObject::GetData(inputVector[0], 0);
   vtkImageData* output = vtkImageData::GetData(outputVector, 0);
   vtkTable* log = vtkTable::GetData(outputVector, 1);
-  if (!output || !log)
+  vtkTable* metrics = vtkTable::GetData(outputVector, 2);
+  if (!output || !log || !metrics)
   {
     vtkErrorMacro("Neural Compress: missing output objects.");
     return 0;
   }
   output->Initialize();
-  this->Session.reset(); // the previous output's network
-  InitializeLog(log);
+  nvi::InitializeLog(log);
+  nvi::InitializeMetrics(metrics);
+  double time = 0.0;
+  if (inputObject && inputObject->GetInformation()->Has(vtkDataObject::DATA_TIME_STEP()))
+  {
+    time = inputObject->GetInformation()->Get(vtkDataObject::DATA_TIME_STEP());
+  }
 
-  if (!this->Execute(inputObject, inputVector, output, log))
+  if (!this->Execute(inputObject, inputVector, output, log, metrics, time))
   {
     // A defined result: no arrays, no network. For an image input the output keeps the promised
     // (input) geometry, so the pipeline does not execute again (and repeat the error) on every
     // update.
+    this->Internals->Retire();
     output->Initialize();
-    InitializeLog(log);
+    nvi::InitializeLog(log);
+    nvi::InitializeMetrics(metrics);
     vtkInformation* outInfo = outputVector->GetInformationObject(0);
     if (outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
     {
@@ -206,12 +186,13 @@ int vtkNeuralCompress::RequestData(
       output->SetSpacing(spacing);
     }
   }
+  output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
   return 1;
 }
 
 //------------------------------------------------------------------------------
 bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-  vtkImageData* output, vtkTable* log)
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
 {
   vtkImageData* input = vtkImageData::SafeDownCast(inputObject);
   if (!input)
@@ -227,7 +208,6 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
                   "The output is empty.");
     return false;
   }
-
   int association = -1;
   vtkDataArray* array = this->GetInputArrayToProcess(0, inputVector, association);
   if (!array)
@@ -245,279 +225,74 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
     return false;
   }
 
-  return this->Compress(input, array, association, output, log);
-}
-
-//------------------------------------------------------------------------------
-bool vtkNeuralCompress::Compress(
-  vtkImageData* input, vtkDataArray* array, int association, vtkImageData* output, vtkTable* log)
-{
-  const bool cells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
-  const std::string name = array->GetName() ? array->GetName() : "Scalars";
-  int ext[6];
-  input->GetExtent(ext);
-  const nvi::OutputGeometry g =
-    nvi::ComputeGeometry(ext, input->GetOrigin(), input->GetSpacing(), cells, this->OutputResolution);
-  const int64_t dims[3] = { g.SourceDims[0], g.SourceDims[1], g.SourceDims[2] };
-  if (dims[0] * dims[1] * dims[2] <= 0)
-  {
-    vtkErrorMacro("Neural Compress: the input image has no " << (cells ? "cells" : "points")
-                                                             << "; nothing to train on.");
-    return false;
-  }
-
-  nvi::SourceField field;
-  std::string problem;
-  if (!nvi::MakeSourceField(array, this->VectorMode, this->VectorComponent, dims, field, problem))
-  {
-    vtkErrorMacro("Neural Compress: cannot use array '" << name << "': " << problem << ".");
-    return false;
-  }
-
+  vtkInternals& in = *this->Internals;
   try
   {
-    const nv::VolumeStats stats = nv::computeStats(field.View);
-    if (stats.valid == 0)
+    const nvi::Settings settings = this->CurrentSettings();
+    const std::string canonical = settings.Canonical();
+    if (in.Current && in.KeyArray == array && in.KeyArrayMTime == array->GetMTime() &&
+      in.KeySettings == canonical && in.Current->Time == time)
     {
-      vtkErrorMacro("Neural Compress: all " << stats.invalid << " values of '" << name
+      return this->EmitOutputs(output, log, metrics); // a live refresh or a control: same training
+    }
+
+    nvi::FieldInfo field;
+    field.Name = array->GetName() ? array->GetName() : "Scalars";
+    field.Cells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
+    field.VtkType = array->GetDataType();
+    int ext[6];
+    input->GetExtent(ext);
+    field.Geometry =
+      nvi::ComputeGeometry(ext, input->GetOrigin(), input->GetSpacing(), field.Cells, this->OutputResolution);
+    std::copy(input->GetDirectionMatrix()->GetData(), input->GetDirectionMatrix()->GetData() + 9, field.Direction);
+    std::copy(ext, ext + 6, field.InputExtent);
+    std::copy(input->GetOrigin(), input->GetOrigin() + 3, field.InputOrigin);
+    std::copy(input->GetSpacing(), input->GetSpacing() + 3, field.InputSpacing);
+    const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
+      field.Geometry.SourceDims[2] };
+    if (dims[0] * dims[1] * dims[2] <= 0)
+    {
+      vtkErrorMacro("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
+                                                               << "; nothing to train on.");
+      return false;
+    }
+    auto data = std::make_shared<nvi::TrainingData>();
+    std::string problem;
+    if (!nvi::MakeSourceField(array, this->VectorMode, this->VectorComponent, dims, data->Field, problem))
+    {
+      vtkErrorMacro("Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
+      return false;
+    }
+    field.Description = data->Field.Description;
+    // The run may read the array in place from another thread: keep it alive.
+    array->Register(this);
+    data->Owner = std::shared_ptr<void>(array, [](void* a) { static_cast<vtkDataArray*>(a)->UnRegister(nullptr); });
+    field.Stats = nv::computeStats(data->Field.View);
+    if (field.Stats.valid == 0)
+    {
+      vtkErrorMacro("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
                                             << "' are NaN or Inf; nothing to train on.");
       return false;
     }
-    if (stats.invalid > 0)
+    data->Field.View.valueMin = field.Stats.min;
+    data->Field.View.valueMax = field.Stats.max;
+    in.Key = nvi::TrainingKey(data->Field.View, field, settings);
+    in.KeyArray = array;
+    in.KeyArrayMTime = array->GetMTime();
+    in.KeySettings = canonical;
+    if (!in.Current || in.Current->Key != in.Key || in.Current->Time != time)
     {
-      vtkWarningMacro("Neural Compress: " << stats.invalid << " of " << field.View.count()
-                                          << " values of '" << name
-                                          << "' are NaN or Inf; they are excluded from training "
-                                             "and decode to finite values.");
-    }
-    field.View.valueMin = stats.min;
-    field.View.valueMax = stats.max;
-    const bool constant = !(stats.max > stats.min);
-
-    // Model configuration.
-    const nv::Precision precision =
-      this->StoragePrecision == FLOAT16 ? nv::Precision::Float16 : nv::Precision::Float32;
-    nv::ModelConfig config;
-    config.encoding.levels = this->Levels;
-    config.encoding.featuresPerLevel = this->FeaturesPerLevel;
-    config.encoding.baseResolution = this->BaseResolution;
-    config.encoding.perLevelScale = 0.0;
-    // Default finest level: twice the largest dimension (never below the base resolution).
-    config.encoding.finestResolution = this->FinestResolution > 0
-      ? this->FinestResolution
-      : static_cast<int>(std::max<int64_t>(
-          2 * std::max({ dims[0], dims[1], dims[2] }), this->BaseResolution));
-    config.network.width = this->NetworkWidth;
-    config.network.hiddenLayers = this->HiddenLayers;
-    config.encoding.log2TableSize = this->Log2TableSize > 0 ? this->Log2TableSize : 10;
-    nv::validate(config);
-    if (this->Log2TableSize <= 0)
-    {
-      config.encoding.log2TableSize = nv::chooseLog2TableSize(
-        config, field.RawBytes, this->TargetCompressionRatio, precision);
-    }
-
-    nv::TrainConfig train;
-    train.batchSize = this->BatchSize;
-    train.seed = static_cast<uint64_t>(this->Seed);
-    train.loss = this->Loss == LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
-    train.optimizer.learningRate = this->LearningRate;
-    train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
-    train.threads = this->Threads;
-    train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
-    nv::validate(train);
-
-    std::string deviceNote;
-    const nv::Device device = nv::resolveDevice(this->Device == DEVICE_CPU ? nv::Device::Cpu
-        : this->Device == DEVICE_CUDA                                      ? nv::Device::Cuda
-                                                                           : nv::Device::Auto,
-      &deviceNote);
-
-    nv::Model model(config);
-    model.initialize(train.seed);
-    nv::SourceInfo& src = model.source;
-    for (int d = 0; d < 3; ++d)
-    {
-      src.dims[d] = dims[d];
-      src.spacing[d] = input->GetSpacing()[d];
-      // The trained field spans the source samples: the points, or the cell centres.
-      const double first = input->GetOrigin()[d] + ext[2 * d] * input->GetSpacing()[d] +
-        (cells && ext[2 * d + 1] > ext[2 * d] ? 0.5 * input->GetSpacing()[d] : 0.0);
-      src.origin[d] = first;
-      src.bounds[2 * d] = first;
-      src.bounds[2 * d + 1] = first + (dims[d] - 1) * input->GetSpacing()[d];
-    }
-    src.valueMin = stats.min;
-    src.valueMax = stats.max;
-    src.arrayName = name;
-    src.association = cells ? 1 : 0;
-    src.rawBytes = field.RawBytes;
-
-    nv::SessionOptions sessionOptions;
-    sessionOptions.threads = this->Threads;
-    // Kept by the filter while its output holds this network: renderers of this process use it (the
-    // registry of vtkNeuralNetworkArray) instead of loading the bytes again.
-    std::shared_ptr<nv::NetworkSession> session = nv::NetworkSession::create(device, model, sessionOptions);
-
-    // Training.
-    nvi::TrainingResult result;
-    if (constant)
-    {
-      vtkWarningMacro("Neural Compress: '" << name << "' is constant (" << stats.min
-                                           << "); it is represented exactly, training skipped.");
-    }
-    else if (this->TrainingSteps > 0)
-    {
-      nvi::PsnrProbe probe(field.View, train.seed, 65536);
-      nvi::TrainingRequest request;
-      request.MaxSteps = this->TrainingSteps;
-      request.TimeBudget = this->TimeBudget;
-      request.PsnrInterval = this->PSNRInterval;
-      request.ShouldAbort = [this]() { return this->GetAbortExecute() != 0; };
-      request.Progress = [this](double f) { this->UpdateProgress(0.95 * f); };
-      result = nvi::Train(*session, field.View, train, request, &probe);
-      session->syncModel();
-      model.params() = session->model().params();
-    }
-    // The output is decoded from the network as it is stored.
-    model.quantize(precision);
-    session->setModel(model);
-
-    // Decode the output grid.
-    const int64_t n[3] = { g.DecodedDims[0], g.DecodedDims[1], g.DecodedDims[2] };
-    vtkNew<vtkFloatArray> decoded;
-    decoded->SetName(name.c_str());
-    decoded->SetNumberOfTuples(n[0] * n[1] * n[2]);
-    float* out = decoded->GetPointer(0);
-    if (!cells || g.OnSourceGrid)
-    {
-      nv::decodeGridValues(*session, n[0], n[1], n[2], 0, n[2], out);
-    }
-    else
-    {
-      // Cell centres of the resampled output in the source's normalised coordinates.
-      std::vector<float> xyz(static_cast<size_t>(n[0] * n[1] * n[2]) * 3);
-      size_t k = 0;
-      for (int64_t z = 0; z < n[2]; ++z)
-        for (int64_t y = 0; y < n[1]; ++y)
-          for (int64_t x = 0; x < n[0]; ++x)
-          {
-            const int64_t ijk[3] = { x, y, z };
-            for (int d = 0; d < 3; ++d)
-            {
-              const double world = g.Origin[d] + (ijk[d] + 0.5) * g.Spacing[d];
-              const double span = src.bounds[2 * d + 1] - src.bounds[2 * d];
-              const double u = span > 0 ? (world - src.bounds[2 * d]) / span : 0.5;
-              xyz[k++] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
-            }
-          }
-      session->inferPoints(xyz.data(), n[0] * n[1] * n[2], out, nv::Memory::Host);
-      for (int64_t i = 0; i < n[0] * n[1] * n[2]; ++i)
+      if (field.Stats.invalid > 0)
       {
-        out[i] = static_cast<float>(model.denormalize(out[i]));
+        vtkWarningMacro("Neural Compress: " << field.Stats.invalid << " of " << data->Field.View.count()
+                                            << " values of '" << field.Name
+                                            << "' are NaN or Inf; they are excluded from training "
+                                               "and decode to finite values.");
       }
+      in.Retire();
+      this->StartJob(field, data, settings, in.Key, time);
     }
-    const nv::ErrorStats error = g.OnSourceGrid
-      ? nv::compareDecoded(out, field.View, stats.min, stats.max, this->Threads)
-      : nv::compareToSource(*session, field.View);
-    this->UpdateProgress(0.98);
-
-    model.stats.steps = result.Steps;
-    model.stats.seconds = result.Seconds;
-    model.stats.finalLoss = result.FinalLoss;
-    model.stats.psnr = error.psnr;
-    model.stats.maxError = error.maxAbsError;
-    model.stats.invalidSamples = stats.invalid;
-    model.stats.device = nv::deviceName(device);
-    const std::vector<uint8_t> bytes = nv::serialize(model);
-    const int64_t modelBytes = model.parameterBytes();
-    const double ratio = static_cast<double>(field.RawBytes) / static_cast<double>(modelBytes);
-    if (this->Log2TableSize <= 0 && ratio < this->TargetCompressionRatio)
-    {
-      vtkWarningMacro("Neural Compress: the target compression ratio "
-        << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
-        << "(the smallest hash table gives " << ratio << ":1); use fewer Levels, "
-        << "FeaturesPerLevel, a narrower network or Float16 storage.");
-    }
-
-    // Output image.
-    int outExtent[6];
-    std::copy(g.Extent, g.Extent + 6, outExtent);
-    output->SetExtent(outExtent);
-    output->SetOrigin(g.Origin);
-    output->SetSpacing(g.Spacing);
-    output->SetDirectionMatrix(input->GetDirectionMatrix());
-    if (cells)
-    {
-      output->GetCellData()->SetScalars(decoded);
-    }
-    else
-    {
-      output->GetPointData()->SetScalars(decoded);
-    }
-    vtkFieldData* fd = output->GetFieldData();
-    vtkNeuralNetworkArray::Write(fd, bytes, session);
-    this->Session = session;
-    AddFieldValue<vtkDoubleArray>(fd, "NeuralTrainingSeconds", result.Seconds);
-    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", result.Steps);
-    AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", error.psnr);
-    AddFieldValue<vtkDoubleArray>(fd, "NeuralMaxError", error.maxAbsError);
-    AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", ratio);
-    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", modelBytes);
-    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", stats.invalid);
-    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralGpuMemoryBytes", result.DeviceMemoryBytes);
-    vtkNew<vtkStringArray> deviceArray;
-    deviceArray->SetName("NeuralDevice");
-    deviceArray->InsertNextValue(nv::deviceName(device));
-    fd->AddArray(deviceArray);
-
-    // Training log.
-    const vtkIdType rows = static_cast<vtkIdType>(result.Log.size());
-    log->SetNumberOfRows(rows);
-    for (vtkIdType r = 0; r < rows; ++r)
-    {
-      const nvi::LogRow& row = result.Log[r];
-      const double psnr = r == rows - 1 ? error.psnr : row.PSNR;
-      const double values[5] = { static_cast<double>(row.Step), row.Loss, row.LearningRate,
-        row.ElapsedSeconds, psnr };
-      for (int c = 0; c < 5; ++c)
-      {
-        vtkDoubleArray::SafeDownCast(log->GetColumn(c))->SetValue(r, values[c]);
-      }
-    }
-
-    // One-line summary (informative, not a warning).
-    std::ostringstream summary;
-    summary.precision(4);
-    summary << "Neural Compress: '" << name << "' (" << (cells ? "cell" : "point") << ", "
-            << array->GetDataTypeAsString();
-    if (!field.Description.empty())
-    {
-      summary << ", " << field.Description;
-    }
-    summary << ", " << dims[0] << "x" << dims[1] << "x" << dims[2] << "): " << result.Steps
-            << " steps in " << result.Seconds << " s on " << nv::deviceName(device);
-    if (result.Aborted)
-    {
-      summary << " (aborted)";
-    }
-    else if (result.TimedOut)
-    {
-      summary << " (time budget reached)";
-    }
-    summary << "; PSNR " << error.psnr << " dB, max error " << error.maxAbsError << "; model "
-            << FormatBytes(static_cast<double>(modelBytes)) << " (2^"
-            << config.encoding.log2TableSize << " table, "
-            << (precision == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << ratio
-            << ":1 (target " << this->TargetCompressionRatio << ")";
-    if (!deviceNote.empty())
-    {
-      summary << "; " << deviceNote;
-    }
-    summary << "\n";
-    vtkOutputWindowDisplayText(summary.str().c_str());
-    this->UpdateProgress(1.0);
-    return true;
+    return this->EmitOutputs(output, log, metrics);
   }
   catch (const nv::Error& e)
   {
@@ -528,6 +303,104 @@ bool vtkNeuralCompress::Compress(
     vtkErrorMacro("Neural Compress: unexpected failure: " << e.what());
   }
   return false;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics)
+{
+  vtkInternals& in = *this->Internals;
+  nvi::Job& job = *in.Current;
+  {
+    std::lock_guard<std::mutex> lock(job.Mutex);
+    job.OutputMode = this->OutputMode;
+  }
+  nvi::RunStatus status;
+  if (job.Run)
+  {
+    status = job.Run->Status();
+    job.EmittedSerial = status.Serial;
+    if (status.State == nvi::RunState::Failed)
+    {
+      vtkErrorMacro("Neural Compress: training failed: " << status.Error);
+      return false;
+    }
+  }
+  const bool live = job.Run && !Settled(status.State);
+  nvi::NetworkRecord record;
+  vtkSmartPointer<vtkDataArray> decoded;
+  if (live)
+  {
+    record = job.Snapshot();
+    if (in.DecodeRequested)
+    {
+      decoded = nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode);
+    }
+  }
+  else
+  {
+    std::shared_ptr<const nvi::NetworkRecord> final = job.Final();
+    if (!final)
+    {
+      vtkErrorMacro("Neural Compress: the training ended without a network.");
+      return false;
+    }
+    record = *final;
+    decoded = job.FinalDecoded(this->OutputMode);
+    if (!decoded)
+    {
+      decoded = nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode);
+    }
+  }
+  in.DecodeRequested = false;
+
+  nvi::FillImage(output, job.Field, record, decoded, job.Session, live);
+  nvi::FillLog(log, record);
+  std::vector<const nvi::NetworkRecord*> rows;
+  for (const nvi::NetworkRecord* r : in.Cache.All())
+  {
+    if (r->Time != job.Time)
+      rows.push_back(r);
+  }
+  rows.push_back(&record);
+  nvi::FillMetrics(metrics, rows);
+
+  std::ostringstream text;
+  text.precision(4);
+  text << record.M.State << ": " << record.M.Steps;
+  if (job.Run)
+    text << "/" << status.TargetSteps;
+  text << " steps, " << record.M.Seconds << " s, PSNR " << record.M.Psnr << " dB"
+       << (record.M.PsnrFinal ? "" : " (estimate)");
+  in.StatusText = text.str();
+
+  if (!live)
+  {
+    in.Cache.Put(record);
+    in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
+    if (!in.SummaryPrinted)
+    {
+      in.SummaryPrinted = true;
+      if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
+        record.M.Ratio < this->TargetCompressionRatio)
+      {
+        std::string advice;
+        if (this->StoragePrecision != FLOAT16)
+          advice += ", Float16 storage";
+        if (this->Levels > 8)
+          advice += ", fewer Levels";
+        if (this->FeaturesPerLevel > 1)
+          advice += ", fewer FeaturesPerLevel";
+        if (this->NetworkWidth > 16)
+          advice += ", a narrower network";
+        vtkWarningMacro("Neural Compress: the target compression ratio "
+          << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
+          << "(the smallest hash table gives " << record.M.Ratio << ":1)"
+          << (advice.empty() ? std::string(".") : "; try" + advice.substr(1) + "."));
+      }
+      vtkOutputWindowDisplayText(nvi::Summary(job.Field, job, record, this->TargetCompressionRatio).c_str());
+    }
+  }
+  return true;
 }
 
 //------------------------------------------------------------------------------
@@ -557,5 +430,12 @@ void vtkNeuralCompress::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "TrainingStrategy: " << this->TrainingStrategy << "\n"
      << indent << "OutputResolution: " << this->OutputResolution[0] << " "
      << this->OutputResolution[1] << " " << this->OutputResolution[2] << "\n"
-     << indent << "PSNRInterval: " << this->PSNRInterval << "\n";
+     << indent << "PSNRInterval: " << this->PSNRInterval << "\n"
+     << indent << "TargetPSNR: " << this->TargetPSNR << "\n"
+     << indent << "OutputMode: " << this->OutputMode << "\n"
+     << indent << "TrainInBackground: " << this->TrainInBackground << "\n"
+     << indent << "Deterministic: " << this->Deterministic << "\n"
+     << indent << "WarmStart: " << this->WarmStart << "\n"
+     << indent << "NetworkCacheMiB: " << this->NetworkCacheMiB << "\n"
+     << indent << "ContinueSteps: " << this->ContinueSteps << "\n";
 }

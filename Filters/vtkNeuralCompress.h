@@ -21,8 +21,19 @@
  * intermediate values are estimated on a fixed random subset of voxels, the last one is over
  * every input voxel).
  *
- * Training stops after TrainingSteps steps or TimeBudget seconds, whichever comes first, or
- * when the algorithm's AbortExecute flag is set; the output is then built from the steps done.
+ * Training stops after TrainingSteps steps, TimeBudget seconds or at TargetPSNR, whichever comes
+ * first, or when the algorithm's AbortExecute flag is set (cleared again by the next execution).
+ *
+ * With TrainInBackground (the default), RequestData returns at once: training runs in a thread of
+ * its own, the output carries the network of the moment (the Neural Volume of this process renders
+ * the live network), GetNeedsUpdate() tells ParaView's live-source poller when a newer state exists,
+ * and the controls (PauseTraining, ResumeTraining, ContinueTraining, FastForward, StopTraining,
+ * DecodeNow, WaitForTraining) act on the run. A network is trained once per input content and
+ * settings: re-executions, time steps seen before (cached up to NetworkCacheMiB) and networks
+ * restored from a state file (TrainedNetworks) are reused without a training step. Time step t+1
+ * warm-starts from the network of the nearest time step trained before.
+ *
+ * Output port 2: vtkTable of metrics, one row per time step trained or restored.
  *
  * Only vtkImageData input is supported in this version; other dataset types produce an error.
  * Inputs that cannot be trained (no array, all values NaN/Inf, empty extent, a configuration
@@ -36,14 +47,18 @@
 #include "NeuralVolumeFiltersModule.h" // for export macro
 #include "vtkDataObjectAlgorithm.h"
 
-#include <memory> // for std::shared_ptr
+#include <cstdint> // for uint64_t
+#include <memory>  // for std::shared_ptr
 
 class vtkDataArray;
 class vtkImageData;
 class vtkTable;
-namespace nv
+namespace vtkNeuralCompressInternals
 {
-class NetworkSession;
+struct FieldInfo;
+struct Settings;
+struct TrainingData;
+class TrainingRun;
 }
 
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
@@ -118,7 +133,8 @@ public:
 
   ///@{
   /// Target raw/model size ratio; used to pick the hash table size when Log2TableSize is 0.
-  vtkSetClampMacro(TargetCompressionRatio, double, 1e-6, VTK_DOUBLE_MAX);
+  /// 0 = automatic: the largest table that gives 10:1, else the smallest table (no warning).
+  vtkSetClampMacro(TargetCompressionRatio, double, 0.0, VTK_DOUBLE_MAX);
   vtkGetMacro(TargetCompressionRatio, double);
   ///@}
 
@@ -181,6 +197,95 @@ public:
   vtkGetMacro(PSNRInterval, int);
   ///@}
 
+  ///@{
+  /// Stop when the PSNR estimate reaches this many dB (0 = off; estimates every PSNRInterval steps,
+  /// every 100 when PSNRInterval is 0).
+  vtkSetClampMacro(TargetPSNR, double, 0.0, 1000.0);
+  vtkGetMacro(TargetPSNR, double);
+  ///@}
+
+  enum OutputModes
+  {
+    OUTPUT_NETWORK_ONLY = 0,
+    OUTPUT_INPUT_TYPE = 1,
+    OUTPUT_FLOAT32 = 2
+  };
+  ///@{
+  /// What output 0 holds besides the network: nothing (the Neural Volume decodes on demand; the
+  /// default, the output is smaller than the input), the decoded field in the input's type, or in
+  /// float32. Changing it never retrains.
+  vtkSetClampMacro(OutputMode, int, OUTPUT_NETWORK_ONLY, OUTPUT_FLOAT32);
+  vtkGetMacro(OutputMode, int);
+  ///@}
+
+  ///@{
+  /// Train in a background thread (RequestData returns at once; see the class comment) or in
+  /// RequestData (blocking).
+  vtkSetMacro(TrainInBackground, bool);
+  vtkGetMacro(TrainInBackground, bool);
+  vtkBooleanMacro(TrainInBackground, bool);
+  ///@}
+
+  ///@{
+  /// Bit-for-bit repeatable training: TrainingSteps steps exactly (TimeBudget and TargetPSNR are
+  /// ignored), the seed, and the CPU engine's deterministic reductions (Device Auto uses the CPU;
+  /// CUDA is refused: its gradient accumulation uses atomics).
+  vtkSetMacro(Deterministic, bool);
+  vtkGetMacro(Deterministic, bool);
+  vtkBooleanMacro(Deterministic, bool);
+  ///@}
+
+  ///@{
+  /// Start training a time step from the network of the nearest time step trained before.
+  vtkSetMacro(WarmStart, bool);
+  vtkGetMacro(WarmStart, bool);
+  vtkBooleanMacro(WarmStart, bool);
+  ///@}
+
+  ///@{
+  /// Host memory for networks of other time steps (MiB); least recently used ones go first.
+  vtkSetClampMacro(NetworkCacheMiB, int, 0, 1 << 20);
+  vtkGetMacro(NetworkCacheMiB, int);
+  ///@}
+
+  ///@{
+  /// Steps added by ContinueTraining().
+  vtkSetClampMacro(ContinueSteps, int, 1, VTK_INT_MAX);
+  vtkGetMacro(ContinueSteps, int);
+  ///@}
+
+  ///@{
+  /// Controls of the current training run (Properties panel buttons; from Python e.g.
+  /// `nc.PauseTraining()`). They take effect at once; none stays set for the next run.
+  void PauseTraining();
+  void ResumeTraining();
+  void ContinueTraining(); ///< ContinueSteps more steps
+  void FastForward();      ///< 1000 more steps without intermediate views
+  void StopTraining();
+  void DecodeNow();        ///< decode the current network into the output now (decoded output modes)
+  /// Block until the current run has finished its phase (at most `seconds`, < 0: no limit); the
+  /// next update then shows the final network.
+  void WaitForTraining(double seconds);
+  void WaitForTraining() { this->WaitForTraining(-1.0); }
+  ///@}
+
+  /// For ParaView's live-source poller: true (and the algorithm Modified()) when the run has a newer
+  /// state than the last output.
+  bool GetNeedsUpdate();
+
+  /// State of the current run for the panel: "Training 1234/2000 steps, 12.3 s, PSNR 41.2 dB".
+  const char* GetTrainingStatus();
+  /// Training steps this filter object ran in total (tests check that a restore trains none).
+  vtkIdType GetTotalStepsTrained();
+
+  ///@{
+  /// Networks saved with a state file: "nvnet1" followed by one "key:base64" entry per time step.
+  /// Set by a loaded state (each network is used only when its key, computed from the input's
+  /// values and the settings, matches); Get returns the networks this filter holds now.
+  void SetTrainedNetworks(const char* value);
+  const char* GetTrainedNetworks();
+  ///@}
+
 protected:
   vtkNeuralCompress();
   ~vtkNeuralCompress() override;
@@ -201,7 +306,7 @@ protected:
   int Seed = 1;
   int Loss = LOSS_L1;
   int LearningRateSchedule = STEP_DECAY;
-  double TargetCompressionRatio = 10.0;
+  double TargetCompressionRatio = 0.0;
   int Levels = 16;
   int FeaturesPerLevel = 4;
   int Log2TableSize = 0;
@@ -215,6 +320,13 @@ protected:
   int TrainingStrategy = STRATEGY_AUTO;
   int OutputResolution[3] = { 0, 0, 0 };
   int PSNRInterval = 100;
+  double TargetPSNR = 0.0;
+  int OutputMode = OUTPUT_NETWORK_ONLY;
+  bool TrainInBackground = true;
+  bool Deterministic = false;
+  int NetworkCacheMiB = 256;
+  bool WarmStart = true;
+  int ContinueSteps = 1000;
 
 private:
   vtkNeuralCompress(const vtkNeuralCompress&) = delete;
@@ -222,15 +334,20 @@ private:
 
   /// Validates the input and selected array, then Compress(); false after reporting an error.
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-    vtkImageData* output, vtkTable* log);
-  /// Trains on `array` of `input` and fills both outputs; returns false (outputs emptied by the
-  /// caller) after reporting an error.
-  bool Compress(vtkImageData* input, vtkDataArray* array, int association, vtkImageData* output,
-    vtkTable* log);
+    vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
 
-  /// The session holding the network of the current output (registered for the renderers of this
-  /// process through vtkNeuralNetworkArray).
-  std::shared_ptr<nv::NetworkSession> Session;
+  vtkNeuralCompressInternals::Settings CurrentSettings() const;
+  /// A job for a new input or settings: a cached or restored network, or a training run.
+  void StartJob(const vtkNeuralCompressInternals::FieldInfo& field,
+    std::shared_ptr<vtkNeuralCompressInternals::TrainingData> data,
+    const vtkNeuralCompressInternals::Settings& settings, uint64_t key, double time);
+  /// The outputs from the current job (a snapshot while it trains).
+  bool EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics);
+  /// The current job's run (create: a run from a cached or restored network, for Continue).
+  vtkNeuralCompressInternals::TrainingRun* CurrentRun(bool create);
+
+  struct vtkInternals;
+  std::unique_ptr<vtkInternals> Internals;
 };
 
 #endif

@@ -48,7 +48,7 @@ const char* vtkNeuralNetworkArray::GetSessionKeyArrayName()
 }
 
 void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
-  const std::shared_ptr<nv::NetworkSession>& session)
+  const std::shared_ptr<nv::NetworkSession>& session, bool live)
 {
   if (!fd)
   {
@@ -66,7 +66,7 @@ void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& 
   if (session)
   {
     const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(
-      session, VerifiedFingerprint(bytes.data(), bytes.size()));
+      session, VerifiedFingerprint(bytes.data(), bytes.size()), live);
     vtkNew<vtkTypeUInt64Array> keyArray;
     keyArray->SetName(GetSessionKeyArrayName());
     keyArray->SetNumberOfTuples(2);

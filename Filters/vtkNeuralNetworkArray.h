@@ -41,8 +41,10 @@ public:
 
   /// Store `bytes` (nv::serialize of the session's current network) in `fd`; when `session` is
   /// given it is registered so that renderers of this process use it instead of the bytes.
+  /// `live`: the session is still training (the bytes are a snapshot; renderers show its network
+  /// of the moment).
   static void Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
-    const std::shared_ptr<nv::NetworkSession>& session);
+    const std::shared_ptr<nv::NetworkSession>& session, bool live = false);
 
   /// The NeuralNetwork array of `fd`, or null when there is none or it is not a single-component
   /// unsigned char array (its content is not checked here).

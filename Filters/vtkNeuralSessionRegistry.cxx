@@ -15,6 +15,7 @@ struct vtkNeuralSessionRegistry::vtkInternals
     std::weak_ptr<nv::NetworkSession> Session;
     uint64_t Version = 0;
     Fingerprint Bytes;
+    bool Live = false;
   };
   std::mutex Mutex;
   uint64_t NextSerial = 1;
@@ -58,7 +59,7 @@ vtkNeuralSessionRegistry::vtkNeuralSessionRegistry()
 vtkNeuralSessionRegistry::~vtkNeuralSessionRegistry() = default;
 
 vtkNeuralSessionRegistry::Key vtkNeuralSessionRegistry::Register(
-  const std::shared_ptr<nv::NetworkSession>& session, const Fingerprint& bytes)
+  const std::shared_ptr<nv::NetworkSession>& session, const Fingerprint& bytes, bool live)
 {
   vtkInternals& in = *this->Internals;
   std::lock_guard<std::mutex> lock(in.Mutex);
@@ -70,6 +71,7 @@ vtkNeuralSessionRegistry::Key vtkNeuralSessionRegistry::Register(
   entry.Session = session;
   entry.Version = session ? session->version() : 0;
   entry.Bytes = bytes;
+  entry.Live = live;
   in.BySerial[key.Serial] = entry;
   return key;
 }
@@ -89,7 +91,7 @@ std::shared_ptr<nv::NetworkSession> vtkNeuralSessionRegistry::Find(const Key& ke
   }
   std::shared_ptr<nv::NetworkSession> session = it->second.Session.lock();
   // A session retrained since the bytes were written holds another network.
-  if (!session || session->version() != it->second.Version)
+  if (!session || (!it->second.Live && session->version() != it->second.Version))
   {
     return nullptr;
   }

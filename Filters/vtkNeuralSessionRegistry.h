@@ -49,10 +49,12 @@ public:
   };
 
   /// Registers the session that holds the network serialized to `bytes` (in its current version).
-  Key Register(const std::shared_ptr<nv::NetworkSession>& session, const Fingerprint& bytes);
+  /// `live`: the session is training and the bytes are a snapshot; Find() returns it whatever its
+  /// version, so renderers show the network of the moment.
+  Key Register(const std::shared_ptr<nv::NetworkSession>& session, const Fingerprint& bytes, bool live = false);
 
   /// The session registered under `key` in this process, when it is alive, still holds the network
-  /// of that version and was registered for `bytes`; else null.
+  /// of that version (any version for a live entry) and was registered for `bytes`; else null.
   std::shared_ptr<nv::NetworkSession> Find(const Key& key, const Fingerprint& bytes);
 
   /// The session created from these bytes by an earlier call, or a new one from `create()`.

@@ -137,6 +137,20 @@ const char* vtkNeuralVolumeMapper::GetLastError() const
   return this->Internals->LastError.c_str();
 }
 
+int vtkNeuralVolumeMapper::GetScalarMode()
+{
+  return VTK_SCALAR_MODE_USE_FIELD_DATA;
+}
+int vtkNeuralVolumeMapper::GetArrayAccessMode()
+{
+  return VTK_GET_ARRAY_BY_NAME;
+}
+char* vtkNeuralVolumeMapper::GetArrayName()
+{
+  static std::string name = vtkNeuralNetworkArray::GetArrayName();
+  return &name[0];
+}
+
 void vtkNeuralVolumeMapper::ReleaseGraphicsResources(vtkWindow* window)
 {
   this->Internals->Compositor.ReleaseGraphicsResources(window);

@@ -39,6 +39,16 @@ public:
   vtkTypeMacro(vtkNeuralVolumeMapper, vtkVolumeMapper);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
+  ///@{
+  /// The data this mapper renders is the network (field data `NeuralNetwork`), whatever scalar array
+  /// ParaView selects for the colour map: a decoded field may be absent (OutputMode "Network only").
+  /// ParaView's volume prop (vtkPVLODVolume) renders a volume mapper only when these name an array
+  /// of its input.
+  int GetScalarMode() override;
+  int GetArrayAccessMode() override;
+  char* GetArrayName() override;
+  ///@}
+
   /// Values as in the engine (nv::RenderPath, nv::ShadingMode).
   enum RenderPaths
   {

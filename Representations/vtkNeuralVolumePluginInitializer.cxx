@@ -1,5 +1,7 @@
 #include "vtkNeuralVolumePluginInitializer.h"
 
+#include "vtkNeuralCompressStateSaver.h"
+
 #include "vtkNeuralVolumeProxyObserver.h"
 #include "vtkNeuralVolumeRefreshDriver.h"
 #include "vtkSMProxyManager.h"
@@ -11,6 +13,7 @@ void vtkNeuralVolumePluginInitialize()
   // loaded again.
   static vtkSmartPointer<vtkNeuralVolumeProxyObserver> observer;
   static vtkSmartPointer<vtkNeuralVolumeRefreshDriver> driver;
+  static vtkSmartPointer<vtkNeuralCompressStateSaver> saver;
   if (!vtkSMProxyManager::IsInitialized())
   {
     return;
@@ -19,6 +22,11 @@ void vtkNeuralVolumePluginInitialize()
   {
     observer = vtkSmartPointer<vtkNeuralVolumeProxyObserver>::New();
     observer->Install();
+  }
+  if (!saver)
+  {
+    saver = vtkSmartPointer<vtkNeuralCompressStateSaver>::New();
+    saver->Install();
   }
   if (!driver)
   {

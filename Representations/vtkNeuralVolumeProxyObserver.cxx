@@ -18,11 +18,13 @@
 #include "vtkSMProxyManager.h"
 #include "vtkSMSessionProxyManager.h"
 #include "vtkSMSourceProxy.h"
+#include "vtkSMTransferFunctionProxy.h"
 #include "vtkSMViewProxy.h"
 #include "vtkSmartPointer.h"
 #include "vtkNew.h"
 #include "vtkWeakPointer.h"
 
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <set>
@@ -214,6 +216,22 @@ void AddEngineBlendModes(vtkSMProxy* representation)
   }
 }
 
+/// The value range of the network (field data NeuralValueRange of the representation's input).
+bool NetworkValueRange(vtkSMProxy* representation, double range[2])
+{
+  vtkSMPropertyHelper input(representation, "Input", /*quiet=*/true);
+  auto* producer = vtkSMSourceProxy::SafeDownCast(input.GetAsProxy());
+  vtkPVDataInformation* info = producer ? producer->GetDataInformation(input.GetOutputPort()) : nullptr;
+  vtkPVDataSetAttributesInformation* fields = info ? info->GetFieldDataInformation() : nullptr;
+  vtkPVArrayInformation* values = fields ? fields->GetArrayInformation("NeuralValueRange") : nullptr;
+  if (!values)
+  {
+    return false;
+  }
+  values->GetComponentRange(0, range);
+  return range[0] <= range[1];
+}
+
 /// The network's array: the active scalars of the points, else of the cells, else the first point or cell array.
 bool NetworkArray(vtkSMProxy* representation, std::string& name, int& association)
 {
@@ -238,6 +256,19 @@ bool NetworkArray(vtkSMProxy* representation, std::string& name, int& associatio
     {
       name = scalars->GetName();
       association = a;
+      return true;
+    }
+  }
+  // A Neural Compress output without a decoded field (OutputMode "Network only"): the array it compressed.
+  if (producer->GetXMLName() && std::strcmp(producer->GetXMLName(), "NeuralCompress") == 0)
+  {
+    vtkSMPropertyHelper selected(producer, "SelectInputScalars", /*quiet=*/true);
+    const char* selectedName = selected.GetNumberOfElements() >= 5 ? selected.GetAsString(4) : nullptr;
+    if (selectedName && *selectedName)
+    {
+      name = selectedName;
+      association = std::atoi(selected.GetAsString(3)) == vtkDataObject::FIELD_ASSOCIATION_CELLS ? vtkDataObject::CELL
+                                                                                                 : vtkDataObject::POINT;
       return true;
     }
   }
@@ -474,8 +505,32 @@ bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vt
   {
     return false;
   }
-  // As if the user picked the array: fit the maps to its range.
-  vtkSMPVRepresentationProxy::RescaleTransferFunctionToDataRange(representation, true);
+  // As if the user picked the array: fit the maps to its range (the network's range when the output holds no
+  // decoded field).
+  vtkSMPropertyHelper input(representation, "Input", /*quiet=*/true);
+  auto* producer = vtkSMSourceProxy::SafeDownCast(input.GetAsProxy());
+  vtkPVDataInformation* info = producer ? producer->GetDataInformation(input.GetOutputPort()) : nullptr;
+  const bool decoded = info && info->GetArrayInformation(array.c_str(),
+    association == vtkDataObject::CELL ? vtkDataObject::FIELD_ASSOCIATION_CELLS : vtkDataObject::FIELD_ASSOCIATION_POINTS);
+  if (decoded)
+  {
+    vtkSMPVRepresentationProxy::RescaleTransferFunctionToDataRange(representation, true);
+  }
+  else
+  {
+    double range[2];
+    if (NetworkValueRange(representation, range))
+    {
+      vtkSMPropertyHelper lut(representation, "LookupTable", /*quiet=*/true);
+      if (vtkSMProxy* colors = lut.GetAsProxy())
+      {
+        vtkSMTransferFunctionProxy::RescaleTransferFunction(colors, range);
+        vtkSMPropertyHelper opacity(colors, "ScalarOpacityFunction", /*quiet=*/true);
+        if (opacity.GetAsProxy())
+          vtkSMTransferFunctionProxy::RescaleTransferFunction(opacity.GetAsProxy(), range);
+      }
+    }
+  }
   // The GUI's default; scripts (pvpython, pvbatch) run with manual colour bars, as for the stock Volume.
   if (vtkPVGeneralSettings::GetInstance()->GetScalarBarMode() ==
     vtkPVGeneralSettings::AUTOMATICALLY_SHOW_AND_HIDE_SCALAR_BARS)

@@ -65,6 +65,9 @@ public:
   virtual void setModel(const Model& model) = 0;
   /// Copy the current (published) parameters into model().
   virtual void syncModel() = 0;
+  /// A copy of the current (published) network; safe while a trainer publishes from another thread (model() is
+  /// not: use it only where nothing else changes the session).
+  virtual Model currentModel() = 0;
 
   /// A trainer of this session's network on `volume` (which must outlive it). Its publish() makes the current
   /// parameters the session's, in place.

@@ -37,6 +37,12 @@ void CpuSession::setModel(const Model& model)
   ++Version;
 }
 
+Model CpuSession::currentModel()
+{
+  std::lock_guard<std::mutex> lock(Mutex);
+  return M;
+}
+
 const CpuInference& CpuSession::evaluator()
 {
   if (!Eval)

@@ -23,6 +23,7 @@ public:
   uint64_t version() const override;
   void setModel(const Model& model) override;
   void syncModel() override {}
+  Model currentModel() override;
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override;
   void inferPoints(const float* xyz, int64_t n, float* out, Memory where) override;
   void decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where) override;

@@ -76,6 +76,13 @@ public:
     syncLocked();
   }
 
+  Model currentModel() override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    syncLocked();
+    return M;
+  }
+
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override
   {
     const TrainConfig c = trainerConfig(volume, config, Options);

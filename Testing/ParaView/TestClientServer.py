@@ -18,7 +18,7 @@ from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 check, log = nvtest.check, nvtest.log
 nvtest.require_display()
 out_dir = nvtest.output_dir()
-PARAMS = dict(TrainingSteps=150, BatchSize=16384, Threads=2, Seed=3, PSNRInterval=0)
+PARAMS = dict(TrainingSteps=150, BatchSize=16384, Threads=2, Seed=3, PSNRInterval=0, **nvtest.SCRIPTED)
 
 
 def free_port():
@@ -88,6 +88,23 @@ try:
     remote_psnr = nvtest.field_value(remote, "NeuralPSNR")
     remote_field = vtk_to_numpy(remote.GetPointData().GetArray("RTData")).copy()
     check(remote_field.size == 49 ** 3 and np.all(np.isfinite(remote_field)), "decoded field delivered")
+    # Background training on the server: the update returns while it trains; the controls reach the server.
+    online = NeuralCompress(Input=Wavelet(WholeExtent=[-24, 24] * 3), SelectInputScalars=["POINTS", "RTData"],
+                            TrainingSteps=400, BatchSize=4096, Threads=2, TrainInBackground=1)
+    online.UpdatePipeline()
+    first = servermanager.Fetch(online).GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0)
+    online.PauseTraining()
+    online.UpdatePipeline()
+    paused = servermanager.Fetch(online).GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0)
+    online.ResumeTraining()
+    online.WaitForTraining()
+    online.UpdatePipeline()
+    done = servermanager.Fetch(online)
+    log("client-server background run: %s, then %s, then %s at %d steps" % (
+        first, paused, done.GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0),
+        nvtest.field_value(done, "NeuralSteps")))
+    check(first in ("Starting", "Training") and paused == "Paused", "remote: trains in the background, pauses")
+    check(nvtest.field_value(done, "NeuralSteps") == 400, "remote: resumed and finished at exactly 400 steps")
     Disconnect()
 finally:
     server.terminate()

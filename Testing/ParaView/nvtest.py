@@ -27,9 +27,21 @@ def plugin_path():
 _namespace = {}
 
 
-def load_plugin(namespace):
+# The tests written for the decoded field and a finished network ask for them: blocking training and a float32
+# decoded output (the filter's defaults are background training and "Network only"; the online tests use those).
+SCRIPTED = dict(TrainInBackground=0, OutputMode="Decoded, float32")
+
+
+def load_plugin(namespace, scripted=True):
+    """Loads the plugin into `namespace`; scripted: NeuralCompress(...) there defaults to SCRIPTED."""
     from paraview.simple import LoadPlugin
     LoadPlugin(plugin_path(), remote=False, ns=namespace)
+    if scripted:
+        stock = namespace["NeuralCompress"]
+
+        def NeuralCompress(*args, **kwargs):
+            return stock(*args, **dict(SCRIPTED, **kwargs))
+        namespace["NeuralCompress"] = NeuralCompress
     _namespace.update(namespace)
 
 

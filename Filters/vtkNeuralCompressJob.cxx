@@ -1,0 +1,366 @@
+#include "vtkNeuralCompressJob.h"
+
+#include "vtkNeuralCompress.h"
+
+#include "Core/Error.h"
+#include "Core/Serialization.h"
+
+#include "vtkDataArray.h"
+#include "vtkDoubleArray.h"
+#include "vtkFloatArray.h"
+#include "vtkType.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+uint64_t Fnv(uint64_t h, const void* data, size_t size)
+{
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < size; ++i)
+  {
+    h = (h ^ p[i]) * 1099511628211ull;
+  }
+  return h;
+}
+
+/// Decoded values (source units) of the output samples, in float or double.
+template <typename T>
+void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out)
+{
+  const OutputGeometry& g = f.Geometry;
+  const int64_t n[3] = { g.DecodedDims[0], g.DecodedDims[1], g.DecodedDims[2] };
+  if (!f.Cells || g.OnSourceGrid)
+  {
+    nv::decodeGridValues(session, n[0], n[1], n[2], 0, n[2], out);
+    return;
+  }
+  // Cell centres of a resampled cell output, in the source's normalised coordinates.
+  const nv::SourceInfo src = session.currentModel().source;
+  const int64_t count = n[0] * n[1] * n[2];
+  std::vector<float> xyz(static_cast<size_t>(count) * 3);
+  size_t k = 0;
+  for (int64_t z = 0; z < n[2]; ++z)
+    for (int64_t y = 0; y < n[1]; ++y)
+      for (int64_t x = 0; x < n[0]; ++x)
+      {
+        const int64_t ijk[3] = { x, y, z };
+        for (int d = 0; d < 3; ++d)
+        {
+          const double world = g.Origin[d] + (ijk[d] + 0.5) * g.Spacing[d];
+          const double span = src.bounds[2 * d + 1] - src.bounds[2 * d];
+          const double u = span > 0 ? (world - src.bounds[2 * d]) / span : 0.5;
+          xyz[k++] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
+        }
+      }
+  std::vector<float> normalised(static_cast<size_t>(count));
+  session.inferPoints(xyz.data(), count, normalised.data(), nv::Memory::Host);
+  const double lo = src.valueMin, span = src.valueMax - src.valueMin;
+  for (int64_t i = 0; i < count; ++i)
+  {
+    out[i] = static_cast<T>(lo + normalised[i] * span);
+  }
+}
+
+/// Round and clamp into an integer (or keep a float) array of the input's type.
+template <typename Out>
+void StoreAs(const float* in, int64_t n, Out* out)
+{
+  if (std::numeric_limits<Out>::is_integer)
+  {
+    const double lo = static_cast<double>(std::numeric_limits<Out>::lowest());
+    const double hi = static_cast<double>(std::numeric_limits<Out>::max());
+    for (int64_t i = 0; i < n; ++i)
+    {
+      const double v = std::nearbyint(static_cast<double>(in[i]));
+      out[i] = static_cast<Out>(std::min(hi, std::max(lo, std::isfinite(v) ? v : 0.0)));
+    }
+  }
+  else
+  {
+    for (int64_t i = 0; i < n; ++i)
+    {
+      out[i] = static_cast<Out>(in[i]);
+    }
+  }
+}
+} // namespace
+
+std::string Settings::Canonical() const
+{
+  std::ostringstream s;
+  s.precision(17);
+  s << "v1 " << VectorMode << ' ' << VectorComponent << ' ' << TrainingSteps << ' '
+    << (Deterministic ? 0.0 : TimeBudget) << ' ' << LearningRate << ' ' << TargetCompressionRatio << ' '
+    << (Deterministic ? 0.0 : TargetPsnr) << ' ' << BatchSize << ' ' << Seed << ' ' << Loss << ' ' << Schedule
+    << ' ' << Levels << ' ' << Features << ' ' << Log2TableSize << ' ' << BaseResolution << ' '
+    << FinestResolution << ' ' << Width << ' ' << HiddenLayers << ' ' << Precision << ' ' << Device << ' '
+    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << OutputResolution[0] << ' '
+    << OutputResolution[1] << ' ' << OutputResolution[2] << ' ' << PsnrInterval << ' ' << Deterministic << ' '
+    << WarmStart;
+  return s.str();
+}
+
+uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const Settings& s)
+{
+  uint64_t h = 1469598103934665603ull;
+  const std::string settings = s.Canonical();
+  h = Fnv(h, settings.data(), settings.size());
+  h = Fnv(h, field.Name.data(), field.Name.size());
+  h = Fnv(h, &field.Cells, sizeof(field.Cells));
+  h = Fnv(h, &field.VtkType, sizeof(field.VtkType));
+  h = Fnv(h, view.dims, sizeof(view.dims));
+  h = Fnv(h, field.Geometry.Origin, sizeof(field.Geometry.Origin));
+  h = Fnv(h, field.Geometry.Spacing, sizeof(field.Geometry.Spacing));
+  h = Fnv(h, field.Geometry.Extent, sizeof(field.Geometry.Extent));
+  h = Fnv(h, field.Direction, sizeof(field.Direction));
+  const int type = static_cast<int>(view.type);
+  h = Fnv(h, &type, sizeof(type));
+  // The values: CRC-32 over blocks of 1 MiB, folded in (fast, and every byte counts).
+  const auto* bytes = static_cast<const uint8_t*>(view.data);
+  const int64_t total = view.bytes();
+  for (int64_t off = 0; off < total; off += (1 << 20))
+  {
+    const uint32_t c = nv::crc32(bytes + off, static_cast<size_t>(std::min<int64_t>(1 << 20, total - off)));
+    h = Fnv(h, &c, sizeof(c));
+  }
+  return h;
+}
+
+vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& f, int outputMode)
+{
+  if (outputMode == vtkNeuralCompress::OUTPUT_NETWORK_ONLY)
+  {
+    return nullptr;
+  }
+  const OutputGeometry& g = f.Geometry;
+  const int64_t count = int64_t(g.DecodedDims[0]) * g.DecodedDims[1] * g.DecodedDims[2];
+  vtkSmartPointer<vtkDataArray> array;
+  if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType == VTK_DOUBLE)
+  {
+    auto d = vtkSmartPointer<vtkDoubleArray>::New();
+    d->SetNumberOfTuples(count);
+    DecodeValues(session, f, d->GetPointer(0));
+    array = d;
+  }
+  else
+  {
+    auto values = vtkSmartPointer<vtkFloatArray>::New();
+    values->SetNumberOfTuples(count);
+    DecodeValues(session, f, values->GetPointer(0));
+    array = values;
+    if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType != VTK_FLOAT &&
+      vtkDataArray::CreateDataArray(f.VtkType))
+    {
+      // Vectors were trained as one scalar (float); other types keep the input's.
+      vtkSmartPointer<vtkDataArray> typed = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(f.VtkType));
+      typed->SetNumberOfTuples(count);
+      void* out = typed->GetVoidPointer(0);
+      const float* in = values->GetPointer(0);
+      switch (f.VtkType)
+      {
+        vtkTemplateMacro(StoreAs(in, count, static_cast<VTK_TT*>(out)));
+        default:
+          break;
+      }
+      array = typed;
+    }
+  }
+  array->SetName(f.Name.c_str());
+  return array;
+}
+
+//------------------------------------------------------------------------------
+std::shared_ptr<const NetworkRecord> Job::Final() const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->FinalRecord;
+}
+
+vtkSmartPointer<vtkDataArray> Job::FinalDecoded(int outputMode) const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->DecodedMode == outputMode ? this->Decoded : nullptr;
+}
+
+void Job::Finalize(const RunStatus& status)
+{
+  // The network as it is stored (fp16 or fp32) is the one shown, measured and saved.
+  nv::Model model = this->Session->currentModel();
+  model.quantize(this->Storage);
+  this->Session->setModel(model);
+  int mode = 0;
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    mode = this->OutputMode;
+  }
+  vtkSmartPointer<vtkDataArray> decoded = DecodeOutput(*this->Session, this->Field, mode);
+  const nv::VolumeView& view = this->Data->Field.View;
+  nv::ErrorStats error;
+  if (decoded && this->Field.Geometry.OnSourceGrid && vtkFloatArray::SafeDownCast(decoded))
+  {
+    error = nv::compareDecoded(vtkFloatArray::SafeDownCast(decoded)->GetPointer(0), view, this->Field.Stats.min,
+      this->Field.Stats.max, this->S.Threads);
+  }
+  else
+  {
+    error = nv::compareToSource(*this->Session, view);
+  }
+
+  auto record = std::make_shared<NetworkRecord>();
+  record->Key = this->Key;
+  record->Time = this->Time;
+  model.stats.steps = status.Steps;
+  model.stats.seconds = status.Seconds;
+  model.stats.finalLoss = status.Loss;
+  model.stats.psnr = error.psnr;
+  model.stats.maxError = error.maxAbsError;
+  model.stats.invalidSamples = this->Field.Stats.invalid;
+  model.stats.device = nv::deviceName(this->Session->device());
+  record->Bytes = nv::serialize(model);
+  Metrics& m = record->M;
+  m.State = status.EndReason == "stopped" ? "Stopped" : "Finished";
+  m.EndReason = status.EndReason;
+  m.Steps = status.Steps;
+  m.Seconds = status.Seconds;
+  m.Psnr = error.psnr;
+  m.PsnrFinal = true;
+  m.MaxError = error.maxAbsError;
+  m.ModelBytes = model.parameterBytes();
+  m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.Invalid = this->Field.Stats.invalid;
+  m.DeviceMemoryBytes = status.DeviceMemoryBytes;
+  m.Device = nv::deviceName(this->Session->device());
+  m.WarmStart = this->WarmStart;
+  if (this->Run)
+  {
+    record->Log = this->Run->Log();
+  }
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = record;
+  this->Decoded = decoded;
+  this->DecodedMode = mode;
+}
+
+void Job::SetFinal(std::shared_ptr<const NetworkRecord> record)
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = std::move(record);
+  this->Decoded = nullptr;
+}
+
+void Job::FinalizeWithoutTraining()
+{
+  RunStatus status;
+  status.EndReason = "constant field";
+  this->Finalize(status);
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  auto record = std::make_shared<NetworkRecord>(*this->FinalRecord);
+  record->M.State = "Finished";
+  this->FinalRecord = record;
+}
+
+NetworkRecord Job::Snapshot() const
+{
+  NetworkRecord r;
+  r.Key = this->Key;
+  r.Time = this->Time;
+  const RunStatus status = this->Run->Status();
+  nv::Model model = this->Session->currentModel();
+  model.quantize(this->Storage);
+  model.stats.steps = status.Steps;
+  model.stats.seconds = status.Seconds;
+  model.stats.device = nv::deviceName(this->Session->device());
+  r.Bytes = nv::serialize(model);
+  Metrics& m = r.M;
+  m.State = RunStateName(status.State);
+  m.Steps = status.Steps;
+  m.Seconds = status.Seconds;
+  m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
+  m.PsnrFinal = false;
+  m.ModelBytes = model.parameterBytes();
+  m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.Invalid = this->Field.Stats.invalid;
+  m.DeviceMemoryBytes = status.DeviceMemoryBytes;
+  m.Device = nv::deviceName(this->Session->device());
+  m.WarmStart = this->WarmStart;
+  r.Log = this->Run->Log();
+  return r;
+}
+
+//------------------------------------------------------------------------------
+void NetworkCache::Put(const NetworkRecord& record)
+{
+  Entry& e = this->Records[record.Time];
+  e.Record = record;
+  e.LastUse = ++this->Clock;
+}
+
+const NetworkRecord* NetworkCache::Find(double time, uint64_t key)
+{
+  auto it = this->Records.find(time);
+  if (it == this->Records.end() || it->second.Record.Key != key)
+  {
+    return nullptr;
+  }
+  it->second.LastUse = ++this->Clock;
+  return &it->second.Record;
+}
+
+const NetworkRecord* NetworkCache::NearestForWarmStart(double time) const
+{
+  const NetworkRecord* best = nullptr;
+  auto it = this->Records.lower_bound(time);
+  if (it != this->Records.begin())
+  {
+    best = &std::prev(it)->second.Record; // the latest time before
+  }
+  else if (it != this->Records.end() && it->first != time)
+  {
+    best = &it->second.Record;
+  }
+  else if (it != this->Records.end() && std::next(it) != this->Records.end())
+  {
+    best = &std::next(it)->second.Record;
+  }
+  return best;
+}
+
+void NetworkCache::Trim(int64_t capBytes, double keepTime)
+{
+  for (;;)
+  {
+    int64_t total = 0;
+    auto oldest = this->Records.end();
+    for (auto it = this->Records.begin(); it != this->Records.end(); ++it)
+    {
+      total += static_cast<int64_t>(it->second.Record.Bytes.size());
+      if (it->first != keepTime && (oldest == this->Records.end() || it->second.LastUse < oldest->second.LastUse))
+      {
+        oldest = it;
+      }
+    }
+    if (total <= capBytes || oldest == this->Records.end())
+    {
+      return;
+    }
+    this->Records.erase(oldest);
+  }
+}
+
+std::vector<const NetworkRecord*> NetworkCache::All() const
+{
+  std::vector<const NetworkRecord*> all;
+  for (const auto& e : this->Records)
+  {
+    all.push_back(&e.second.Record);
+  }
+  return all;
+}
+
+} // namespace vtkNeuralCompressInternals

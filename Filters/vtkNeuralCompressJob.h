@@ -1,0 +1,152 @@
+// Private to NeuralVolume::Filters: what vtkNeuralCompress keeps between executions -- the training job of the
+// current time step (its session, its run, the result of its last phase) and the networks of other time steps.
+#ifndef vtkNeuralCompressJob_h
+#define vtkNeuralCompressJob_h
+
+#include "vtkNeuralTrainingRun.h"
+
+#include "vtkSmartPointer.h"
+
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+class vtkDataArray;
+
+namespace vtkNeuralCompressInternals
+{
+
+/// The filter's properties that decide the trained network (not the controls, the output mode or the cache size).
+struct Settings
+{
+  int VectorMode = 0, VectorComponent = 0;
+  int64_t TrainingSteps = 0;
+  double TimeBudget = 0.0, LearningRate = 0.0, TargetCompressionRatio = 0.0, TargetPsnr = 0.0;
+  int BatchSize = 0, Seed = 0, Loss = 0, Schedule = 0;
+  int Levels = 0, Features = 0, Log2TableSize = 0, BaseResolution = 0, FinestResolution = 0;
+  int Width = 0, HiddenLayers = 0, Precision = 0, Device = 0, Threads = 0, Strategy = 0;
+  int OutputResolution[3] = { 0, 0, 0 };
+  int PsnrInterval = 0;
+  bool Deterministic = false, WarmStart = true;
+  /// Every field, for the training key.
+  std::string Canonical() const;
+};
+
+/// The user's numbers for one network (field data of output 0, a row of the metrics table).
+struct Metrics
+{
+  std::string State;   ///< Training, Paused, Finished, Stopped, Restored, ...
+  int64_t Steps = 0;
+  double Seconds = 0.0;
+  double Psnr = std::numeric_limits<double>::quiet_NaN(); ///< dB over every source sample (an estimate while training)
+  bool PsnrFinal = false;
+  double MaxError = std::numeric_limits<double>::quiet_NaN();
+  double Ratio = 0.0;
+  int64_t ModelBytes = 0;
+  int64_t Invalid = 0;
+  int64_t DeviceMemoryBytes = 0;
+  std::string Device;
+  bool WarmStart = false;
+  bool Restored = false;
+  std::string EndReason;
+};
+
+/// A network of one time step, as it is cached and saved with a state file.
+struct NetworkRecord
+{
+  uint64_t Key = 0;
+  double Time = 0.0;
+  std::vector<uint8_t> Bytes; ///< nv::serialize, stored precision
+  Metrics M;
+  std::vector<LogRow> Log;
+};
+
+/// What the selected array is, where its output goes.
+struct FieldInfo
+{
+  std::string Name;
+  bool Cells = false;
+  int VtkType = 0;
+  std::string Description;
+  OutputGeometry Geometry;
+  nv::VolumeStats Stats;
+  double Direction[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+  int InputExtent[6] = { 0, 0, 0, 0, 0, 0 };
+  double InputOrigin[3] = { 0, 0, 0 };
+  double InputSpacing[3] = { 1, 1, 1 };
+};
+
+/// The decoded output field in the requested type (OutputMode), or null for OUTPUT_NETWORK_ONLY.
+vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& field, int outputMode);
+
+/// Training of one time step: created by the filter, trained by its run, finalised in the run's thread.
+class Job
+{
+public:
+  uint64_t Key = 0;
+  double Time = 0.0;
+  FieldInfo Field;
+  Settings S;
+  nv::Model Base; ///< configuration and source information
+  nv::Precision Storage = nv::Precision::Float16;
+  std::string DeviceNote;
+  bool WarmStart = false;
+  std::shared_ptr<nv::NetworkSession> Session;
+  std::shared_ptr<TrainingData> Data;
+  std::unique_ptr<TrainingRun> Run; ///< null for a constant field (represented exactly)
+  uint64_t EmittedSerial = ~uint64_t(0);
+  int OutputMode = 0; ///< read by the run's thread at phase ends (set under Mutex)
+
+  /// The network and numbers of the last ended phase (null before).
+  std::shared_ptr<const NetworkRecord> Final() const;
+  vtkSmartPointer<vtkDataArray> FinalDecoded(int outputMode) const;
+  /// Runs in the training thread at the end of a phase: the stored-precision network becomes the session's, it is
+  /// measured over every source sample, serialized and (for decoded output modes) decoded.
+  void Finalize(const RunStatus& status);
+  /// A network that needs no training (cached, restored from a state file).
+  void SetFinal(std::shared_ptr<const NetworkRecord> record);
+  /// For a field with no training (constant): finalise at once.
+  void FinalizeWithoutTraining();
+  /// The record of the network the session holds now (a snapshot while training).
+  NetworkRecord Snapshot() const;
+
+  mutable std::mutex Mutex;
+
+private:
+  std::shared_ptr<const NetworkRecord> FinalRecord;
+  vtkSmartPointer<vtkDataArray> Decoded;
+  int DecodedMode = 0;
+};
+
+/// Networks of the time steps seen, within a memory cap (least recently used first out; `keep` never).
+class NetworkCache
+{
+public:
+  void Put(const NetworkRecord& record);
+  const NetworkRecord* Find(double time, uint64_t key);
+  /// The complete network of the nearest time before `time` (else after) with `configBytes`-compatible layout.
+  const NetworkRecord* NearestForWarmStart(double time) const;
+  void Trim(int64_t capBytes, double keepTime);
+  std::vector<const NetworkRecord*> All() const;
+  void Clear() { this->Records.clear(); }
+
+private:
+  struct Entry
+  {
+    NetworkRecord Record;
+    uint64_t LastUse = 0;
+  };
+  std::map<double, Entry> Records;
+  uint64_t Clock = 0;
+};
+
+/// 64-bit key of a training: the field's values, geometry and the settings.
+uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const Settings& s);
+
+} // namespace vtkNeuralCompressInternals
+
+#endif

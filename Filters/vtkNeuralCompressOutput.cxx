@@ -1,0 +1,252 @@
+#include "vtkNeuralCompressOutput.h"
+
+#include "vtkNeuralNetworkArray.h"
+
+#include "vtkBase64Utilities.h"
+#include "vtkCellData.h"
+#include "vtkDataArray.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
+#include "vtkImageData.h"
+#include "vtkIntArray.h"
+#include "vtkPointData.h"
+#include "vtkStringArray.h"
+#include "vtkTable.h"
+#include "vtkTypeInt64Array.h"
+
+#include <algorithm>
+#include <cinttypes>
+#include <cstdio>
+#include <sstream>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+template <typename ArrayT, typename ValueT>
+void AddFieldValue(vtkFieldData* fd, const char* name, ValueT value)
+{
+  vtkNew<ArrayT> a;
+  a->SetName(name);
+  a->SetNumberOfTuples(1);
+  a->SetValue(0, value);
+  fd->AddArray(a);
+}
+
+void AddString(vtkFieldData* fd, const char* name, const std::string& value)
+{
+  vtkNew<vtkStringArray> a;
+  a->SetName(name);
+  a->InsertNextValue(value);
+  fd->AddArray(a);
+}
+
+std::string FormatBytes(double bytes)
+{
+  std::ostringstream s;
+  s.precision(3);
+  if (bytes >= 1024.0 * 1024.0)
+    s << bytes / (1024.0 * 1024.0) << " MiB";
+  else if (bytes >= 1024.0)
+    s << bytes / 1024.0 << " KiB";
+  else
+    s << bytes << " B";
+  return s.str();
+}
+} // namespace
+
+void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord& record, vtkDataArray* decoded,
+  const std::shared_ptr<nv::NetworkSession>& session, bool live)
+{
+  const OutputGeometry& g = field.Geometry;
+  int extent[6];
+  std::copy(g.Extent, g.Extent + 6, extent);
+  output->SetExtent(extent);
+  output->SetOrigin(g.Origin);
+  output->SetSpacing(g.Spacing);
+  output->SetDirectionMatrix(field.Direction);
+  if (decoded)
+  {
+    if (field.Cells)
+      output->GetCellData()->SetScalars(decoded);
+    else
+      output->GetPointData()->SetScalars(decoded);
+  }
+  vtkFieldData* fd = output->GetFieldData();
+  vtkNeuralNetworkArray::Write(fd, record.Bytes, session, live);
+  const Metrics& m = record.M;
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralTrainingSeconds", m.Seconds);
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", m.Steps);
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", m.Psnr);
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralMaxError", m.MaxError);
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", m.ModelBytes);
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", m.Invalid);
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralGpuMemoryBytes", m.DeviceMemoryBytes);
+  AddFieldValue<vtkIntArray>(fd, "NeuralWarmStart", m.WarmStart ? 1 : 0);
+  AddFieldValue<vtkIntArray>(fd, "NeuralRestored", m.Restored ? 1 : 0);
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralTime", record.Time);
+  AddString(fd, "NeuralDevice", m.Device);
+  AddString(fd, "NeuralTrainingState", m.State);
+  // The field's range: the colour and opacity maps fit it when no decoded array is output.
+  vtkNew<vtkDoubleArray> range;
+  range->SetName("NeuralValueRange");
+  range->SetNumberOfTuples(2);
+  range->SetValue(0, field.Stats.min);
+  range->SetValue(1, field.Stats.max);
+  fd->AddArray(range);
+}
+
+void InitializeLog(vtkTable* log)
+{
+  log->Initialize();
+  for (const char* name : { "Step", "Loss", "LearningRate", "ElapsedSeconds", "PSNR" })
+  {
+    vtkNew<vtkDoubleArray> column;
+    column->SetName(name);
+    log->AddColumn(column);
+  }
+}
+
+void FillLog(vtkTable* log, const NetworkRecord& record)
+{
+  InitializeLog(log);
+  const vtkIdType rows = static_cast<vtkIdType>(record.Log.size());
+  log->SetNumberOfRows(rows);
+  for (vtkIdType r = 0; r < rows; ++r)
+  {
+    const LogRow& row = record.Log[static_cast<size_t>(r)];
+    const double psnr = r == rows - 1 && record.M.PsnrFinal ? record.M.Psnr : row.PSNR;
+    const double values[5] = { static_cast<double>(row.Step), row.Loss, row.LearningRate, row.ElapsedSeconds, psnr };
+    for (int c = 0; c < 5; ++c)
+    {
+      vtkDoubleArray::SafeDownCast(log->GetColumn(c))->SetValue(r, values[c]);
+    }
+  }
+}
+
+void InitializeMetrics(vtkTable* metrics)
+{
+  metrics->Initialize();
+  for (const char* name : { "Time", "Steps", "Seconds", "PSNR", "MaxError", "CompressionRatio", "ModelBytes",
+         "WarmStart", "Restored" })
+  {
+    vtkNew<vtkDoubleArray> column;
+    column->SetName(name);
+    metrics->AddColumn(column);
+  }
+  vtkNew<vtkStringArray> state;
+  state->SetName("State");
+  metrics->AddColumn(state);
+}
+
+void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& records)
+{
+  InitializeMetrics(metrics);
+  std::vector<const NetworkRecord*> sorted = records;
+  std::sort(sorted.begin(), sorted.end(),
+    [](const NetworkRecord* a, const NetworkRecord* b) { return a->Time < b->Time; });
+  metrics->SetNumberOfRows(static_cast<vtkIdType>(sorted.size()));
+  for (vtkIdType r = 0; r < static_cast<vtkIdType>(sorted.size()); ++r)
+  {
+    const NetworkRecord& rec = *sorted[static_cast<size_t>(r)];
+    const Metrics& m = rec.M;
+    const double values[9] = { rec.Time, static_cast<double>(m.Steps), m.Seconds, m.Psnr, m.MaxError, m.Ratio,
+      static_cast<double>(m.ModelBytes), m.WarmStart ? 1.0 : 0.0, m.Restored ? 1.0 : 0.0 };
+    for (int c = 0; c < 9; ++c)
+    {
+      vtkDoubleArray::SafeDownCast(metrics->GetColumn(c))->SetValue(r, values[c]);
+    }
+    vtkStringArray::SafeDownCast(metrics->GetColumn(9))->SetValue(r, m.State);
+  }
+}
+
+std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio)
+{
+  const Metrics& m = record.M;
+  const nv::ModelConfig& config = job.Base.config();
+  std::ostringstream s;
+  s.precision(4);
+  s << "Neural Compress: '" << field.Name << "' (" << (field.Cells ? "cell" : "point");
+  if (!field.Description.empty())
+    s << ", " << field.Description;
+  s << ", " << field.Geometry.SourceDims[0] << "x" << field.Geometry.SourceDims[1] << "x"
+    << field.Geometry.SourceDims[2];
+  if (job.Time != 0.0)
+    s << ", t = " << job.Time;
+  s << "): ";
+  if (m.Restored)
+    s << "network restored from the state, no training";
+  else
+  {
+    s << m.Steps << " steps in " << m.Seconds << " s on " << m.Device;
+    if (m.WarmStart)
+      s << " (warm start)";
+    if (!m.EndReason.empty() && m.EndReason != "step limit")
+      s << " (" << m.EndReason << ")";
+  }
+  s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError << "; model "
+    << FormatBytes(static_cast<double>(m.ModelBytes)) << " (2^" << config.encoding.log2TableSize << " table, "
+    << (job.Storage == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << m.Ratio << ":1";
+  if (targetRatio > 0.0)
+    s << " (target " << targetRatio << ")";
+  if (!job.DeviceNote.empty())
+    s << "; " << job.DeviceNote;
+  s << "\n";
+  return s.str();
+}
+
+std::string EncodeNetworks(const std::vector<const NetworkRecord*>& records)
+{
+  std::string text = "nvnet1";
+  for (const NetworkRecord* r : records)
+  {
+    if (!r || r->Bytes.empty())
+      continue;
+    char key[32];
+    std::snprintf(key, sizeof(key), "%016" PRIx64, r->Key);
+    std::vector<unsigned char> b64(r->Bytes.size() * 4 / 3 + 8);
+    const unsigned long n = vtkBase64Utilities::Encode(
+      r->Bytes.data(), static_cast<unsigned long>(r->Bytes.size()), b64.data(), 0);
+    text += ";";
+    text += key;
+    text += ":";
+    text.append(reinterpret_cast<const char*>(b64.data()), n);
+  }
+  return text;
+}
+
+std::map<uint64_t, std::vector<uint8_t>> DecodeNetworks(const std::string& text, std::string& error)
+{
+  std::map<uint64_t, std::vector<uint8_t>> out;
+  if (text.empty())
+    return out;
+  if (text.compare(0, 6, "nvnet1") != 0)
+  {
+    error = "the saved networks are not in a known format (expected 'nvnet1')";
+    return out;
+  }
+  size_t pos = 6;
+  while (pos < text.size() && text[pos] == ';')
+  {
+    const size_t end = std::min(text.find(';', pos + 1), text.size());
+    const size_t colon = text.find(':', pos + 1);
+    if (colon == std::string::npos || colon >= end || colon - pos - 1 != 16)
+    {
+      error = "a saved network entry is malformed";
+      pos = end;
+      continue;
+    }
+    const uint64_t key = std::strtoull(text.substr(pos + 1, 16).c_str(), nullptr, 16);
+    const size_t len = end - colon - 1;
+    std::vector<uint8_t> bytes(len);
+    const size_t n = vtkBase64Utilities::DecodeSafely(
+      reinterpret_cast<const unsigned char*>(text.data() + colon + 1), len, bytes.data(), bytes.size());
+    bytes.resize(n);
+    out[key] = std::move(bytes);
+    pos = end;
+  }
+  return out;
+}
+
+} // namespace vtkNeuralCompressInternals

@@ -1,0 +1,42 @@
+// Private to NeuralVolume::Filters: the outputs of vtkNeuralCompress built from a network record (the decoded image
+// with its field data, the training log, the metrics table), the summary line, and the text form of the networks a
+// state file carries.
+#ifndef vtkNeuralCompressOutput_h
+#define vtkNeuralCompressOutput_h
+
+#include "vtkNeuralCompressJob.h"
+
+#include <map>
+#include <string>
+#include <vector>
+
+class vtkDataArray;
+class vtkImageData;
+class vtkTable;
+
+namespace vtkNeuralCompressInternals
+{
+
+/// Output 0: the geometry of `field`, the decoded array (may be null), the network and its numbers as field data.
+/// `live`: the session is still training (renderers of this process show its network of the moment).
+void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord& record, vtkDataArray* decoded,
+  const std::shared_ptr<nv::NetworkSession>& session, bool live);
+
+/// Output 1: one row per step of `record` (the last row's PSNR is the final one when it is known).
+void FillLog(vtkTable* log, const NetworkRecord& record);
+void InitializeLog(vtkTable* log);
+
+/// Output 2: one row per network, ordered by time.
+void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& records);
+void InitializeMetrics(vtkTable* metrics);
+
+/// The line printed when a network is complete.
+std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio);
+
+/// "nvnet1;<key hex>:<base64>;..." and back (entries that do not parse are skipped; `error` says why).
+std::string EncodeNetworks(const std::vector<const NetworkRecord*>& records);
+std::map<uint64_t, std::vector<uint8_t>> DecodeNetworks(const std::string& text, std::string& error);
+
+} // namespace vtkNeuralCompressInternals
+
+#endif

@@ -1,0 +1,261 @@
+// vtkNeuralCompress: a new job -- the model configuration, the session, warm start, a cached or restored network
+// or a training run.
+#include "vtkNeuralCompress.h"
+
+#include "vtkNeuralCompressOutput.h"
+#include "vtkNeuralCompressState.h"
+
+#include "Core/Error.h"
+#include "Core/Serialization.h"
+
+#include "vtkDataArray.h"
+
+#include <algorithm>
+
+//------------------------------------------------------------------------------
+nvi::Settings vtkNeuralCompress::CurrentSettings() const
+{
+  nvi::Settings s;
+  s.VectorMode = this->VectorMode;
+  s.VectorComponent = this->VectorComponent;
+  s.TrainingSteps = this->TrainingSteps;
+  s.TimeBudget = this->TimeBudget;
+  s.LearningRate = this->LearningRate;
+  s.TargetCompressionRatio = this->TargetCompressionRatio;
+  s.TargetPsnr = this->TargetPSNR;
+  s.BatchSize = this->BatchSize;
+  s.Seed = this->Seed;
+  s.Loss = this->Loss;
+  s.Schedule = this->LearningRateSchedule;
+  s.Levels = this->Levels;
+  s.Features = this->FeaturesPerLevel;
+  s.Log2TableSize = this->Log2TableSize;
+  s.BaseResolution = this->BaseResolution;
+  s.FinestResolution = this->FinestResolution;
+  s.Width = this->NetworkWidth;
+  s.HiddenLayers = this->HiddenLayers;
+  s.Precision = this->StoragePrecision;
+  s.Device = this->Device;
+  s.Threads = this->Threads;
+  s.Strategy = this->TrainingStrategy;
+  std::copy(this->OutputResolution, this->OutputResolution + 3, s.OutputResolution);
+  s.PsnrInterval = this->PSNRInterval;
+  s.Deterministic = this->Deterministic;
+  s.WarmStart = this->WarmStart;
+  return s;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nvi::TrainingData> data,
+  const nvi::Settings& settings, uint64_t key, double time)
+{
+  vtkInternals& in = *this->Internals;
+  auto job = std::unique_ptr<nvi::Job>(new nvi::Job);
+  job->Key = key;
+  job->Time = time;
+  job->Field = field;
+  job->S = settings;
+  job->Data = data;
+  job->OutputMode = this->OutputMode;
+  job->Storage = this->StoragePrecision == FLOAT16 ? nv::Precision::Float16 : nv::Precision::Float32;
+  in.SummaryPrinted = false;
+  in.DecodeRequested = false;
+  const nv::VolumeView& view = data->Field.View;
+  const int64_t* dims = view.dims;
+
+  // Model configuration.
+  nv::ModelConfig config;
+  config.encoding.levels = this->Levels;
+  config.encoding.featuresPerLevel = this->FeaturesPerLevel;
+  config.encoding.baseResolution = this->BaseResolution;
+  config.encoding.perLevelScale = 0.0;
+  // Default finest level: twice the largest dimension (never below the base resolution).
+  config.encoding.finestResolution = this->FinestResolution > 0
+    ? this->FinestResolution
+    : static_cast<int>(std::max<int64_t>(2 * std::max({ dims[0], dims[1], dims[2] }), this->BaseResolution));
+  config.network.width = this->NetworkWidth;
+  config.network.hiddenLayers = this->HiddenLayers;
+  config.encoding.log2TableSize = this->Log2TableSize > 0 ? this->Log2TableSize : 10;
+  nv::validate(config);
+  if (this->Log2TableSize <= 0)
+  {
+    // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1, else the smallest one.
+    const double target = this->TargetCompressionRatio > 0.0 ? this->TargetCompressionRatio : 10.0;
+    config.encoding.log2TableSize =
+      nv::chooseLog2TableSize(config, data->Field.RawBytes, target, job->Storage);
+  }
+
+  nv::TrainConfig train;
+  train.batchSize = this->BatchSize;
+  train.seed = static_cast<uint64_t>(this->Seed);
+  train.loss = this->Loss == LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
+  train.optimizer.learningRate = this->LearningRate;
+  train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
+  train.threads = this->Threads;
+  train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
+  nv::validate(train);
+
+  nv::Device requested = this->Device == DEVICE_CPU ? nv::Device::Cpu
+    : this->Device == DEVICE_CUDA                    ? nv::Device::Cuda
+                                                     : nv::Device::Auto;
+  if (this->Deterministic)
+  {
+    if (requested == nv::Device::Cuda)
+    {
+      throw nv::Error("Deterministic training runs on the CPU engine (the CUDA kernels accumulate gradients "
+                      "with atomics, in no fixed order); set Device to Auto or CPU, or turn Deterministic off");
+    }
+    requested = nv::Device::Cpu;
+    job->DeviceNote = "Deterministic: CPU engine";
+  }
+  const nv::Device device = nv::resolveDevice(requested, job->DeviceNote.empty() ? &job->DeviceNote : nullptr);
+
+  nv::Model model(config);
+  nv::SourceInfo& src = model.source;
+  for (int d = 0; d < 3; ++d)
+  {
+    // The trained field spans the source samples: the points, or the cell centres.
+    const double h = field.InputSpacing[d];
+    const double first = field.InputOrigin[d] + field.InputExtent[2 * d] * h +
+      (field.Cells && field.InputExtent[2 * d + 1] > field.InputExtent[2 * d] ? 0.5 * h : 0.0);
+    src.dims[d] = dims[d];
+    src.spacing[d] = h;
+    src.origin[d] = first;
+    src.bounds[2 * d] = first;
+    src.bounds[2 * d + 1] = first + (dims[d] - 1) * h;
+  }
+  src.valueMin = field.Stats.min;
+  src.valueMax = field.Stats.max;
+  src.arrayName = field.Name;
+  src.association = field.Cells ? 1 : 0;
+  src.rawBytes = data->Field.RawBytes;
+
+  // Warm start: the network of the nearest time step trained before, when its layout is the same.
+  bool warm = false;
+  if (this->WarmStart)
+  {
+    if (const nvi::NetworkRecord* seed = in.Cache.NearestForWarmStart(time))
+    {
+      try
+      {
+        nv::Model previous = nv::deserialize(seed->Bytes);
+        if (previous.params().size() == model.params().size() &&
+          previous.config().encoding.log2TableSize == config.encoding.log2TableSize &&
+          previous.config().network.width == config.network.width &&
+          previous.config().network.hiddenLayers == config.network.hiddenLayers &&
+          previous.config().encoding.levels == config.encoding.levels)
+        {
+          model.params() = previous.params();
+          warm = true;
+        }
+      }
+      catch (const nv::Error&)
+      {
+        warm = false;
+      }
+    }
+  }
+  if (!warm)
+  {
+    model.initialize(train.seed);
+  }
+  job->WarmStart = warm;
+  job->Base = model;
+
+  nv::SessionOptions sessionOptions;
+  sessionOptions.threads = this->Threads;
+  if (!in.Session || in.SessionDevice != static_cast<int>(device) || in.SessionThreads != this->Threads)
+  {
+    in.Session = nv::NetworkSession::create(device, model, sessionOptions);
+    in.SessionDevice = static_cast<int>(device);
+    in.SessionThreads = this->Threads;
+  }
+  else
+  {
+    in.Session->setModel(model);
+  }
+  job->Session = in.Session;
+  in.Current = std::move(job);
+  nvi::Job& j = *in.Current;
+
+  // A network this filter already has for this input and these settings: no training.
+  auto reuse = [&](const std::vector<uint8_t>& bytes, const nvi::Metrics* metrics, bool restored) {
+    nv::Model stored = nv::deserialize(bytes);
+    j.Session->setModel(stored);
+    auto record = std::make_shared<nvi::NetworkRecord>();
+    record->Key = key;
+    record->Time = time;
+    record->Bytes = bytes;
+    if (metrics)
+    {
+      record->M = *metrics;
+    }
+    else
+    {
+      nvi::Metrics& m = record->M;
+      m.Steps = stored.stats.steps;
+      m.Seconds = stored.stats.seconds;
+      m.Psnr = stored.stats.psnr;
+      m.PsnrFinal = true;
+      m.MaxError = stored.stats.maxError;
+      m.ModelBytes = stored.parameterBytes();
+      m.Ratio = static_cast<double>(stored.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+      m.Invalid = stored.stats.invalidSamples;
+      m.Device = nv::deviceName(j.Session->device());
+    }
+    record->M.Restored = restored;
+    record->M.State = restored ? "Restored" : record->M.State;
+    j.SetFinal(record);
+  };
+  if (const nvi::NetworkRecord* cached = in.Cache.Find(time, key))
+  {
+    if (cached->M.State != "Interrupted")
+    {
+      reuse(cached->Bytes, &cached->M, cached->M.Restored);
+      j.Base = j.Session->currentModel();
+      return;
+    }
+  }
+  auto restored = in.Restored.find(key);
+  if (restored != in.Restored.end())
+  {
+    reuse(restored->second, nullptr, true);
+    j.Base = j.Session->currentModel();
+    return;
+  }
+
+  // Training.
+  const bool constant = !(field.Stats.max > field.Stats.min);
+  if (constant || this->TrainingSteps == 0)
+  {
+    if (constant)
+    {
+      vtkWarningMacro("Neural Compress: '" << field.Name << "' is constant (" << field.Stats.min
+                                           << "); it is represented exactly, training skipped.");
+    }
+    j.FinalizeWithoutTraining();
+    return;
+  }
+  nvi::RunLimits limits;
+  limits.MaxSteps = this->TrainingSteps;
+  limits.TimeBudget = this->Deterministic ? 0.0 : this->TimeBudget;
+  limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;
+  limits.PsnrInterval = this->PSNRInterval > 0 ? this->PSNRInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
+  if (limits.PsnrInterval > 0)
+  {
+    data->Probe.reset(new nvi::PsnrProbe(view, train.seed, 65536));
+  }
+  nvi::Job* jobPtr = &j;
+  j.Run.reset(new nvi::TrainingRun(j.Session, data, train, limits,
+    [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
+  if (this->TrainInBackground)
+  {
+    j.Run->StartInBackground();
+  }
+  else
+  {
+    j.Run->RunHere([this]() { return this->GetAbortExecute() != 0; },
+      [this](double f) { this->UpdateProgress(0.95 * f); });
+  }
+}
+

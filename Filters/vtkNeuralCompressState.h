@@ -1,0 +1,69 @@
+// Private to NeuralVolume::Filters: the state vtkNeuralCompress keeps between executions (shared by its source files).
+#ifndef vtkNeuralCompressState_h
+#define vtkNeuralCompressState_h
+
+#include "vtkNeuralCompress.h"
+#include "vtkNeuralCompressJob.h"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace nvi = vtkNeuralCompressInternals;
+
+//------------------------------------------------------------------------------
+struct vtkNeuralCompress::vtkInternals
+{
+  std::unique_ptr<nvi::Job> Current;
+  std::shared_ptr<nv::NetworkSession> Session; ///< reused by every job while the device and threads stay
+  int SessionDevice = -1;
+  int SessionThreads = -1;
+  nvi::NetworkCache Cache;
+  std::map<uint64_t, std::vector<uint8_t>> Restored; ///< networks of a loaded state, by training key
+  std::string TrainedNetworksSet;
+  std::string TrainedNetworksText;
+  std::string StatusText;
+  bool DecodeRequested = false;
+  bool SummaryPrinted = false;
+  vtkIdType StepsOfEndedJobs = 0;
+
+  // The key of the last input seen (recomputed when the array, its content or the settings change).
+  vtkDataArray* KeyArray = nullptr;
+  vtkMTimeType KeyArrayMTime = 0;
+  std::string KeySettings;
+  uint64_t Key = 0;
+
+  /// Ends the current job: its network goes to the cache (an interrupted run as a warm-start seed only).
+  void Retire()
+  {
+    if (!this->Current)
+      return;
+    nvi::Job& job = *this->Current;
+    bool interrupted = false;
+    if (job.Run)
+    {
+      const nvi::RunState s = job.Run->Status().State;
+      interrupted = s != nvi::RunState::Finished && s != nvi::RunState::Stopped && s != nvi::RunState::Failed;
+      job.Run->Stop();
+      job.Run->Wait(-1.0);
+      this->StepsOfEndedJobs += job.Run->Status().Steps;
+    }
+    if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
+    {
+      nvi::NetworkRecord record = *final;
+      if (interrupted)
+        record.M.State = "Interrupted";
+      this->Cache.Put(record);
+    }
+    this->Current.reset(); // joins the run's thread
+  }
+};
+
+inline bool Settled(nvi::RunState s)
+{
+  return s == nvi::RunState::Finished || s == nvi::RunState::Stopped || s == nvi::RunState::Failed;
+}
+
+
+#endif

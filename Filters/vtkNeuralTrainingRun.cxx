@@ -1,0 +1,412 @@
+#include "vtkNeuralTrainingRun.h"
+
+#include "Core/Error.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+using Clock = std::chrono::steady_clock;
+double SecondsSince(Clock::time_point t)
+{
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+} // namespace
+
+const char* RunStateName(RunState s)
+{
+  switch (s)
+  {
+    case RunState::Starting:
+      return "Starting";
+    case RunState::Running:
+      return "Training";
+    case RunState::Paused:
+      return "Paused";
+    case RunState::Finishing:
+      return "Finishing";
+    case RunState::Finished:
+      return "Finished";
+    case RunState::Stopped:
+      return "Stopped";
+    case RunState::Failed:
+      return "Failed";
+  }
+  return "Unknown";
+}
+
+TrainingRun::TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::shared_ptr<TrainingData> data,
+  const nv::TrainConfig& config, const RunLimits& limits, PhaseEndHook onPhaseEnd)
+  : SessionPtr(std::move(session))
+  , DataPtr(std::move(data))
+  , Config(config)
+  , Limits(limits)
+  , OnPhaseEnd(std::move(onPhaseEnd))
+{
+  NV_CHECK(this->SessionPtr && this->DataPtr, "TrainingRun: no session or data");
+  this->Current.TargetSteps = std::max<int64_t>(limits.MaxSteps, 0);
+  this->PhaseBudget = limits.TimeBudget;
+  this->PhaseTargetPsnr = limits.TargetPsnr;
+}
+
+TrainingRun::~TrainingRun()
+{
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->StopRequested = true;
+    this->Quit = true;
+  }
+  this->Changed.notify_all();
+  if (this->Thread.joinable())
+  {
+    this->Thread.join();
+  }
+}
+
+void TrainingRun::RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress)
+{
+  this->Background = false;
+  try
+  {
+    this->Trainer = this->SessionPtr->createTrainer(this->DataPtr->Field.View, this->Config);
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
+    this->Current.State = RunState::Running;
+  }
+  catch (const std::exception& e)
+  {
+    this->Fail(e.what());
+    return;
+  }
+  this->RunPhase(abort, progress);
+}
+
+void TrainingRun::StartInBackground()
+{
+  this->Background = true;
+  this->Thread = std::thread([this]() { this->Worker(); });
+}
+
+void TrainingRun::Worker()
+{
+  try
+  {
+    auto trainer = this->SessionPtr->createTrainer(this->DataPtr->Field.View, this->Config);
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->Trainer = std::move(trainer);
+    this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
+    if (this->Current.State == RunState::Starting)
+    {
+      this->Current.State = this->PauseRequested ? RunState::Paused : RunState::Running;
+    }
+    ++this->Current.Serial;
+  }
+  catch (const std::exception& e)
+  {
+    this->Fail(e.what());
+    return;
+  }
+  for (;;)
+  {
+    this->RunPhase(nullptr, nullptr);
+    std::unique_lock<std::mutex> lock(this->Mutex);
+    this->Changed.wait(lock, [this]() { return this->Quit || this->PhaseRequested; });
+    if (this->Quit)
+    {
+      return;
+    }
+    this->PhaseRequested = false;
+  }
+}
+
+void TrainingRun::Fail(const std::string& message)
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->Current.State = RunState::Failed;
+  this->Current.Error = message;
+  ++this->Current.Serial;
+  this->Changed.notify_all();
+}
+
+void TrainingRun::Publish()
+{
+  this->Trainer->publish();
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  ++this->Current.Serial;
+}
+
+void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress)
+{
+  const bool gpu = this->Trainer->device() == nv::Device::Cuda;
+  // Chunks of steps queued back to back (one loss read-back each): ~20 ms on a GPU, one step on the CPU.
+  const int64_t chunkMax = gpu ? 64 : 1;
+  std::vector<float> losses(static_cast<size_t>(chunkMax));
+  auto lastPublish = Clock::now();
+  const int64_t phaseFirstStep = this->Status().Steps;
+  double lastProgress = -1.0;
+  std::string reason;
+  try
+  {
+    for (;;)
+    {
+      int64_t step = 0, count = 0;
+      double phaseSeconds = 0.0;
+      bool fast = false;
+      {
+        std::unique_lock<std::mutex> lock(this->Mutex);
+        if (abort && abort())
+        {
+          this->StopRequested = true;
+        }
+        if (this->PauseRequested && !this->StopRequested && this->Background)
+        {
+          this->Current.State = RunState::Paused;
+          ++this->Current.Serial;
+          this->Changed.notify_all();
+          this->Changed.wait(lock, [this]() { return !this->PauseRequested || this->StopRequested; });
+          if (!this->StopRequested)
+          {
+            this->Current.State = RunState::Running;
+            ++this->Current.Serial;
+          }
+        }
+        if (this->StopRequested)
+        {
+          reason = "stopped";
+          break;
+        }
+        step = this->Current.Steps + 1;
+        phaseSeconds = this->Current.Seconds - this->PhaseStartSeconds;
+        if (step > this->Current.TargetSteps)
+        {
+          reason = "step limit";
+          break;
+        }
+        if (this->PhaseBudget > 0.0 && phaseSeconds >= this->PhaseBudget)
+        {
+          reason = "time budget";
+          break;
+        }
+        count = std::min(chunkMax, this->Current.TargetSteps - step + 1);
+        if (this->DataPtr->Probe && this->Limits.PsnrInterval > 0)
+        {
+          count = std::min<int64_t>(count, this->Limits.PsnrInterval - (step - 1) % this->Limits.PsnrInterval);
+        }
+        fast = this->FastForward;
+      }
+
+      const auto before = Clock::now();
+      this->Trainer->steps(count, losses.data());
+      const double took = SecondsSince(before);
+
+      bool probeNow = false;
+      {
+        std::lock_guard<std::mutex> lock(this->Mutex);
+        if (this->StopRequested)
+        {
+          reason = "stopped"; // the chunk in flight is not published
+          break;
+        }
+        const double start = this->Current.Seconds;
+        for (int64_t k = 0; k < count; ++k)
+        {
+          LogRow row;
+          row.Step = step + k;
+          row.LearningRate = this->Config.optimizer.learningRateAt(row.Step);
+          row.Loss = losses[static_cast<size_t>(k)];
+          row.ElapsedSeconds = start + took * static_cast<double>(k + 1) / static_cast<double>(count);
+          row.PSNR = std::numeric_limits<double>::quiet_NaN();
+          this->Rows.push_back(row);
+        }
+        this->Current.Steps = step + count - 1;
+        this->Current.Seconds = start + took;
+        this->Current.Loss = losses[static_cast<size_t>(count - 1)];
+        ++this->Current.Serial;
+        probeNow = this->DataPtr->Probe && this->Limits.PsnrInterval > 0 &&
+          this->Current.Steps % this->Limits.PsnrInterval == 0 &&
+          this->Current.Steps < this->Current.TargetSteps;
+      }
+
+      if (probeNow)
+      {
+        this->Publish();
+        lastPublish = Clock::now();
+        const double psnr = this->DataPtr->Probe->Estimate(*this->SessionPtr);
+        std::lock_guard<std::mutex> lock(this->Mutex);
+        this->Rows.back().PSNR = psnr;
+        this->Current.Psnr = psnr;
+        if (this->PhaseTargetPsnr > 0.0 && psnr >= this->PhaseTargetPsnr)
+        {
+          reason = "target PSNR";
+          break;
+        }
+      }
+      else if (this->Background && !fast && SecondsSince(lastPublish) >= this->Limits.PublishSeconds)
+      {
+        this->Publish();
+        lastPublish = Clock::now();
+      }
+
+      if (progress)
+      {
+        const RunStatus s = this->Status();
+        const double span = static_cast<double>(std::max<int64_t>(s.TargetSteps - phaseFirstStep, 1));
+        double fraction = static_cast<double>(s.Steps - phaseFirstStep) / span;
+        if (this->PhaseBudget > 0.0)
+        {
+          fraction = std::max(fraction, (s.Seconds - this->PhaseStartSeconds) / this->PhaseBudget);
+        }
+        fraction = std::min(fraction, 1.0);
+        if (fraction - lastProgress >= 0.01)
+        {
+          progress(fraction);
+          lastProgress = fraction;
+        }
+      }
+    }
+    if (reason != "stopped")
+    {
+      this->Publish();
+    }
+    this->EndPhase(reason);
+  }
+  catch (const std::exception& e)
+  {
+    this->Fail(e.what());
+  }
+}
+
+void TrainingRun::EndPhase(const std::string& reason)
+{
+  RunStatus status;
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->Current.EndReason = reason;
+    this->Current.State = RunState::Finishing;
+    this->FastForward = false;
+    ++this->Current.Serial;
+    status = this->Current;
+  }
+  this->Changed.notify_all();
+  if (this->OnPhaseEnd)
+  {
+    this->OnPhaseEnd(*this, status); // exceptions: Fail() by the caller
+  }
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->Current.State = reason == "stopped" ? RunState::Stopped : RunState::Finished;
+  this->StopRequested = false;
+  this->PauseRequested = false;
+  ++this->Current.Serial;
+  this->Changed.notify_all();
+}
+
+void TrainingRun::Pause()
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->PauseRequested = true;
+  if (this->Background && this->Current.State == RunState::Running)
+  {
+    // Shown at once; the chunk in flight (one step on the CPU, <= 64 on a GPU) still completes.
+    this->Current.State = RunState::Paused;
+    ++this->Current.Serial;
+  }
+}
+
+void TrainingRun::Resume()
+{
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->PauseRequested = false;
+    if (this->Current.State == RunState::Paused)
+    {
+      this->Current.State = RunState::Running;
+      ++this->Current.Serial;
+    }
+  }
+  this->Changed.notify_all();
+}
+
+void TrainingRun::Extend(int64_t steps, bool fastForward)
+{
+  if (steps <= 0)
+  {
+    return;
+  }
+  bool runHere = false;
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    const RunState s = this->Current.State;
+    if (s == RunState::Failed || !this->Trainer)
+    {
+      return;
+    }
+    this->FastForward = fastForward;
+    this->PauseRequested = false;
+    if (s == RunState::Finished || s == RunState::Stopped)
+    {
+      // A new phase from the trainer's state: exactly `steps` more, no time budget, no PSNR target.
+      this->Current.TargetSteps = this->Current.Steps + steps;
+      this->PhaseBudget = 0.0;
+      this->PhaseTargetPsnr = 0.0;
+      this->PhaseStartSeconds = this->Current.Seconds;
+      this->StopRequested = false;
+      this->Current.State = RunState::Running;
+      this->PhaseRequested = this->Background;
+      runHere = !this->Background;
+    }
+    else
+    {
+      this->Current.TargetSteps += steps;
+    }
+    ++this->Current.Serial;
+  }
+  this->Changed.notify_all();
+  if (runHere)
+  {
+    this->RunPhase(nullptr, nullptr);
+  }
+}
+
+void TrainingRun::Stop()
+{
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->StopRequested = true;
+    ++this->Current.Serial;
+  }
+  this->Changed.notify_all();
+}
+
+bool TrainingRun::Wait(double timeoutSeconds)
+{
+  std::unique_lock<std::mutex> lock(this->Mutex);
+  auto settled = [this]() {
+    const RunState s = this->Current.State;
+    return s == RunState::Finished || s == RunState::Stopped || s == RunState::Failed;
+  };
+  if (timeoutSeconds < 0.0)
+  {
+    this->Changed.wait(lock, settled);
+    return true;
+  }
+  return this->Changed.wait_for(lock, std::chrono::duration<double>(timeoutSeconds), settled);
+}
+
+RunStatus TrainingRun::Status() const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->Current;
+}
+
+std::vector<LogRow> TrainingRun::Log() const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->Rows;
+}
+
+} // namespace vtkNeuralCompressInternals

@@ -1,0 +1,139 @@
+// Private to NeuralVolume::Filters, free of VTK: one training run of a network session, in the calling thread or in
+// a background thread, with the controls of the Neural Compress panel (pause, resume, continue for N steps,
+// fast-forward, stop) and a status that the GUI polls. The engine tests build it with the engine alone.
+//
+// A run trains in phases. The first phase ends at its step limit, its time budget (active training time: paused time
+// does not count) or its target PSNR; Extend() starts another phase (or lengthens the current one) from the state the
+// trainer has (parameters and Adam moments), so "continue for N steps" is exact. At the end of every phase the
+// trainer's parameters are published to the session and the phase-end hook runs in the training thread (the filter
+// decodes and measures there, so the GUI thread never does heavy work). Stop() ends the run at once: the network the
+// session shows is the one last published; a step in flight is discarded, nothing is published after Stop().
+#ifndef vtkNeuralTrainingRun_h
+#define vtkNeuralTrainingRun_h
+
+#include "vtkNeuralCompressInternals.h"
+
+#include <condition_variable>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace vtkNeuralCompressInternals
+{
+
+/// What a run trains on: the field (its storage must stay alive as long as the run) and the PSNR probe.
+struct TrainingData
+{
+  SourceField Field;
+  std::shared_ptr<void> Owner;      ///< keeps the array that Field may view in place alive
+  std::unique_ptr<PsnrProbe> Probe; ///< null: no intermediate PSNR
+};
+
+struct RunLimits
+{
+  int64_t MaxSteps = 0;
+  double TimeBudget = 0.0;     ///< seconds of active training, 0 = unlimited
+  double TargetPsnr = 0.0;     ///< dB on the probe, 0 = off
+  int PsnrInterval = 0;        ///< steps between probes (0 = none)
+  double PublishSeconds = 0.1; ///< background runs: the session shows a new network at least this often
+};
+
+enum class RunState : int
+{
+  Starting = 0, ///< background run: the trainer is being created
+  Running = 1,
+  Paused = 2,
+  Finishing = 3, ///< the phase ended; the phase-end hook is running
+  Finished = 4,  ///< a phase ended at its limit; Extend() continues
+  Stopped = 5,   ///< Stop(): final, Extend() still continues from the trainer's state
+  Failed = 6
+};
+const char* RunStateName(RunState s);
+
+struct RunStatus
+{
+  RunState State = RunState::Starting;
+  int64_t Steps = 0;
+  int64_t TargetSteps = 0;  ///< step count at which the current phase ends
+  double Seconds = 0.0;     ///< active training time of the whole run
+  double Loss = 0.0;        ///< last step's loss
+  double Psnr = std::numeric_limits<double>::quiet_NaN(); ///< last probe
+  std::string EndReason;    ///< why the last phase ended ("step limit", "time budget", "target PSNR", "stopped")
+  std::string Error;        ///< Failed: the engine's message
+  uint64_t Serial = 0;      ///< changes whenever anything here or the published network changes
+  int64_t DeviceMemoryBytes = 0;
+};
+
+class TrainingRun
+{
+public:
+  /// Called in the training thread after the last publish of a phase (and after Stop); may throw nv::Error.
+  using PhaseEndHook = std::function<void(TrainingRun&, const RunStatus&)>;
+
+  TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::shared_ptr<TrainingData> data,
+    const nv::TrainConfig& config, const RunLimits& limits, PhaseEndHook onPhaseEnd);
+  ~TrainingRun(); ///< stops and joins the background thread
+  TrainingRun(const TrainingRun&) = delete;
+  TrainingRun& operator=(const TrainingRun&) = delete;
+
+  /// Runs the first phase in the calling thread. `abort` is polled between chunks of steps (the run then ends as
+  /// Stopped); `progress` gets the phase's fraction done. Engine errors end the run as Failed (no exception).
+  void RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress);
+  /// Runs the first phase (and every later one) in a background thread; returns at once.
+  void StartInBackground();
+
+  void Pause();
+  void Resume();
+  /// `steps` more steps: lengthens the current phase, or starts a new one after a phase ended (without a time
+  /// budget or target PSNR). fastForward: no intermediate publishes until that phase ends (the paper's button).
+  /// In a run started with RunHere, a new phase also runs in the calling thread.
+  void Extend(int64_t steps, bool fastForward);
+  /// Ends the run now (see the file comment).
+  void Stop();
+  /// Blocks while the run is Starting, Running, Finishing or Paused, at most `timeoutSeconds` (< 0: no limit).
+  /// Returns true when the run has settled (Finished, Stopped or Failed).
+  bool Wait(double timeoutSeconds);
+
+  RunStatus Status() const;
+  std::vector<LogRow> Log() const;
+  nv::NetworkSession& Session() { return *this->SessionPtr; }
+  const TrainingData& Data() const { return *this->DataPtr; }
+  bool InBackground() const { return this->Background; }
+
+private:
+  void Worker();
+  void RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
+  void EndPhase(const std::string& reason);
+  void Fail(const std::string& message);
+  void Publish();
+
+  std::shared_ptr<nv::NetworkSession> SessionPtr;
+  std::shared_ptr<TrainingData> DataPtr;
+  nv::TrainConfig Config;
+  RunLimits Limits;
+  PhaseEndHook OnPhaseEnd;
+  std::unique_ptr<nv::Trainer> Trainer;
+
+  mutable std::mutex Mutex;
+  std::condition_variable Changed;
+  RunStatus Current;
+  std::vector<LogRow> Rows;
+  bool PauseRequested = false;
+  bool StopRequested = false;
+  bool Quit = false;
+  bool PhaseRequested = false; ///< Extend() after a phase ended
+  bool FastForward = false;
+  double PhaseBudget = 0.0;    ///< active seconds allowed to this phase (0 = unlimited)
+  double PhaseStartSeconds = 0.0;
+  double PhaseTargetPsnr = 0.0;
+  bool Background = false;
+  std::thread Thread;
+};
+
+} // namespace vtkNeuralCompressInternals
+
+#endif

@@ -1,0 +1,317 @@
+// The Neural Compress training run (Filters/vtkNeuralTrainingRun, free of VTK) on the CPU engine: background
+// training publishing to the session, pause / resume / continue / fast-forward step counts, stop latency, target
+// PSNR and time budget, bit-for-bit determinism, and warm start against cold start.
+#include "Core/Engine.h"
+#include "SessionHelpers.h"
+#include "TestHarness.h"
+#include "vtkNeuralTrainingRun.h"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+using namespace nv;
+namespace vi = vtkNeuralCompressInternals;
+using Clock = std::chrono::steady_clock;
+
+namespace
+{
+constexpr int kN = 32;
+
+std::vector<float> analyticVolume(double phase)
+{
+  std::vector<float> v(size_t(kN) * kN * kN);
+  for (int z = 0; z < kN; ++z)
+    for (int y = 0; y < kN; ++y)
+      for (int x = 0; x < kN; ++x)
+      {
+        const double X = double(x) / (kN - 1), Y = double(y) / (kN - 1), Z = double(z) / (kN - 1);
+        v[(size_t(z) * kN + y) * kN + x] =
+          float(100.0 * (std::sin(6 * X + phase) * std::cos(5 * Y) + 0.5 * std::sin(7 * Z - phase)));
+      }
+  return v;
+}
+
+std::shared_ptr<vi::TrainingData> data(const std::vector<float>& values, bool probe = true)
+{
+  auto d = std::make_shared<vi::TrainingData>();
+  VolumeView& vol = d->Field.View;
+  vol.data = values.data();
+  vol.type = ScalarType::Float32;
+  vol.dims[0] = vol.dims[1] = vol.dims[2] = kN;
+  const VolumeStats s = computeStats(vol);
+  vol.valueMin = s.min;
+  vol.valueMax = s.max;
+  if (probe)
+    d->Probe.reset(new vi::PsnrProbe(vol, 1, 8192));
+  return d;
+}
+
+Model model(const vi::TrainingData& d, uint64_t seed)
+{
+  ModelConfig c;
+  c.encoding.levels = 6;
+  c.encoding.featuresPerLevel = 2;
+  c.encoding.log2TableSize = 12;
+  c.encoding.finestResolution = 64;
+  c.network.width = 16;
+  c.network.hiddenLayers = 1;
+  Model m(c);
+  m.initialize(seed);
+  m.source.valueMin = d.Field.View.valueMin;
+  m.source.valueMax = d.Field.View.valueMax;
+  return m;
+}
+
+TrainConfig trainConfig()
+{
+  TrainConfig t;
+  t.batchSize = 4096;
+  t.seed = 7;
+  t.threads = 2;
+  return t;
+}
+
+vi::RunLimits limits(int64_t steps, int psnrInterval = 0)
+{
+  vi::RunLimits l;
+  l.MaxSteps = steps;
+  l.PsnrInterval = psnrInterval;
+  l.PublishSeconds = 0.02;
+  return l;
+}
+
+/// Waits until `pred` or `seconds` pass.
+template <typename P>
+bool waitFor(P pred, double seconds)
+{
+  const auto until = Clock::now() + std::chrono::duration<double>(seconds);
+  while (!pred())
+  {
+    if (Clock::now() > until)
+      return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+double psnrOf(NetworkSession& s, const VolumeView& vol)
+{
+  return compareToSource(s, vol).psnr;
+}
+} // namespace
+
+NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+  int hookCalls = 0;
+  vi::TrainingRun run(s, d, trainConfig(), limits(400, 50),
+    [&](vi::TrainingRun&, const vi::RunStatus&) { ++hookCalls; });
+  const uint64_t v0 = s->version();
+  const auto t0 = Clock::now();
+  run.StartInBackground();
+  EXPECT_TRUE(std::chrono::duration<double>(Clock::now() - t0).count() < 0.05); // returns at once
+  // The session shows newer networks while the run goes on (several publishes before it ends).
+  std::vector<uint64_t> versions;
+  waitFor([&]() {
+    const uint64_t v = s->version();
+    if (versions.empty() || versions.back() != v)
+      versions.push_back(v);
+    return run.Status().State == vi::RunState::Finished;
+  }, 120.0);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(versions.size() >= 3);
+  EXPECT_TRUE(s->version() > v0);
+  EXPECT_TRUE(run.Status().Steps == 400);
+  EXPECT_TRUE(run.Status().EndReason == "step limit");
+  EXPECT_TRUE(hookCalls == 1);
+  EXPECT_TRUE(run.Log().size() == 400);
+  // Probes every 50 steps before the last: 7 PSNR values, finite and rising overall.
+  int probes = 0;
+  double first = 0, last = 0;
+  for (const vi::LogRow& r : run.Log())
+    if (std::isfinite(r.PSNR))
+    {
+      first = probes == 0 ? r.PSNR : first;
+      last = r.PSNR;
+      ++probes;
+    }
+  EXPECT_TRUE(probes == 7);
+  EXPECT_TRUE(last > first + 3.0);
+}
+
+NV_TEST(PauseResumeContinueFastForwardAreExact)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values, false);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+  vi::TrainingRun run(s, d, trainConfig(), limits(300), nullptr);
+  run.StartInBackground();
+  EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 20; }, 60.0));
+  run.Pause();
+  EXPECT_TRUE(run.Status().State == vi::RunState::Paused);
+  // The step in flight completes; then nothing moves, and the session keeps its network.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const int64_t paused = run.Status().Steps;
+  const uint64_t version = s->version();
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  EXPECT_TRUE(run.Status().Steps == paused);
+  EXPECT_TRUE(s->version() == version);
+  EXPECT_TRUE(paused < 300);
+  run.Resume();
+  EXPECT_TRUE(run.Wait(120.0));
+  EXPECT_TRUE(run.Status().Steps == 300);
+  run.Extend(37, false);
+  EXPECT_TRUE(run.Wait(60.0));
+  EXPECT_TRUE(run.Status().Steps == 337);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  const uint64_t beforeFast = s->version();
+  run.Extend(50, true); // fast-forward: one publish at the end
+  EXPECT_TRUE(run.Wait(60.0));
+  EXPECT_TRUE(run.Status().Steps == 387);
+  EXPECT_TRUE(s->version() == beforeFast + 1);
+  EXPECT_TRUE(run.Log().size() == 387);
+}
+
+NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values, false);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+  vi::TrainingRun run(s, d, trainConfig(), limits(1000000), nullptr);
+  run.StartInBackground();
+  EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 10; }, 60.0));
+  const auto t0 = Clock::now();
+  run.Stop();
+  EXPECT_TRUE(run.Wait(5.0));
+  const double latency = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::printf("  stop latency %.4f s\n", latency);
+  EXPECT_TRUE(latency < 0.2);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Stopped);
+  EXPECT_TRUE(run.Status().EndReason == "stopped");
+  const uint64_t version = s->version();
+  const int64_t steps = run.Status().Steps;
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_TRUE(s->version() == version);
+  EXPECT_TRUE(run.Status().Steps == steps);
+  // Not sticky: a new phase trains again.
+  run.Extend(5, false);
+  EXPECT_TRUE(run.Wait(30.0));
+  EXPECT_TRUE(run.Status().Steps == steps + 5);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+}
+
+NV_TEST(AbortInTheCallingThreadIsNotSticky)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values, false);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+  vi::TrainingRun run(s, d, trainConfig(), limits(100), nullptr);
+  int polls = 0;
+  run.RunHere([&]() { return ++polls > 10; }, nullptr);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Stopped);
+  EXPECT_TRUE(run.Status().Steps == 10);
+  run.Extend(20, false); // runs here again, without an abort
+  EXPECT_TRUE(run.Status().Steps == 30);
+  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+}
+
+NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  {
+    auto d = data(values);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    vi::RunLimits l = limits(5000, 10);
+    l.TargetPsnr = 25.0;
+    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
+    run.RunHere(nullptr, nullptr);
+    const vi::RunStatus st = run.Status();
+    EXPECT_TRUE(st.EndReason == "target PSNR");
+    EXPECT_TRUE(st.Steps < 5000 && st.Steps % 10 == 0);
+    EXPECT_TRUE(st.Psnr >= 25.0);
+  }
+  {
+    auto d = data(values, false);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    vi::RunLimits l = limits(1000000);
+    l.TimeBudget = 0.5;
+    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
+    run.StartInBackground();
+    // Paused time does not count against the budget.
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    run.Pause();
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    EXPECT_TRUE(run.Status().State == vi::RunState::Paused);
+    run.Resume();
+    EXPECT_TRUE(run.Wait(30.0));
+    const vi::RunStatus st = run.Status();
+    EXPECT_TRUE(st.EndReason == "time budget");
+    std::printf("  budget 0.5 s: %.3f s of training, %lld steps\n", st.Seconds, static_cast<long long>(st.Steps));
+    EXPECT_TRUE(st.Seconds >= 0.5 && st.Seconds < 0.75);
+  }
+}
+
+NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
+{
+  const std::vector<float> values = analyticVolume(0.0);
+  std::vector<std::vector<float>> params;
+  for (int k = 0; k < 3; ++k)
+  {
+    auto d = data(values, k == 2);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 3), Device::Cpu, 2);
+    vi::TrainingRun run(s, d, trainConfig(), limits(120, k == 2 ? 20 : 0), nullptr);
+    if (k == 0)
+      run.RunHere(nullptr, nullptr);
+    else
+    {
+      // In the background, with publishes (and probes for k == 2) in between: they do not change the training.
+      run.StartInBackground();
+      EXPECT_TRUE(run.Wait(120.0));
+    }
+    params.push_back(s->currentModel().params());
+  }
+  EXPECT_TRUE(params[0] == params[1]);
+  EXPECT_TRUE(params[0] == params[2]);
+  // A different seed is a different network (the comparison can fail).
+  auto d = data(values, false);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 4), Device::Cpu, 2);
+  vi::TrainingRun run(s, d, trainConfig(), limits(120), nullptr);
+  run.RunHere(nullptr, nullptr);
+  EXPECT_TRUE(s->currentModel().params() != params[0]);
+}
+
+NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
+{
+  // Time step t trained; t+1 is the same field moved a little (a flow advancing).
+  const std::vector<float> t0 = analyticVolume(0.0), t1 = analyticVolume(0.15);
+  auto d0 = data(t0, false);
+  std::shared_ptr<NetworkSession> s0 = nvtest::session(model(*d0, 1), Device::Cpu, 2);
+  vi::TrainingRun first(s0, d0, trainConfig(), limits(400), nullptr);
+  first.RunHere(nullptr, nullptr);
+
+  const int steps = 100;
+  auto cold = data(t1, false), warm = data(t1, false);
+  std::shared_ptr<NetworkSession> sc = nvtest::session(model(*cold, 1), Device::Cpu, 2);
+  Model seeded = model(*warm, 1);
+  seeded.params() = s0->currentModel().params();
+  std::shared_ptr<NetworkSession> sw = nvtest::session(seeded, Device::Cpu, 2);
+  const double warmAtStart = psnrOf(*sw, warm->Field.View);
+  vi::TrainingRun coldRun(sc, cold, trainConfig(), limits(steps), nullptr);
+  vi::TrainingRun warmRun(sw, warm, trainConfig(), limits(steps), nullptr);
+  coldRun.RunHere(nullptr, nullptr);
+  warmRun.RunHere(nullptr, nullptr);
+  const double coldPsnr = psnrOf(*sc, cold->Field.View), warmPsnr = psnrOf(*sw, warm->Field.View);
+  std::printf("  after %d steps: cold %.2f dB, warm %.2f dB (warm before training %.2f dB)\n", steps, coldPsnr,
+    warmPsnr, warmAtStart);
+  EXPECT_TRUE(warmPsnr > coldPsnr + 2.0);
+  EXPECT_TRUE(warmAtStart > coldPsnr - 10.0); // the previous network is already a fair picture of t+1
+}
+
+int main(int argc, char** argv)
+{
+  return nvtest::runCases(argc, argv);
+}

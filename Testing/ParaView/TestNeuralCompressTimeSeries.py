@@ -1,0 +1,116 @@
+"""Time-varying input: time step t warm-starts the training of t+1 and needs fewer steps to the same PSNR than a
+cold start; networks are cached per time step (stepping back trains nothing); the metrics table has a row per time
+step; the voreen OpenLB flow series (when NV_DATA_DIR has it) too."""
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import nvtest  # noqa: E402
+
+import numpy as np  # noqa: E402
+from paraview.simple import *  # noqa: E402,F401,F403
+from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter  # noqa: E402
+from vtkmodules.util.numpy_support import numpy_to_vtk  # noqa: E402
+
+nvtest.load_plugin(globals())
+check, log = nvtest.check, nvtest.log
+
+# A field that moves a little from one time step to the next (a vortex drifting), written as a .pvd series.
+N, STEPS = 40, 5
+folder = os.path.join(nvtest.output_dir(), "timeseries")
+os.makedirs(folder, exist_ok=True)
+z, y, x = np.meshgrid(*(np.linspace(0.0, 1.0, N),) * 3, indexing="ij")
+entries = []
+for t in range(STEPS):
+    cx = 0.35 + 0.04 * t
+    field = (np.sin(7 * (x - cx)) * np.cos(6 * y) + 0.8 * np.exp(-((x - cx) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) / 0.05)
+             + 0.3 * np.sin(9 * z + 0.3 * t))
+    image = vtkImageData()
+    image.SetDimensions(N, N, N)
+    array = numpy_to_vtk(field.astype(np.float32).ravel(), deep=True)
+    array.SetName("f")
+    image.GetPointData().SetScalars(array)
+    writer = vtkXMLImageDataWriter()
+    name = "step_%d.vti" % t
+    writer.SetFileName(os.path.join(folder, name))
+    writer.SetInputData(image)
+    writer.Write()
+    entries.append('<DataSet timestep="%g" file="%s"/>' % (0.1 * t, name))
+pvd = os.path.join(folder, "series.pvd")
+with open(pvd, "w") as f:
+    f.write('<?xml version="1.0"?><VTKFile type="Collection" version="0.1"><Collection>%s</Collection></VTKFile>'
+            % "".join(entries))
+
+NET = dict(BatchSize=8192, Levels=10, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Loss="L2", Threads=2,
+           TargetCompressionRatio=1.5, Deterministic=0, TimeBudget=0)
+TARGET = 40.0  # dB; a cold start needs a few hundred steps (measured in the log below)
+
+
+def run_series(reader, array, warm, target, times, max_steps):
+    nc = NeuralCompress(Input=reader, SelectInputScalars=["POINTS", array], TrainingSteps=max_steps,
+                        TargetPSNR=target, PSNRInterval=10, WarmStart=warm, **NET)
+    steps, seconds = [], []
+    for t in times:
+        nc.UpdatePipeline(t)
+        out = nc.GetClientSideObject().GetOutputDataObject(0)
+        steps.append(int(nvtest.field_value(out, "NeuralSteps")))
+        seconds.append(nvtest.field_value(out, "NeuralTrainingSeconds"))
+        check(nvtest.field_value(out, "NeuralWarmStart") == (1 if warm and t != times[0] else 0),
+              "t=%g: NeuralWarmStart says %s" % (t, warm and t != times[0]))
+        check(nvtest.field_value(out, "NeuralPSNR") >= target - 1.0,
+              "t=%g: PSNR %.2f near the target %.1f" % (t, nvtest.field_value(out, "NeuralPSNR"), target))
+    return nc, steps, seconds
+
+
+reader = PVDReader(FileName=pvd)
+times = list(reader.TimestepValues)
+check(len(times) == STEPS, "the series has %d time steps" % STEPS)
+cold, cold_steps, cold_s = run_series(reader, "f", 0, TARGET, times, 1500)
+warm, warm_steps, warm_s = run_series(reader, "f", 1, TARGET, times, 1500)
+log("steps to %.0f dB per time step: cold %r, warm %r" % (TARGET, cold_steps, warm_steps))
+log("seconds: cold %.2f, warm %.2f (time steps 1..%d)" % (sum(cold_s[1:]), sum(warm_s[1:]), STEPS - 1))
+check(warm_steps[0] == cold_steps[0], "the first time step trains cold either way")
+check(sum(warm_steps[1:]) < 0.6 * sum(cold_steps[1:]), "warm start needs under 60% of the cold steps")
+
+# Cache: stepping back shows the cached network without a training step; one metrics row per time step.
+warm.SMProxy.UpdatePropertyInformation()
+before = warm.GetPropertyValue("TotalStepsTrained")
+for t in (times[1], times[0], times[3]):
+    warm.UpdatePipeline(t)
+    out = warm.GetClientSideObject().GetOutputDataObject(0)
+    check(abs(nvtest.field_value(out, "NeuralTime") - t) < 1e-12, "t=%g: the network of that time step" % t)
+warm.SMProxy.UpdatePropertyInformation()
+check(warm.GetPropertyValue("TotalStepsTrained") == before, "stepping back and forth trains nothing")
+metrics = warm.GetClientSideObject().GetOutputDataObject(2)
+check(metrics.GetNumberOfRows() == STEPS, "metrics: a row per time step (%d)" % metrics.GetNumberOfRows())
+check(list(metrics.GetColumnByName("Time").GetValue(i) for i in range(metrics.GetNumberOfRows())) == times,
+      "metrics rows ordered by time")
+check(all(metrics.GetColumnByName("WarmStart").GetValue(i) == (0 if i == 0 else 1) for i in range(STEPS)),
+      "metrics: WarmStart per time step")
+
+# A tiny cache keeps only the current time step: going back trains again.
+warm.NetworkCacheMiB = 0
+warm.UpdatePipeline(times[4])
+warm.SMProxy.UpdatePropertyInformation()
+before = warm.GetPropertyValue("TotalStepsTrained")
+warm.UpdatePipeline(times[2])
+warm.SMProxy.UpdatePropertyInformation()
+check(warm.GetPropertyValue("TotalStepsTrained") > before, "a network evicted from the cache is trained again")
+
+# Real data: the OpenLB flow (velocity magnitude), 6 time steps, when present.
+data_dir = os.environ.get("NV_DATA_DIR", "")
+flow = os.path.join(data_dir, "voreen_openlb_flow_timeseries", "flow_demo_A.pvd")
+if data_dir and os.path.exists(flow):
+    flow_reader = PVDReader(FileName=flow)
+    flow_times = list(flow_reader.TimestepValues)[10:16]
+    _, c_steps, c_s = run_series(flow_reader, "physVelocity", 0, 46.0, flow_times, 2000)
+    _, w_steps, w_s = run_series(flow_reader, "physVelocity", 1, 46.0, flow_times, 2000)
+    log("OpenLB flow, steps to 46 dB: cold %r, warm %r; seconds cold %.2f, warm %.2f"
+        % (c_steps, w_steps, sum(c_s[1:]), sum(w_s[1:])))
+    check(sum(w_steps[1:]) < sum(c_steps[1:]), "OpenLB flow: warm start needs fewer steps than cold")
+else:
+    log("OpenLB flow series not found under NV_DATA_DIR: that part is skipped")
+
+nvtest.finish()
