@@ -2,6 +2,9 @@
 // Free of VTK, so the GPU tests (Testing/Gpu) build it with the engine alone and run the filter's CUDA path on a
 // GPU machine without ParaView.
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralTrainingRun.h"
+
+#include "Core/Error.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,14 +14,6 @@
 
 namespace vtkNeuralCompressInternals
 {
-namespace
-{
-double Seconds(std::chrono::steady_clock::time_point since)
-{
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-} // namespace
-
 double PsnrFromMse(double mse)
 {
   return mse > 0.0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
@@ -82,69 +77,34 @@ double PsnrProbe::Estimate(nv::NetworkSession& session) const
 TrainingResult Train(nv::NetworkSession& session, const nv::VolumeView& view, const nv::TrainConfig& config,
   const TrainingRequest& request, const PsnrProbe* probe)
 {
-  TrainingResult result;
-  const auto start = std::chrono::steady_clock::now();
-  auto trainer = session.createTrainer(view, config);
-  result.DeviceMemoryBytes = trainer->deviceMemoryBytes();
-  double lastProgress = -1.0;
-  // Steps run in chunks through Trainer::steps (queued back to back on a GPU, one loss read-back per chunk); a
-  // chunk ends at the next PSNR probe and lasts at most ~20 ms on a GPU (64 steps), so abort and the time budget
-  // are checked often. On the CPU a chunk is one step.
-  const int64_t chunkMax = trainer->device() == nv::Device::Cuda ? 64 : 1;
-  std::vector<float> losses(static_cast<size_t>(chunkMax));
-  for (int64_t step = 1; step <= request.MaxSteps;)
+  // One training loop: a TrainingRun in the calling thread (the filter's blocking mode), on a session this call does
+  // not own.
+  auto data = std::make_shared<TrainingData>();
+  data->Field.View = view;
+  if (probe && request.PsnrInterval > 0)
   {
-    if (request.ShouldAbort && request.ShouldAbort())
-    {
-      result.Aborted = true;
-      break;
-    }
-    const double before = Seconds(start);
-    if (request.TimeBudget > 0.0 && before >= request.TimeBudget)
-    {
-      result.TimedOut = true;
-      break;
-    }
-    int64_t count = std::min(chunkMax, request.MaxSteps - step + 1);
-    if (probe && request.PsnrInterval > 0)
-      count = std::min(count, request.PsnrInterval - (step - 1) % request.PsnrInterval);
-    trainer->steps(count, losses.data());
-    const double after = Seconds(start);
-    for (int64_t k = 0; k < count; ++k, ++step)
-    {
-      LogRow row;
-      row.Step = step;
-      row.LearningRate = config.optimizer.learningRateAt(step);
-      row.Loss = losses[static_cast<size_t>(k)];
-      row.ElapsedSeconds = before + (after - before) * static_cast<double>(k + 1) / static_cast<double>(count);
-      row.PSNR = std::numeric_limits<double>::quiet_NaN();
-      if (probe && request.PsnrInterval > 0 && step % request.PsnrInterval == 0 && step != request.MaxSteps)
-      {
-        trainer->publish();
-        row.PSNR = probe->Estimate(session);
-      }
-      result.Log.push_back(row);
-      result.Steps = step;
-      result.FinalLoss = row.Loss;
-    }
-    if (request.Progress)
-    {
-      const double elapsed = Seconds(start);
-      double fraction = static_cast<double>(step - 1) / static_cast<double>(request.MaxSteps);
-      if (request.TimeBudget > 0.0)
-      {
-        fraction = std::max(fraction, elapsed / request.TimeBudget);
-      }
-      fraction = std::min(fraction, 1.0);
-      if (fraction - lastProgress >= 0.01)
-      {
-        request.Progress(fraction);
-        lastProgress = fraction;
-      }
-    }
+    data->Probe.reset(new PsnrProbe(*probe));
   }
-  trainer->publish();
-  result.Seconds = Seconds(start);
+  RunLimits limits;
+  limits.MaxSteps = request.MaxSteps;
+  limits.TimeBudget = request.TimeBudget;
+  limits.PsnrInterval = request.PsnrInterval;
+  std::shared_ptr<nv::NetworkSession> unowned(&session, [](nv::NetworkSession*) {});
+  TrainingRun run(unowned, data, config, limits, nullptr);
+  run.RunHere(request.ShouldAbort, request.Progress);
+  const RunStatus status = run.Status();
+  if (status.State == RunState::Failed)
+  {
+    throw nv::Error(status.Error);
+  }
+  TrainingResult result;
+  result.Steps = status.Steps;
+  result.Seconds = status.Seconds;
+  result.FinalLoss = status.Loss;
+  result.Aborted = status.EndReason == "stopped";
+  result.TimedOut = status.EndReason == "time budget";
+  result.DeviceMemoryBytes = status.DeviceMemoryBytes;
+  result.Log = run.Log();
   return result;
 }
 

@@ -269,7 +269,9 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         }
       }
     }
-    if (reason != "stopped")
+    // Background: nothing is published after Stop(). In the calling thread an abort comes between chunks, and the
+    // steps done are kept.
+    if (reason != "stopped" || !this->Background)
     {
       this->Publish();
     }
@@ -377,6 +379,13 @@ void TrainingRun::Stop()
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     this->StopRequested = true;
+    const RunState s = this->Current.State;
+    if (this->Background && (s == RunState::Running || s == RunState::Paused || s == RunState::Starting))
+    {
+      // Shown at once: nothing is published any more; the phase-end hook measures the network next.
+      this->Current.State = RunState::Finishing;
+      this->Current.EndReason = "stopped";
+    }
     ++this->Current.Serial;
   }
   this->Changed.notify_all();

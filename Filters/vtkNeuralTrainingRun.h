@@ -6,8 +6,9 @@
 // does not count) or its target PSNR; Extend() starts another phase (or lengthens the current one) from the state the
 // trainer has (parameters and Adam moments), so "continue for N steps" is exact. At the end of every phase the
 // trainer's parameters are published to the session and the phase-end hook runs in the training thread (the filter
-// decodes and measures there, so the GUI thread never does heavy work). Stop() ends the run at once: the network the
-// session shows is the one last published; a step in flight is discarded, nothing is published after Stop().
+// decodes and measures there, so the GUI thread never does heavy work). Stop() ends a background run at once: the
+// network the session shows is the one last published; a chunk in flight is discarded, nothing is published after
+// Stop(). A run in the calling thread stops between chunks (abort) and keeps the steps done.
 #ifndef vtkNeuralTrainingRun_h
 #define vtkNeuralTrainingRun_h
 

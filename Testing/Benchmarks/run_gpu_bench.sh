@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # GPU parity tests, sanitizer runs and benchmarks of the CUDA engine, for the device machine.
 # Binaries and data are carried in .devcarry/ (bin/: nvTestGpuParity nvTestFilterTrainingGpu nvBenchGpu nvBench
-# nvBenchRender nvTestGpuRender, optionally xz-compressed; data/: the data folders (stent/, walnut/, headsq/ with
-# .nhdr + .raw, as in ../shared/data); ref/: the PyTorch reference scripts). Usage:
+# nvBenchRender nvTestGpuRender nvBenchOnline, optionally xz-compressed; data/: the data folders (stent/, walnut/, headsq/ with
+# .nhdr + .raw, as in ../shared/data; timeseries/ from export_timeseries.py); ref/: the PyTorch reference scripts). Usage:
 # run_gpu_bench.sh SECTION... with SECTION in
 #   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
-#   render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
+#   online | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -84,6 +84,15 @@ for s in "$@"; do
       $B/nvBenchRender cuda $STENT 14 2250 1280 720 sweep 10 2>&1 | tee "$O/render_sweep.log" ;;
     renderskip)
       $B/nvBenchRender cuda $STENT 14 2250 1280 720 skip 10 2>&1 | tee "$O/render_skip.log" ;;
+    online)
+      # the online filter's training run: background training with renders, pause / stop, warm starts, restores
+      $B/nvTestFilterTrainingGpu 2>&1 | tee "$O/filter_training.log"
+      $B/nvBenchOnline cuda live $STENT 14 2 1280 720 2>&1 | tee "$O/online_live.log"
+      $B/nvBenchOnline cuda live $STENT 19 2 1920 1080 2>&1 | tee -a "$O/online_live.log"
+      $B/nvBenchOnline cuda warm $D/timeseries/flow 10 10 14 1000 2>&1 | tee "$O/online_warm_flow.log"
+      $B/nvBenchOnline cuda warm $D/timeseries/cth 0 9 16 1000 2>&1 | tee "$O/online_warm_cth.log"
+      $B/nvBenchOnline cuda restore $STENT 16 1000 1280 720 2>&1 | tee "$O/online_restore.log"
+      $B/nvBenchOnline cuda restore $STENT@2 19 1000 1280 720 2>&1 | tee -a "$O/online_restore.log" ;;
     rendertrain)
       $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
     renderlarge)

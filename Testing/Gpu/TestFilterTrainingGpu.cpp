@@ -5,10 +5,17 @@
 #include "Core/Engine.h"
 #include "Gpu/GpuEngine.h"
 #include "TestHarness.h"
+#include "RenderFixtures.h"
 #include "TestVolumeView.h"
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralTrainingRun.h"
 
+#include "Core/NetworkSession.h"
+
+#include <chrono>
 #include <cmath>
+#include <set>
+#include <thread>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -139,6 +146,58 @@ NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
     EXPECT_TRUE(r.TimedOut && r.Steps > 64 && r.Steps < rq.MaxSteps && r.Steps % 64 == 0);
     EXPECT_TRUE(r.Seconds < 0.3 + 0.25); // one chunk past the budget at most, plus the final sync
   }
+}
+
+NV_TEST(background_run_while_rendering_on_gpu)
+{
+  // The online filter on the GPU: a background run trains and publishes while this thread renders; every few frames
+  // show a newer network; pause holds it, stop ends it within 0.2 s with nothing published after.
+  const auto data = smoothVolume();
+  auto d = std::make_shared<vi::TrainingData>();
+  d->Field.View = floatCubeView(data, kN);
+  std::shared_ptr<NetworkSession> session = NetworkSession::create(Device::Cuda, smallModel(d->Field.View));
+  vi::RunLimits limits;
+  limits.MaxSteps = 3000;
+  limits.PublishSeconds = 0.01;
+  vi::TrainingRun run(session, d, trainConfig(TrainingStrategy::Auto), limits, nullptr);
+  RenderRequest q = nvtest::blobRequest(session->currentModel(), RenderPath::Decode, ShadingMode::RayMarch, 256,
+    256);
+  q.samplesPerPixel = 1;
+  RenderResult image;
+  run.StartInBackground();
+  std::set<uint64_t> versions;
+  int frames = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (run.Status().Steps < 1000 && frames < 100000)
+  {
+    session->render(q, image);
+    versions.insert(session->version());
+    ++frames;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("    %d frames in %.2f s while training (%zu network versions seen), %lld steps\n", frames, seconds,
+    versions.size(), (long long)run.Status().Steps);
+  EXPECT_TRUE(versions.size() >= 5);
+  run.Pause();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const int64_t paused = run.Status().Steps;
+  const uint64_t pausedVersion = session->version();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_TRUE(run.Status().Steps == paused && session->version() == pausedVersion);
+  run.Resume();
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const auto s0 = std::chrono::steady_clock::now();
+  run.Stop();
+  EXPECT_TRUE(run.Wait(5.0));
+  const double latency = std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
+  std::printf("    stop latency %.4f s at %lld steps\n", latency, (long long)run.Status().Steps);
+  EXPECT_TRUE(latency < 0.2);
+  const uint64_t stoppedVersion = session->version();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_TRUE(session->version() == stoppedVersion);
+  run.Extend(128, true);
+  EXPECT_TRUE(run.Wait(30.0));
+  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
 }
 
 int main(int argc, char** argv)

@@ -1,5 +1,6 @@
 """The ParaView GUI refines a Neural Volume picture without blocking: runs NeuralVolumeGuiScript.py in the paraview
-executable, built-in and connected to a loopback pvserver (see that script)."""
+executable, built-in and connected to a loopback pvserver (see that script); and NeuralCompressOnlineGuiScript.py:
+background training shown live in the GUI."""
 import os
 import socket
 import subprocess
@@ -25,13 +26,13 @@ if not paraview or not pvserver:
 script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "NeuralVolumeGuiScript.py")
 
 
-def run_gui(label, extra_args, env_extra):
+def run_gui(label, extra_args, env_extra, gui_script=script):
     env = dict(os.environ)
     env.update(env_extra)
     env["NV_TEST_DIR"] = os.path.dirname(os.path.abspath(__file__))
     log("--- GUI, %s" % label)
     try:
-        result = subprocess.run([paraview, "--dr", "--script=" + script] + extra_args, env=env, timeout=120,
+        result = subprocess.run([paraview, "--dr", "--script=" + gui_script] + extra_args, env=env, timeout=120,
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     except subprocess.TimeoutExpired as e:
         log((e.stdout or b"").decode(errors="replace"))
@@ -46,6 +47,9 @@ for stale in ("builtin_first", "builtin_final", "remote_first", "remote_final"):
     if os.path.exists(path):
         os.remove(path)
 run_gui("built-in session", [], {})
+# Neural Compress trains in the background while the GUI shows it (the live-source timer, Stop Training).
+run_gui("online training", [], {},
+        os.path.join(os.path.dirname(os.path.abspath(__file__)), "NeuralCompressOnlineGuiScript.py"))
 
 s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
 s.bind(("127.0.0.1", 0))
