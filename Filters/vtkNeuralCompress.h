@@ -8,13 +8,14 @@
  * this class only translates VTK data and properties into engine calls.
  *
  * Output port 0: vtkImageData with the input's bounds (spacing adapted when OutputResolution
- * is set) holding the decoded field (float) under the input array's name, point data for a
- * point array, cell data for a cell array. Its field data carries the serialized network
- * (`NeuralNetwork`, vtkUnsignedCharArray, and `NeuralNetworkSession`, the key of the trained
- * session for renderers of the same process; see vtkNeuralNetworkArray) and the metadata arrays
- * `NeuralTrainingSeconds`,
- * `NeuralSteps`, `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`,
- * `NeuralModelBytes`, `NeuralInvalidSamples` and `NeuralDevice`.
+ * is set). Its field data carries the serialized network (`NeuralNetwork`, vtkUnsignedCharArray, and
+ * `NeuralNetworkSession`, the key of the trained session for renderers of the same process; see
+ * vtkNeuralNetworkArray) and the metadata arrays `NeuralTrainingSeconds`, `NeuralSteps`,
+ * `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`, `NeuralModelBytes`,
+ * `NeuralInvalidSamples`, `NeuralGpuMemoryBytes`, `NeuralDevice`, `NeuralTrainingState`,
+ * `NeuralWarmStart`, `NeuralRestored`, `NeuralTime` and `NeuralValueRange`. OutputMode decides
+ * whether it also holds the decoded field (under the input array's name, point data for a point
+ * array, cell data for a cell array), in the input's type or in float32.
  *
  * Output port 1: vtkTable training log with the columns Step, Loss, LearningRate,
  * ElapsedSeconds and PSNR (NaN except every PSNRInterval steps and at the last step; the

@@ -11,6 +11,7 @@
 #include "vtkType.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -265,26 +266,35 @@ void Job::FinalizeWithoutTraining()
   this->FinalRecord = record;
 }
 
-NetworkRecord Job::Snapshot() const
+NetworkRecord Job::Snapshot()
 {
   NetworkRecord r;
   r.Key = this->Key;
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
-  nv::Model model = this->Session->currentModel();
-  model.quantize(this->Storage);
-  model.stats.steps = status.Steps;
-  model.stats.seconds = status.Seconds;
-  model.stats.device = nv::deviceName(this->Session->device());
-  r.Bytes = nv::serialize(model);
+  // The bytes matter to consumers in other processes only (renderers here use the live session): serialized again
+  // at most once a second, so frequent live refreshes of a large network stay cheap for the GUI thread.
+  const auto now = std::chrono::steady_clock::now();
+  if (this->LiveBytes.empty() || now - this->LiveBytesTime > std::chrono::seconds(1))
+  {
+    nv::Model model = this->Session->currentModel();
+    model.quantize(this->Storage);
+    model.stats.steps = status.Steps;
+    model.stats.seconds = status.Seconds;
+    model.stats.device = nv::deviceName(this->Session->device());
+    this->LiveBytes = nv::serialize(model);
+    this->LiveBytesTime = now;
+    this->LiveModelBytes = model.parameterBytes();
+  }
+  r.Bytes = this->LiveBytes;
   Metrics& m = r.M;
   m.State = RunStateName(status.State);
   m.Steps = status.Steps;
   m.Seconds = status.Seconds;
   m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
   m.PsnrFinal = false;
-  m.ModelBytes = model.parameterBytes();
-  m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.ModelBytes = this->LiveModelBytes;
+  m.Ratio = static_cast<double>(this->Base.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());

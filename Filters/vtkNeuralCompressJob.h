@@ -7,6 +7,7 @@
 
 #include "vtkSmartPointer.h"
 
+#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -111,12 +112,15 @@ public:
   void SetFinal(std::shared_ptr<const NetworkRecord> record);
   /// For a field with no training (constant): finalise at once.
   void FinalizeWithoutTraining();
-  /// The record of the network the session holds now (a snapshot while training).
-  NetworkRecord Snapshot() const;
+  /// The record of the network the session holds now (a snapshot while training; its bytes at most 1 s old).
+  NetworkRecord Snapshot();
 
   mutable std::mutex Mutex;
 
 private:
+  std::vector<uint8_t> LiveBytes;
+  std::chrono::steady_clock::time_point LiveBytesTime;
+  int64_t LiveModelBytes = 0;
   std::shared_ptr<const NetworkRecord> FinalRecord;
   vtkSmartPointer<vtkDataArray> Decoded;
   int DecodedMode = 0;

@@ -190,6 +190,9 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
     << (job.Storage == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << m.Ratio << ":1";
   if (targetRatio > 0.0)
     s << " (target " << targetRatio << ")";
+  else if (m.Ratio < 1.0)
+    s << " (the field is smaller than the smallest model of this configuration; fewer Levels or FeaturesPerLevel "
+         "make a smaller one)";
   if (!job.DeviceNote.empty())
     s << "; " << job.DeviceNote;
   s << "\n";

@@ -14,6 +14,10 @@ src = Wavelet(WholeExtent=[-63, 64, -63, 64, -63, 64])
 nc = NeuralCompress(Input=src)
 nc.SelectInputScalars = ["POINTS", "RTData"]
 t0 = time.time()
+nc.UpdatePipeline()  # returns at once: training runs in the background (TrainInBackground, the default)
+started = time.time() - t0
+state = servermanager.Fetch(nc).GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0)
+nc.WaitForTraining()  # a script waits for the end; the GUI shows the network as it learns
 nc.UpdatePipeline()
 wall = time.time() - t0
 
@@ -28,7 +32,8 @@ def value(name):
 print("NeuralVolume demo: 128^3 Wavelet (RTData, float32, %.1f MB)" % (128 ** 3 * 4 / 1e6))
 print("  device            %s" % value("NeuralDevice"))
 print("  training steps    %d" % value("NeuralSteps"))
-print("  training time     %.2f s (filter wall time %.2f s)" % (value("NeuralTrainingSeconds"), wall))
+print("  training time     %.2f s (Apply returned after %.3f s in state %s; final after %.2f s)"
+      % (value("NeuralTrainingSeconds"), started, state, wall))
 print("  PSNR              %.2f dB (all voxels, values normalised by the data range)" % value("NeuralPSNR"))
 print("  max error         %.4g" % value("NeuralMaxError"))
 print("  compression ratio %.2f : 1 (%d model bytes)" % (value("NeuralCompressionRatio"), value("NeuralModelBytes")))
@@ -42,7 +47,7 @@ if hasattr(view, "UseColorPaletteForBackground"):
 rep = Show(nc, view)  # Neural Volume, coloured by RTData
 lut = GetColorTransferFunction("RTData")
 lut.ApplyPreset("Cool to Warm", True)
-lo, hi = nc.PointData["RTData"].GetRange()
+lo, hi = fd.GetArray("NeuralValueRange").GetValue(0), fd.GetArray("NeuralValueRange").GetValue(1)
 pwf = GetOpacityTransferFunction("RTData")  # show the high values, let the low ones through
 pwf.Points = [lo, 0.0, 0.5, 0.0, lo + 0.55 * (hi - lo), 0.0, 0.5, 0.0, hi, 0.8, 0.5, 0.0]
 view.ResetCamera()

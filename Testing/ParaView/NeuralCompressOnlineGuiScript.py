@@ -77,10 +77,11 @@ def on_timer(caller, event):
         nc.StopTraining()  # what the panel's Stop Training button invokes
         samples.append((time.time(), None, len(renders)))
         phase[0] = "stopping"
-    elif phase[0] == "stopping" and now - samples[1][0] > 0.6:
+    elif phase[0] == "stopping" and (status()[0] in ("Finishing", "Stopped") or now - samples[1][0] > 5.0):
         phase[0] = "busy"
         state, steps = status()
-        log("0.6 s after Stop Training: %s at %d steps" % (state, steps))
+        log("Stop Training: the panel's status says %s %.3f s after the click (next timer callback), at %d steps"
+            % (state, now - samples[1][0], steps))
         check(state in ("Finishing", "Stopped"), "the panel's status shows the stop without a script update (%s)"
               % state)
         samples.append((time.time(), (state, steps), len(renders)))

@@ -66,6 +66,30 @@ for name, path, dims, dtype, steps, threshold in CASES:
         # 32 KiB of uint8 cannot be stored 10:1 by the smallest 2^10 table: a warning says so.
         check("target compression ratio 10:1 is out of reach" in messages[0],
               "%s: unreachable target reported (%r)" % (name, messages[0]))
+        check("Float16" not in messages[0], "%s: the advice does not suggest what is on (%r)" % (name, messages[0]))
+    Delete(nc)
+    Delete(reader)
+
+# The defaults never warn on the regular grids of the data folder (every .nhdr volume, and the OpenLB velocity
+# series): the automatic size target is reachable or silently the smallest table, no advice about what is on.
+# (TrainingSteps is lowered to keep the test short: it does not change the checks or messages.)
+import glob  # noqa: E402
+volumes = sorted(glob.glob(os.path.join(data_dir, "*", "*.nhdr")))
+flow = os.path.join(data_dir, "voreen_openlb_flow_timeseries", "results_iT0010000iC00000.vti")
+check(len(volumes) >= 7, "the regular-grid volumes are found (%d)" % len(volumes))
+for path in volumes + ([flow] if os.path.exists(flow) else []):
+    reader = NrrdReader(FileName=path) if path.endswith(".nhdr") else XMLImageDataReader(FileName=path)
+    reader.UpdatePipeline()
+    info = reader.GetDataInformation().DataInformation.GetPointDataInformation()
+    nc = NeuralCompress(Input=reader, SelectInputScalars=["POINTS", info.GetArrayInformation(0).GetName()],
+                        TrainingSteps=2, TrainInBackground=0, OutputMode="Network only")
+    with nvtest.captured_messages() as messages:
+        nc.UpdatePipeline()
+    out = servermanager.Fetch(nc)
+    log("defaults, %s: ratio %.2f, no warning: %s" % (os.path.basename(path),
+        nvtest.field_value(out, "NeuralCompressionRatio"), "Warning" not in messages[0]))
+    check("Warning" not in messages[0] and "WARN" not in messages[0],
+          "defaults on %s: no warning (%r)" % (os.path.basename(path), messages[0][:300]))
     Delete(nc)
     Delete(reader)
 
