@@ -34,16 +34,14 @@ nvi::TrainingRun* vtkNeuralCompress::CurrentRun(bool create)
   if (!job.Run && create && job.Data && job.Field.Stats.max > job.Field.Stats.min)
   {
     // A cached or restored network: a run that starts from it (Continue, Fast-forward).
-    nv::TrainConfig train;
-    train.batchSize = this->BatchSize;
-    train.seed = static_cast<uint64_t>(this->Seed);
-    train.loss = this->Loss == LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
-    train.optimizer.learningRate = this->LearningRate;
-    train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
-    train.threads = this->Threads;
-    train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
+    const nv::TrainConfig& train = job.Train;
     nvi::RunLimits limits; // no steps yet: Extend() gives them
     limits.PsnrInterval = this->PSNRInterval;
+    if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
+    {
+      limits.FirstStep = final->M.Steps; // the step count goes on from the network's
+      limits.MaxSteps = limits.FirstStep;
+    }
     if (limits.PsnrInterval > 0 && !job.Data->Probe)
     {
       job.Data->Probe.reset(new nvi::PsnrProbe(job.Data->Field.View, train.seed, 65536));

@@ -93,6 +93,7 @@ public:
   FieldInfo Field;
   Settings S;
   nv::Model Base; ///< configuration and source information
+  nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)
   nv::Precision Storage = nv::Precision::Float16;
   std::string DeviceNote;
   bool WarmStart = false;

@@ -94,6 +94,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   train.threads = this->Threads;
   train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
   nv::validate(train);
+  job->Train = train;
 
   nv::Device requested = this->Device == DEVICE_CPU ? nv::Device::Cpu
     : this->Device == DEVICE_CUDA                    ? nv::Device::Cuda

@@ -49,7 +49,8 @@ TrainingRun::TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::share
   , OnPhaseEnd(std::move(onPhaseEnd))
 {
   NV_CHECK(this->SessionPtr && this->DataPtr, "TrainingRun: no session or data");
-  this->Current.TargetSteps = std::max<int64_t>(limits.MaxSteps, 0);
+  this->Current.Steps = std::max<int64_t>(limits.FirstStep, 0);
+  this->Current.TargetSteps = std::max<int64_t>(limits.MaxSteps, this->Current.Steps);
   this->PhaseBudget = limits.TimeBudget;
   this->PhaseTargetPsnr = limits.TargetPsnr;
 }
@@ -217,7 +218,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         {
           LogRow row;
           row.Step = step + k;
-          row.LearningRate = this->Config.optimizer.learningRateAt(row.Step);
+          row.LearningRate = this->Config.optimizer.learningRateAt(row.Step - this->Limits.FirstStep);
           row.Loss = losses[static_cast<size_t>(k)];
           row.ElapsedSeconds = start + took * static_cast<double>(k + 1) / static_cast<double>(count);
           row.PSNR = std::numeric_limits<double>::quiet_NaN();

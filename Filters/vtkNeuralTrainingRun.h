@@ -41,6 +41,7 @@ struct RunLimits
   double TargetPsnr = 0.0;     ///< dB on the probe, 0 = off
   int PsnrInterval = 0;        ///< steps between probes (0 = none)
   double PublishSeconds = 0.1; ///< background runs: the session shows a new network at least this often
+  int64_t FirstStep = 0;       ///< steps the network had before this run (a run continuing a cached network)
 };
 
 enum class RunState : int

@@ -7,7 +7,6 @@ import os
 import re
 import sys
 import time
-import traceback
 
 sys.path.insert(0, os.environ["NV_TEST_DIR"])  # the GUI runs this script without __file__
 import nvtest  # noqa: E402
@@ -17,14 +16,7 @@ from paraview.simple import *  # noqa: E402,F401,F403
 check, log = nvtest.check, nvtest.log
 
 
-def fail_on_exception(function):
-    def wrapped(*args):
-        try:
-            return function(*args)
-        except Exception:
-            traceback.print_exc()
-            nvtest._exit(1)
-    return wrapped
+fail_on_exception = nvtest.fail_on_exception
 
 
 def status():

@@ -6,7 +6,6 @@ connected to a pvserver; the information properties then describe the client, so
 import os
 import sys
 import time
-import traceback
 
 sys.path.insert(0, os.environ["NV_TEST_DIR"])  # the GUI runs this script without __file__
 import nvtest  # noqa: E402
@@ -14,15 +13,7 @@ import nvtest  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 
 
-def fail_on_exception(function):
-    """An exception inside the GUI must end the GUI with a failure, not leave it running."""
-    def wrapped(*args):
-        try:
-            return function(*args)
-        except Exception:
-            traceback.print_exc()
-            nvtest._exit(1)
-    return wrapped
+fail_on_exception = nvtest.fail_on_exception
 
 
 REMOTE = os.environ.get("NV_GUI_REMOTE") == "1"

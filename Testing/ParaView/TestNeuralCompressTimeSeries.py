@@ -90,6 +90,17 @@ check(list(metrics.GetColumnByName("Time").GetValue(i) for i in range(metrics.Ge
 check(all(metrics.GetColumnByName("WarmStart").GetValue(i) == (0 if i == 0 else 1) for i in range(STEPS)),
       "metrics: WarmStart per time step")
 
+# Continue on a cached network: the step count goes on from it, exactly ContinueSteps more.
+warm.UpdatePipeline(times[1])
+cached_steps = int(nvtest.field_value(warm.GetClientSideObject().GetOutputDataObject(0), "NeuralSteps"))
+warm.ContinueSteps = 30
+warm.ContinueTraining()
+warm.UpdatePipeline(times[1])
+out = warm.GetClientSideObject().GetOutputDataObject(0)
+check(int(nvtest.field_value(out, "NeuralSteps")) == cached_steps + 30,
+      "ContinueTraining on a cached network: %d + 30 steps (%d)" % (cached_steps, nvtest.field_value(out, "NeuralSteps")))
+check(out.GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0) == "Finished", "continued and finished")
+
 # A tiny cache keeps only the current time step: going back trains again.
 warm.NetworkCacheMiB = 0
 warm.UpdatePipeline(times[4])

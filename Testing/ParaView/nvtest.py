@@ -85,6 +85,18 @@ def finish():
     log("all checks passed")
 
 
+def fail_on_exception(function):
+    """For callbacks inside the GUI: an exception ends the GUI with a failure instead of leaving it running."""
+    def wrapped(*args):
+        try:
+            return function(*args)
+        except Exception:
+            import traceback
+            traceback.print_exc()
+            _exit(1)
+    return wrapped
+
+
 def skip(reason):
     log("SKIP: " + reason)
     _exit(SKIP)
