@@ -88,6 +88,12 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const Fi
 class Job
 {
 public:
+  Job() = default;
+  /// The run (its thread may be finalising into this job) ends before any member goes.
+  ~Job() { this->Run.reset(); }
+  Job(const Job&) = delete;
+  Job& operator=(const Job&) = delete;
+
   uint64_t Key = 0;
   double Time = 0.0;
   FieldInfo Field;
