@@ -68,6 +68,9 @@ public:
 
   /// Round every parameter to the storage precision (so the model decodes exactly as it will be stored).
   void quantize(Precision p);
+  /// Record the storage precision of parameters that already hold such values (a deserialized fp16 network):
+  /// quantize() without its rounding pass.
+  void setStoragePrecision(Precision p) { Storage = p; }
   Precision storagePrecision() const { return Storage; }
   /// Bytes the parameters take in the serialized form.
   int64_t parameterBytes() const;

@@ -82,28 +82,57 @@ void checkLittleEndian()
 }
 } // namespace
 
-uint32_t crc32(const uint8_t* data, size_t size)
+namespace
 {
-  static uint32_t table[256];
-  static bool init = false;
-  if (!init)
+/// Slicing-by-8 tables of the reflected CRC-32 polynomial (built once, thread-safe).
+struct CrcTables
+{
+  uint32_t t[8][256];
+  CrcTables()
   {
     for (uint32_t i = 0; i < 256; ++i)
     {
       uint32_t c = i;
       for (int k = 0; k < 8; ++k)
-      {
         c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      }
-      table[i] = c;
+      t[0][i] = c;
     }
-    init = true;
+    for (uint32_t i = 0; i < 256; ++i)
+      for (int s = 1; s < 8; ++s)
+        t[s][i] = (t[s - 1][i] >> 8) ^ t[0][t[s - 1][i] & 0xFFu];
   }
+};
+
+/// fp16 -> fp32 for every 16-bit pattern (built once, thread-safe): decoding a stored network is a table lookup.
+const float* halfTable()
+{
+  static const std::vector<float> table = [] {
+    std::vector<float> t(65536);
+    for (uint32_t h = 0; h < 65536; ++h)
+      t[h] = halfToFloat(static_cast<uint16_t>(h));
+    return t;
+  }();
+  return table.data();
+}
+} // namespace
+
+uint32_t crc32(const uint8_t* data, size_t size)
+{
+  static const CrcTables tables;
+  const auto& t = tables.t;
   uint32_t c = 0xFFFFFFFFu;
-  for (size_t i = 0; i < size; ++i)
+  size_t i = 0;
+  for (; i + 8 <= size; i += 8)
   {
-    c = table[(c ^ data[i]) & 0xFFu] ^ (c >> 8);
+    uint32_t lo, hi;
+    std::memcpy(&lo, data + i, 4); // little endian (checked by the format)
+    std::memcpy(&hi, data + i + 4, 4);
+    lo ^= c;
+    c = t[7][lo & 0xFFu] ^ t[6][(lo >> 8) & 0xFFu] ^ t[5][(lo >> 16) & 0xFFu] ^ t[4][lo >> 24] ^
+      t[3][hi & 0xFFu] ^ t[2][(hi >> 8) & 0xFFu] ^ t[1][(hi >> 16) & 0xFFu] ^ t[0][hi >> 24];
   }
+  for (; i < size; ++i)
+    c = t[0][(c ^ data[i]) & 0xFFu] ^ (c >> 8);
   return c ^ 0xFFFFFFFFu;
 }
 
@@ -153,8 +182,13 @@ std::vector<uint8_t> serialize(const Model& model)
   w.put<uint64_t>(p.size());
   if (model.storagePrecision() == Precision::Float16)
   {
-    for (float v : p)
-      w.put<uint16_t>(floatToHalf(v));
+    const size_t at = w.bytes.size();
+    w.bytes.resize(at + p.size() * sizeof(uint16_t));
+    for (size_t i = 0; i < p.size(); ++i)
+    {
+      const uint16_t h = floatToHalf(p[i]);
+      std::memcpy(w.bytes.data() + at + 2 * i, &h, 2);
+    }
   }
   else
   {
@@ -241,9 +275,16 @@ Model deserialize(const uint8_t* data, size_t size)
   if (precision == 1)
   {
     r.need(n * 2, "parameters");
+    const float* table = halfTable();
+    const uint8_t* src = r.here();
     for (uint64_t i = 0; i < n; ++i)
-      p[i] = halfToFloat(r.get<uint16_t>("parameters"));
-    m.quantize(Precision::Float16); // no-op on values, records the storage precision
+    {
+      uint16_t h;
+      std::memcpy(&h, src + 2 * i, 2);
+      p[i] = table[h];
+    }
+    r.skip(n * 2);
+    m.setStoragePrecision(Precision::Float16); // the values are fp16 already
   }
   else
   {
