@@ -194,6 +194,26 @@ void Job::Finalize(const RunStatus& status)
   // The network as it is stored (fp16 or fp32) is the one shown, measured and saved.
   nv::Model model = this->Session->currentModel();
   model.quantize(this->Storage);
+  if (this->Retiring)
+  {
+    // Replaced by another job: the network (for warm starts and the cache), no decode, no measurement.
+    auto record = std::make_shared<NetworkRecord>();
+    record->Key = this->Key;
+    record->Time = this->Time;
+    model.stats.steps = status.Steps;
+    model.stats.seconds = status.Seconds;
+    record->Bytes = nv::serialize(model);
+    record->M.State = "Interrupted";
+    record->M.Steps = status.Steps;
+    record->M.Seconds = status.Seconds;
+    record->M.ModelBytes = model.parameterBytes();
+    record->M.Device = nv::deviceName(this->Session->device());
+    record->M.WarmStart = this->WarmStart;
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    this->FinalRecord = record;
+    this->Decoded = nullptr;
+    return;
+  }
   this->Session->setModel(model);
   int mode = 0;
   {

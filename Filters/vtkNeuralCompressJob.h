@@ -7,6 +7,7 @@
 
 #include "vtkSmartPointer.h"
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <limits>
@@ -107,6 +108,9 @@ public:
   std::shared_ptr<TrainingData> Data;
   std::unique_ptr<TrainingRun> Run; ///< null for a constant field (represented exactly)
   uint64_t EmittedSerial = ~uint64_t(0);
+  /// Set by the filter before it stops a run it replaces (another time step or input): the phase end keeps the
+  /// network for warm starts but skips the decode and the measurement, so the GUI thread waits one chunk only.
+  std::atomic<bool> Retiring{ false };
   int OutputMode = 0; ///< read by the run's thread at phase ends (set under Mutex)
 
   /// The network and numbers of the last ended phase (null before).

@@ -135,7 +135,11 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   bool warm = false;
   if (this->WarmStart)
   {
-    if (const nvi::NetworkRecord* seed = in.Cache.NearestForWarmStart(time))
+    // A run of this very time step that another time step cut short goes on from where it was; else the network
+    // of the nearest earlier time step.
+    const nvi::NetworkRecord* own = in.Cache.Find(time, key);
+    if (const nvi::NetworkRecord* seed =
+          own && own->M.State == "Interrupted" ? own : in.Cache.NearestForWarmStart(time))
     {
       try
       {

@@ -34,27 +34,24 @@ struct vtkNeuralCompress::vtkInternals
   std::string KeySettings;
   uint64_t Key = 0;
 
-  /// Ends the current job: its network goes to the cache (an interrupted run as a warm-start seed only).
+  /// Ends the current job: its network goes to the cache (a run cut short by this as a warm-start seed only: its
+  /// phase end keeps the network without decoding or measuring it, state "Interrupted").
   void Retire()
   {
     if (!this->Current)
       return;
     nvi::Job& job = *this->Current;
-    bool interrupted = false;
     if (job.Run)
     {
       const nvi::RunState s = job.Run->Status().State;
-      interrupted = s != nvi::RunState::Finished && s != nvi::RunState::Stopped && s != nvi::RunState::Failed;
+      job.Retiring = !(s == nvi::RunState::Finished || s == nvi::RunState::Stopped || s == nvi::RunState::Failed);
       job.Run->Stop();
       job.Run->Wait(-1.0);
       this->StepsOfEndedJobs += job.Run->Status().Steps;
     }
     if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
     {
-      nvi::NetworkRecord record = *final;
-      if (interrupted)
-        record.M.State = "Interrupted";
-      this->Cache.Put(record);
+      this->Cache.Put(*final);
     }
     this->Current.reset(); // joins the run's thread
   }

@@ -110,6 +110,25 @@ warm.UpdatePipeline(times[2])
 warm.SMProxy.UpdatePropertyInformation()
 check(warm.GetPropertyValue("TotalStepsTrained") > before, "a network evicted from the cache is trained again")
 
+# Background training through an animation: moving on cuts the running time step short; its network is kept
+# ("Interrupted", in the metrics) and coming back continues it (warm) instead of showing it as final.
+live = NeuralCompress(Input=reader, SelectInputScalars=["POINTS", "f"], TrainingSteps=100000, PSNRInterval=0,
+                      TrainInBackground=1, **NET)
+live.UpdatePipeline(times[0])
+live.UpdatePipeline(times[1])
+metrics = live.GetClientSideObject().GetOutputDataObject(2)
+states = {metrics.GetColumnByName("Time").GetValue(i): metrics.GetColumnByName("State").GetValue(i)
+          for i in range(metrics.GetNumberOfRows())}
+log("background run, after moving to t=%g: %r" % (times[1], states))
+check(states.get(times[0]) == "Interrupted", "the time step left while training is kept as Interrupted")
+live.UpdatePipeline(times[0])
+out = live.GetClientSideObject().GetOutputDataObject(0)
+check(out.GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0) in ("Starting", "Training"),
+      "coming back to an interrupted time step trains it again")
+check(nvtest.field_value(out, "NeuralWarmStart") == 1, "... from its own interrupted network")
+live.StopTraining()
+live.WaitForTraining()
+
 # Real data: the OpenLB flow (velocity magnitude), 6 time steps, when present.
 data_dir = os.environ.get("NV_DATA_DIR", "")
 flow = os.path.join(data_dir, "voreen_openlb_flow_timeseries", "flow_demo_A.pvd")
