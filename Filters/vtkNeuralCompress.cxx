@@ -325,7 +325,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
       return false;
     }
   }
-  const bool live = job.Run && !Settled(status.State);
+  const bool live = job.Run && !nvi::IsSettled(status.State);
   nvi::NetworkRecord record;
   vtkSmartPointer<vtkDataArray> decoded;
   if (live)
@@ -373,11 +373,11 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
        << (record.M.PsnrFinal ? "" : " (estimate)");
   in.StatusText = text.str();
 
-  if (!live)
+  if (!live && !in.SummaryPrinted)
   {
+    // A network complete for the first time (re-executions of the same one emit it without this).
     in.Cache.Put(record);
     in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
-    if (!in.SummaryPrinted)
     {
       in.SummaryPrinted = true;
       if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&

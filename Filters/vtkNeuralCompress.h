@@ -56,7 +56,9 @@ class vtkImageData;
 class vtkTable;
 namespace vtkNeuralCompressInternals
 {
+class Job;
 struct FieldInfo;
+struct RunLimits;
 struct Settings;
 struct TrainingData;
 class TrainingRun;
@@ -344,8 +346,13 @@ private:
     const vtkNeuralCompressInternals::Settings& settings, uint64_t key, double time);
   /// The outputs from the current job (a snapshot while it trains).
   bool EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics);
-  /// The current job's run (create: a run from a cached or restored network, for Continue).
-  vtkNeuralCompressInternals::TrainingRun* CurrentRun(bool create);
+  /// Starts `job`'s run (in the background or here) with `limits`, `moreSteps` added to its first phase.
+  void StartRun(vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::RunLimits& limits,
+    int64_t moreSteps, bool fastForward);
+  /// The current job's run, or null.
+  vtkNeuralCompressInternals::TrainingRun* CurrentRun();
+  /// Continue / Fast-forward: more steps for the run, or a run from a cached or restored network.
+  void ExtendTraining(int64_t steps, bool fastForward);
 
   struct vtkInternals;
   std::unique_ptr<vtkInternals> Internals;

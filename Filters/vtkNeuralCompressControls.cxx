@@ -23,43 +23,43 @@ bool vtkNeuralCompress::GetNeedsUpdate()
   return false;
 }
 
-nvi::TrainingRun* vtkNeuralCompress::CurrentRun(bool create)
+nvi::TrainingRun* vtkNeuralCompress::CurrentRun()
+{
+  vtkInternals& in = *this->Internals;
+  return in.Current ? in.Current->Run.get() : nullptr;
+}
+
+void vtkNeuralCompress::ExtendTraining(int64_t steps, bool fastForward)
 {
   vtkInternals& in = *this->Internals;
   if (!in.Current)
   {
-    return nullptr;
+    return;
   }
   nvi::Job& job = *in.Current;
-  if (!job.Run && create && job.Data && job.Field.Stats.max > job.Field.Stats.min)
+  in.SummaryPrinted = false;
+  if (job.Run)
   {
-    // A cached or restored network: a run that starts from it (Continue, Fast-forward).
-    const nv::TrainConfig& train = job.Train;
-    nvi::RunLimits limits; // no steps yet: Extend() gives them
+    job.Run->Extend(steps, fastForward);
+  }
+  else if (job.Data && job.Field.Stats.max > job.Field.Stats.min)
+  {
+    // A cached or restored network: one run that trains `steps` more from it, its step count going on.
+    nvi::RunLimits limits;
     limits.PsnrInterval = this->PSNRInterval;
     if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
     {
-      limits.FirstStep = final->M.Steps; // the step count goes on from the network's
+      limits.FirstStep = final->M.Steps;
       limits.MaxSteps = limits.FirstStep;
     }
-    if (limits.PsnrInterval > 0 && !job.Data->Probe)
-    {
-      job.Data->Probe.reset(new nvi::PsnrProbe(job.Data->Field.View, train.seed, 65536));
-    }
-    nvi::Job* jobPtr = &job;
-    job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, train, limits,
-      [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
-    if (this->TrainInBackground)
-      job.Run->StartInBackground();
-    else
-      job.Run->RunHere(nullptr, nullptr);
+    this->StartRun(job, limits, steps, fastForward);
   }
-  return job.Run.get();
+  this->Modified();
 }
 
 void vtkNeuralCompress::PauseTraining()
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(false))
+  if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->Pause();
     this->Modified();
@@ -68,7 +68,7 @@ void vtkNeuralCompress::PauseTraining()
 
 void vtkNeuralCompress::ResumeTraining()
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(false))
+  if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->Resume();
     this->Modified();
@@ -77,27 +77,17 @@ void vtkNeuralCompress::ResumeTraining()
 
 void vtkNeuralCompress::ContinueTraining()
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(true))
-  {
-    this->Internals->SummaryPrinted = false;
-    run->Extend(this->ContinueSteps, false);
-    this->Modified();
-  }
+  this->ExtendTraining(this->ContinueSteps, false);
 }
 
 void vtkNeuralCompress::FastForward()
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(true))
-  {
-    this->Internals->SummaryPrinted = false;
-    run->Extend(1000, true);
-    this->Modified();
-  }
+  this->ExtendTraining(1000, true);
 }
 
 void vtkNeuralCompress::StopTraining()
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(false))
+  if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->Stop();
     this->Modified();
@@ -112,7 +102,7 @@ void vtkNeuralCompress::DecodeNow()
 
 void vtkNeuralCompress::WaitForTraining(double seconds)
 {
-  if (nvi::TrainingRun* run = this->CurrentRun(false))
+  if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->Wait(seconds);
     this->Modified();

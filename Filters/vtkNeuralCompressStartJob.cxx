@@ -246,21 +246,27 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   limits.TimeBudget = this->Deterministic ? 0.0 : this->TimeBudget;
   limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;
   limits.PsnrInterval = this->PSNRInterval > 0 ? this->PSNRInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
-  if (limits.PsnrInterval > 0)
+  this->StartRun(j, limits, 0, false);
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, int64_t moreSteps, bool fastForward)
+{
+  if (limits.PsnrInterval > 0 && !job.Data->Probe)
   {
-    data->Probe.reset(new nvi::PsnrProbe(view, train.seed, 65536));
+    job.Data->Probe.reset(new nvi::PsnrProbe(job.Data->Field.View, job.Train.seed, 65536));
   }
-  nvi::Job* jobPtr = &j;
-  j.Run.reset(new nvi::TrainingRun(j.Session, data, train, limits,
+  nvi::Job* jobPtr = &job;
+  job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, job.Train, limits,
     [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
+  job.Run->Extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)
   if (this->TrainInBackground)
   {
-    j.Run->StartInBackground();
+    job.Run->StartInBackground();
   }
   else
   {
-    j.Run->RunHere([this]() { return this->GetAbortExecute() != 0; },
+    job.Run->RunHere([this]() { return this->GetAbortExecute() != 0; },
       [this](double f) { this->UpdateProgress(0.95 * f); });
   }
 }
-

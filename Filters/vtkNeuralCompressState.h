@@ -44,7 +44,7 @@ struct vtkNeuralCompress::vtkInternals
     if (job.Run)
     {
       const nvi::RunState s = job.Run->Status().State;
-      job.Retiring = !(s == nvi::RunState::Finished || s == nvi::RunState::Stopped || s == nvi::RunState::Failed);
+      job.Retiring = !nvi::IsSettled(s);
       job.Run->Stop();
       job.Run->Wait(-1.0);
       this->StepsOfEndedJobs += job.Run->Status().Steps;
@@ -57,10 +57,6 @@ struct vtkNeuralCompress::vtkInternals
   }
 };
 
-inline bool Settled(nvi::RunState s)
-{
-  return s == nvi::RunState::Finished || s == nvi::RunState::Stopped || s == nvi::RunState::Failed;
-}
 
 
 #endif

@@ -40,6 +40,11 @@ const char* RunStateName(RunState s)
   return "Unknown";
 }
 
+bool IsSettled(RunState s)
+{
+  return s == RunState::Finished || s == RunState::Stopped || s == RunState::Failed;
+}
+
 TrainingRun::TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::shared_ptr<TrainingData> data,
   const nv::TrainConfig& config, const RunLimits& limits, PhaseEndHook onPhaseEnd)
   : SessionPtr(std::move(session))
@@ -344,7 +349,7 @@ void TrainingRun::Extend(int64_t steps, bool fastForward)
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     const RunState s = this->Current.State;
-    if (s == RunState::Failed || !this->Trainer)
+    if (s == RunState::Failed)
     {
       return;
     }
@@ -395,10 +400,7 @@ void TrainingRun::Stop()
 bool TrainingRun::Wait(double timeoutSeconds)
 {
   std::unique_lock<std::mutex> lock(this->Mutex);
-  auto settled = [this]() {
-    const RunState s = this->Current.State;
-    return s == RunState::Finished || s == RunState::Stopped || s == RunState::Failed;
-  };
+  auto settled = [this]() { return IsSettled(this->Current.State); };
   if (timeoutSeconds < 0.0)
   {
     this->Changed.wait(lock, settled);

@@ -55,6 +55,8 @@ enum class RunState : int
   Failed = 6
 };
 const char* RunStateName(RunState s);
+/// Finished, Stopped or Failed: nothing runs until Extend().
+bool IsSettled(RunState s);
 
 struct RunStatus
 {
@@ -90,8 +92,8 @@ public:
 
   void Pause();
   void Resume();
-  /// `steps` more steps: lengthens the current phase, or starts a new one after a phase ended (without a time
-  /// budget or target PSNR). fastForward: no intermediate publishes until that phase ends (the paper's button).
+  /// `steps` more steps: lengthens the current phase (also before the run starts), or starts a new one after a phase
+  /// ended (without a time budget or target PSNR). fastForward: no intermediate publishes until that phase ends (the paper's button).
   /// In a run started with RunHere, a new phase also runs in the calling thread.
   void Extend(int64_t steps, bool fastForward);
   /// Ends the run now (see the file comment).

@@ -2,10 +2,7 @@
 intact (NeuralNetwork bytes decode to the same model), and the Neural Volume render made by the server matches
 the built-in session's render of the same pipeline."""
 import os
-import socket
-import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import nvtest  # noqa: E402
@@ -19,14 +16,6 @@ check, log = nvtest.check, nvtest.log
 nvtest.require_display()
 out_dir = nvtest.output_dir()
 PARAMS = dict(TrainingSteps=150, BatchSize=16384, Threads=2, Seed=3, PSNRInterval=0, **nvtest.SCRIPTED)
-
-
-def free_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def pipeline_and_render(png, remote):
@@ -61,19 +50,7 @@ def pipeline_and_render(png, remote):
 pvserver = os.path.join(os.path.dirname(sys.executable), "pvserver")
 if not os.path.exists(pvserver):
     pvserver = "pvserver"
-port = free_port()
-server = subprocess.Popen([pvserver, "--server-port=%d" % port, "--force-offscreen-rendering"],
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-try:
-    deadline = time.time() + 60
-    while time.time() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1).close()
-            break
-        except OSError:
-            if server.poll() is not None:
-                break
-            time.sleep(0.5)
+with nvtest.pvserver(pvserver, "ClientServer_pvserver.log") as (server, port):
     check(server.poll() is None, "pvserver is running on port %d" % port)
     Connect("127.0.0.1", port)
     check(servermanager.ActiveConnection.IsRemote(), "connected to a remote server")
@@ -106,12 +83,6 @@ try:
     check(first in ("Starting", "Training") and paused == "Paused", "remote: trains in the background, pauses")
     check(nvtest.field_value(done, "NeuralSteps") == 400, "remote: resumed and finished at exactly 400 steps")
     Disconnect()
-finally:
-    server.terminate()
-    try:
-        server.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        server.kill()
 
 # The same pipeline in a built-in session: identical network (deterministic training) and image.
 Connect()

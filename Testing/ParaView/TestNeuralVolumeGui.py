@@ -2,10 +2,8 @@
 executable, built-in and connected to a loopback pvserver (see that script); and NeuralCompressOnlineGuiScript.py:
 background training shown live in the GUI."""
 import os
-import socket
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import nvtest  # noqa: E402
@@ -51,30 +49,8 @@ run_gui("built-in session", [], {})
 run_gui("online training", [], {},
         os.path.join(os.path.dirname(os.path.abspath(__file__)), "NeuralCompressOnlineGuiScript.py"))
 
-s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-s.bind(("127.0.0.1", 0))
-port = s.getsockname()[1]
-s.close()
-# The server's output goes to a file: an unread pipe would block it once full.
-server_log = open(os.path.join(nvtest.output_dir(), "gui_pvserver.log"), "w")
-server = subprocess.Popen([pvserver, "--server-port=%d" % port, "--force-offscreen-rendering"],
-                          stdout=server_log, stderr=subprocess.STDOUT)
-try:
-    deadline = time.time() + 60
-    while time.time() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1).close()
-            break
-        except OSError:
-            time.sleep(0.5)
+with nvtest.pvserver(pvserver, "gui_pvserver.log") as (server, port):
     run_gui("client-server session", ["--server-url=cs://127.0.0.1:%d" % port], {"NV_GUI_REMOTE": "1"})
-finally:
-    server.terminate()
-    try:
-        server.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        server.kill()
-    server_log.close()
 
 # The refreshed picture is not the first frame. (The two sessions' pictures are not compared: the GUI sizes its
 # views itself, and a capture at another size restarts the accumulation.)

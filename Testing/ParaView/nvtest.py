@@ -97,6 +97,37 @@ def fail_on_exception(function):
     return wrapped
 
 
+@contextlib.contextmanager
+def pvserver(executable, log_name):
+    """A pvserver on a free loopback port (output to log_name in the output folder: an unread pipe would block it),
+    ready to connect; yields (process, port) and terminates it at the end."""
+    import socket
+    import subprocess
+    import time
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    with open(os.path.join(output_dir(), log_name), "w") as server_log:
+        server = subprocess.Popen([executable, "--server-port=%d" % port, "--force-offscreen-rendering"],
+                                  stdout=server_log, stderr=subprocess.STDOUT)
+        try:
+            deadline = time.time() + 60
+            while time.time() < deadline and server.poll() is None:
+                try:
+                    socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                    break
+                except OSError:
+                    time.sleep(0.5)
+            yield server, port
+        finally:
+            server.terminate()
+            try:
+                server.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                server.kill()
+
+
 def skip(reason):
     log("SKIP: " + reason)
     _exit(SKIP)
