@@ -230,9 +230,9 @@ public:
   ///@}
 
   ///@{
-  /// Bit-for-bit repeatable training: TrainingSteps steps exactly (TimeBudget and TargetPSNR are
-  /// ignored), the seed, and the CPU engine's deterministic reductions (Device Auto uses the CPU;
-  /// CUDA is refused: its gradient accumulation uses atomics).
+  /// Bit-for-bit repeatable training on the same machine: TrainingSteps steps exactly (TimeBudget and
+  /// TargetPSNR are ignored), the seed, and deterministic reductions (the CPU engine's fixed order for
+  /// a thread count; on CUDA, gradients summed in 64-bit fixed point, slower than the float atomics).
   vtkSetMacro(Deterministic, bool);
   vtkGetMacro(Deterministic, bool);
   vtkBooleanMacro(Deterministic, bool);

@@ -93,22 +93,13 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
   train.threads = this->Threads;
   train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
+  train.deterministic = this->Deterministic;
   nv::validate(train);
   job->Train = train;
 
   nv::Device requested = this->Device == DEVICE_CPU ? nv::Device::Cpu
     : this->Device == DEVICE_CUDA                    ? nv::Device::Cuda
                                                      : nv::Device::Auto;
-  if (this->Deterministic)
-  {
-    if (requested == nv::Device::Cuda)
-    {
-      throw nv::Error("Deterministic training runs on the CPU engine (the CUDA kernels accumulate gradients "
-                      "with atomics, in no fixed order); set Device to Auto or CPU, or turn Deterministic off");
-    }
-    requested = nv::Device::Cpu;
-    job->DeviceNote = "Deterministic: CPU engine";
-  }
   const nv::Device device = nv::resolveDevice(requested, job->DeviceNote.empty() ? &job->DeviceNote : nullptr);
 
   nv::Model model(config);

@@ -90,6 +90,10 @@ struct TrainConfig
   OptimizerConfig optimizer;
   int threads = 0; ///< CPU worker threads; 0 = hardware concurrency
   TrainingStrategy strategy = TrainingStrategy::Auto; ///< used by the CUDA trainer
+  /// CUDA trainer: sum gradients in 64-bit fixed point so that a seed gives the same network bit for bit on the
+  /// same GPU and build (slower: one integer atomic per feature). The CPU trainer is deterministic for a seed and
+  /// thread count in either mode.
+  bool deterministic = false;
 };
 
 /// Throws nv::Error with a readable message when a configuration is out of range.

@@ -246,7 +246,10 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
         uint32_t corner[3];
         float frac[3];
         gridPosition(lv, x, corner, frac);
-        scatterCorners<F>(a.gradTable, lv, corner, frac, d);
+        if (a.fixedTable)
+          scatterCorners<F>(a.fixedTable, lv, corner, frac, d);
+        else
+          scatterCorners<F>(a.gradTable, lv, corner, frac, d);
       }
     }
   }
@@ -379,7 +382,17 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
     if (q < nTiles)
     {
       const int dq = desc[q], l = dq & 15, m0 = (dq >> 4) & 0xff, n0 = dq >> 12, K = s.inDim(l);
-      float* d = a.gradPad + s.off[l] + (m0 + g) * K + n0 + 2 * t;
+      const size_t o = s.off[l] + (m0 + g) * K + n0 + 2 * t;
+      if (a.fixedMlp)
+      {
+        Fixed* d = a.fixedMlp + o;
+        fixedAdd(d, acc[q][0]);
+        fixedAdd(d + 1, acc[q][1]);
+        fixedAdd(d + 8 * K, acc[q][2]);
+        fixedAdd(d + 8 * K + 1, acc[q][3]);
+        continue;
+      }
+      float* d = a.gradPad + o;
       atomicAdd(reinterpret_cast<float2*>(d), make_float2(acc[q][0], acc[q][1]));
       atomicAdd(reinterpret_cast<float2*>(d + 8 * K), make_float2(acc[q][2], acc[q][3]));
     }
@@ -396,14 +409,19 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
       v += __shfl_xor_sync(0xffffffffu, v, 16);
       woutAcc[j][e] = v;
     }
-    if (g == 0)
+    if (g == 0 && a.fixedMlp)
+    {
+      fixedAdd(a.fixedMlp + s.off[s.H] + 8 * j + 2 * t, woutAcc[j][0]);
+      fixedAdd(a.fixedMlp + s.off[s.H] + 8 * j + 2 * t + 1, woutAcc[j][1]);
+    }
+    else if (g == 0)
       atomicAdd(reinterpret_cast<float2*>(a.gradPad + s.off[s.H] + 8 * j + 2 * t),
         make_float2(woutAcc[j][0], woutAcc[j][1]));
   }
   for (int o = 16; o > 0; o >>= 1)
     lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
-  if (lane == 0 && lossAcc != 0.0f)
-    atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
+  if (lane == 0)
+    addLoss(a, lossAcc);
 }
 
 /// Shared-memory plan of trainRegKernel for blocks of `warps` warps (fused: + per-warp dEnc); total 0 when the

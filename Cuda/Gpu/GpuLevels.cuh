@@ -53,22 +53,26 @@ __device__ __forceinline__ uint32_t fastCornerIndex(const LevelInfo& lv, int c, 
 
 /// grad (fp16) += w_c * d at the 8 corners of a level. For F = 2 / 4 the x-neighbour corners c, c + 1 that land in
 /// one aligned pair of entries (2k, 2k + 1) -- a hashed level's corner with even x, half of a dense level's -- go
-/// in one vector reduction of both entries: a quarter fewer L2 atomics.
-template <int F>
-__device__ __forceinline__ void scatterCorners(__half* __restrict__ grad, const LevelInfo& lv, const uint32_t corner[3],
+/// in one vector reduction of both entries: a quarter fewer L2 atomics. G = Fixed: deterministic mode, one 64-bit
+/// integer atomic per feature (GpuFixedPoint.cuh).
+template <int F, typename G>
+__device__ __forceinline__ void scatterCorners(G* __restrict__ grad, const LevelInfo& lv, const uint32_t corner[3],
   const float frac[3], const float* d)
 {
+  constexpr bool kHalf = std::is_same<G, __half>::value;
 #pragma unroll
   for (int c = 0; c < 8; c += 2)
   {
     const uint32_t i0 = fastCornerIndex(lv, c, corner), i1 = fastCornerIndex(lv, c + 1, corner);
     const float w0 = cornerWeight(c, frac), w1 = cornerWeight(c + 1, frac);
-    if ((F == 2 || F == 4) && (i0 ^ i1) == 1u)
+    if (kHalf && (F == 2 || F == 4) && (i0 ^ i1) == 1u)
     {
       const bool order = i0 < i1;
       const float wl = order ? w0 : w1, wh = order ? w1 : w0;
-      __half* p = grad + static_cast<size_t>(i0 & ~1u) * F;
-      if constexpr (F == 2)
+      G* p = grad + static_cast<size_t>(i0 & ~1u) * F;
+      if constexpr (!kHalf)
+        ;
+      else if constexpr (F == 2)
         asm volatile("red.global.add.noftz.v2.f16x2 [%0], {%1, %2};\n" ::"l"(p), "r"(halves2(wl * d[0], wl * d[1])),
           "r"(halves2(wh * d[0], wh * d[1]))
                      : "memory");
@@ -192,10 +196,11 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
 }
 
 /// Two-pass training, pass 3: the table gradient (fp16, unscaled) from dEnc (fp32, level-major like the
-/// encodings); level = blockIdx.y, so one level's gradient slice is in L2 while its atomics land.
-template <int F>
+/// encodings); level = blockIdx.y, so one level's gradient slice is in L2 while its atomics land. G: __half, or
+/// Fixed in deterministic mode.
+template <int F, typename G>
 __global__ void __launch_bounds__(256) scatterLevelsKernel(const __grid_constant__ FwdArgs a,
-  const float* __restrict__ dEnc, __half* __restrict__ grad)
+  const float* __restrict__ dEnc, G* __restrict__ grad)
 {
   const int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
   if (i >= a.n)

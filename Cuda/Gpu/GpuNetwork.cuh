@@ -6,6 +6,7 @@
 #include "Core/HashGridMath.h"
 #include "Core/Model.h"
 #include "GpuCommon.cuh"
+#include "GpuFixedPoint.cuh"
 
 #include <mma.h>
 
@@ -298,9 +299,10 @@ __device__ __forceinline__ void atomicAddVec(__half* p, const float* v)
   }
 }
 
-/// grad += d(loss)/d(table) for the tile, from dEnc (T x ldDE floats). Samples t >= valid are skipped.
-template <int F>
-__device__ __forceinline__ void scatterTile(const GridLayout& g, __half* __restrict__ grad, const float* sx,
+/// grad += d(loss)/d(table) for the tile, from dEnc (T x ldDE floats). Samples t >= valid are skipped. G: __half
+/// (fp16 atomics) or Fixed (deterministic mode, GpuFixedPoint.cuh).
+template <int F, typename G>
+__device__ __forceinline__ void scatterTile(const GridLayout& g, G* __restrict__ grad, const float* sx,
   const float* dEnc, int ldDE, int T, int valid)
 {
   const int items = T * g.levels;

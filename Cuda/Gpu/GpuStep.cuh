@@ -22,6 +22,8 @@ struct Counters
   int ticket;
   float gradScale; ///< loss-gradient scale of the step (set by the training kernel, read by Adam)
   int done[kMaxLevels];
+  Fixed lossFixed; ///< deterministic mode: the finite part of the loss sum (kLossFixedScale); non-finite parts go
+                   ///< to lossSum, and fixedGradientKernel makes lossSum the total
 };
 
 /// Loss-gradient scale of a step from the previous step's counters. The table gradient is accumulated in fp16 (and
@@ -186,6 +188,32 @@ __global__ void __launch_bounds__(256) adamKernel(float* __restrict__ p, __half*
   const float scale = unscale / static_cast<float>(cnt);
   for (int64_t j = first; j < mlp.count; j += stride)
     adamMlpOne(mlp, j, scale, a);
+}
+
+/// Deterministic mode, after the training kernels: the fixed-point sums become the fp16 table gradient, the fp32
+/// padded MLP gradient and the loss sum that Adam and the next step read; the fixed-point buffers are zeroed. A
+/// non-finite loss (a diverging step) makes every gradient NaN, as the float atomics would.
+__global__ void __launch_bounds__(256) fixedGradientKernel(Fixed* __restrict__ table, __half* __restrict__ g,
+  int64_t n, Fixed* __restrict__ mlp, float* __restrict__ gradPad, int64_t nMlp, Counters* __restrict__ counters)
+{
+  // lossSum holds only non-finite contributions until it is written below (with a finite value), so every thread
+  // sees the same verdict whether it reads before or after that write.
+  const bool bad = !isfinite(counters->lossSum);
+  const int64_t first = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
+  const int64_t stride = int64_t(gridDim.x) * blockDim.x;
+  const float nan = __int_as_float(0x7fc00000);
+  for (int64_t i = first; i < n; i += stride)
+  {
+    g[i] = __float2half_rn(bad ? nan : fromFixed(table[i]));
+    table[i] = 0ull;
+  }
+  for (int64_t j = first; j < nMlp; j += stride)
+  {
+    gradPad[j] = bad ? nan : fromFixed(mlp[j]);
+    mlp[j] = 0ull;
+  }
+  if (first == 0 && !bad)
+    counters->lossSum = static_cast<double>(static_cast<long long>(counters->lossFixed)) / kLossFixedScale;
 }
 
 } // namespace

@@ -33,6 +33,8 @@ struct TrainArgs
   __half* gradTable; ///< fp16, unscaled (Adam applies 1 / valid samples)
   float* slots;
   float* gradPad;
+  Fixed* fixedTable; ///< deterministic mode: the table gradient in fixed point (instead of gradTable), else null
+  Fixed* fixedMlp;   ///< deterministic mode: the padded MLP gradient and the loss in fixed point, else null
   const float* xyz; ///< null: randomPoint(seed, step, i)
   uint64_t seed, step;
   const float* targets; ///< NaN = invalid sample
@@ -44,6 +46,18 @@ struct TrainArgs
   const __half* encG; ///< two-pass: encodings from encodeLevelsKernel (level-major)
   float* dEncG;       ///< two-pass: dL/d(encoding), level-major fp32 (scatter pass)
 };
+
+/// Adds one warp's loss sum to the step's counters: a double atomic, or in deterministic mode a fixed-point one (a
+/// non-finite sum still goes to lossSum, so that a diverging step is seen whatever the mode).
+__device__ __forceinline__ void addLoss(const TrainArgs& a, float lossAcc)
+{
+  if (lossAcc == 0.0f)
+    return;
+  if (a.fixedMlp && isfinite(lossAcc))
+    atomicAdd(&a.counters->lossFixed, static_cast<Fixed>(__double2ll_rn(static_cast<double>(lossAcc) * kLossFixedScale)));
+  else
+    atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
+}
 
 } // namespace gpu
 } // namespace nv

@@ -185,18 +185,27 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
     }
     else
     {
-      scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
+      if (a.fixedTable)
+        scatterTile<F>(a.grid, a.fixedTable, sx, dEnc, p.ldDE, T, valid);
+      else
+        scatterTile<F>(a.grid, a.gradTable, sx, dEnc, p.ldDE, T, valid);
     }
     __syncthreads();
     first = false;
   }
   for (int o = 16; o > 0; o >>= 1)
     lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
-  if (lane == 0 && lossAcc != 0.0f)
-    atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
+  if (lane == 0)
+    addLoss(a, lossAcc);
   if (!first)
   {
     __syncthreads();
+    if (a.fixedMlp)
+    {
+      for (int i = threadIdx.x; i < s.total; i += blockDim.x)
+        fixedAdd(a.fixedMlp + i, slot[i]);
+      return;
+    }
     const float4* src = reinterpret_cast<const float4*>(slot);
     float4* dst = reinterpret_cast<float4*>(a.gradPad);
     for (int i = threadIdx.x; i < s.total / 4; i += blockDim.x)

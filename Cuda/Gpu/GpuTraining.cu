@@ -3,6 +3,7 @@
 // for widths up to 64, WMMA otherwise (GpuTrainWmma.cuh) -- which either encodes and scatters the table gradient
 // itself (small tables) or sits between a level-major encode pass and a level-major scatter pass (GpuLevels.cuh);
 // then one memory-bound Adam kernel for the table (fp16 gradient, 16-bit moments) and the MLP (GpuStep.cuh).
+// Deterministic mode sums the gradients in fixed point (GpuFixedPoint.cuh), so a seed gives the same bits every run.
 // Trainer::steps queues many steps with one read-back of their losses.
 #include "Core/Config.h"
 #include "Cpu/CpuSampler.h"
@@ -97,6 +98,13 @@ public:
     M.allocate(NMlp, "MLP Adam first moments");
     V.allocate(NMlp, "MLP Adam second moments");
     GradPad.allocate(Dm.shape.total, "MLP gradient");
+    if (config.deterministic)
+    {
+      GFix.allocate(NEnc, "fixed-point hash-table gradient (deterministic training)");
+      MFix.allocate(Dm.shape.total, "fixed-point MLP gradient (deterministic training)");
+      NV_CUDA(cudaMemsetAsync(GFix.get(), 0, GFix.bytes(), St.get()));
+      NV_CUDA(cudaMemsetAsync(MFix.get(), 0, MFix.bytes(), St.get()));
+    }
     const int64_t B = config.batchSize;
     Targets.allocate(B, "targets");
     Dm.options = options;
@@ -239,7 +247,8 @@ public:
   int64_t deviceMemoryBytes() const override
   {
     return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
-      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes());
+      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes() +
+      GFix.bytes() + MFix.bytes());
   }
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
@@ -412,6 +421,8 @@ private:
     a.gradTable = G.get();
     a.slots = Slots.get();
     a.gradPad = GradPad.get();
+    a.fixedTable = GFix.get();
+    a.fixedMlp = MFix.get();
     a.xyz = xyz;
     a.seed = Train.seed;
     a.step = static_cast<uint64_t>(s);
@@ -464,15 +475,32 @@ private:
     if (EncG.get())
     {
       const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
-      switch (Dm.grid.features)
-      {
-        case 1: scatterLevelsKernel<1><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
-        case 2: scatterLevelsKernel<2><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
-        case 4: scatterLevelsKernel<4><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
-        default: scatterLevelsKernel<8><<<lg, 256, 0, st>>>(f, DEncG.get(), G.get()); break;
-      }
+      if (GFix.get())
+        launchScatter(lg, f, GFix.get());
+      else
+        launchScatter(lg, f, G.get());
+    }
+    if (GFix.get())
+    {
+      fixedGradientKernel<<<gridFor(int64_t(NEnc)), 256, 0, st>>>(GFix.get(), G.get(), int64_t(NEnc), MFix.get(),
+        GradPad.get(), int64_t(Dm.shape.total), slot(s));
       NV_CUDA_LAUNCH();
     }
+  }
+
+  /// Two-pass mode, pass 3: the level-major scatter of the table gradient into grad (fp16, or fixed point).
+  template <typename Grad>
+  void launchScatter(dim3 lg, const FwdArgs& f, Grad* grad)
+  {
+    cudaStream_t st = St.get();
+    switch (Dm.grid.features)
+    {
+      case 1: scatterLevelsKernel<1, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
+      case 2: scatterLevelsKernel<2, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
+      case 4: scatterLevelsKernel<4, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
+      default: scatterLevelsKernel<8, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
+    }
+    NV_CUDA_LAUNCH();
   }
 
   /// Adam over the hash table and the MLP, one kernel.
@@ -522,6 +550,7 @@ private:
   DeviceBuffer<float> P, M, V, GradPad, Slots, Targets, Xyz, DEncG;
   DeviceBuffer<__half> G, EncG;
   DeviceBuffer<uint32_t> MV;
+  DeviceBuffer<Fixed> GFix, MFix; ///< deterministic mode only (GpuFixedPoint.cuh)
   DeviceBuffer<unsigned char> Vol;
   DeviceBuffer<Counters> Cnt;
   PinnedBuffer<Counters> HCnt;

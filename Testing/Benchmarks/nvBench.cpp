@@ -5,7 +5,8 @@
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
 //   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
-// DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h. Prints lines "RESULT {json}".
+// DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h; --deterministic: TrainConfig::deterministic (step,
+// budget, curve). Prints lines "RESULT {json}".
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "KernelFlags.h"
@@ -61,6 +62,18 @@ int main(int argc, char** argv)
   }
   SessionOptions options;
   options.kernels = nvbench::parseKernelFlags(argc, argv);
+  bool deterministic = false;
+  {
+    int out = 1;
+    for (int i = 1; i < argc; ++i)
+    {
+      if (std::string(argv[i]) == "--deterministic")
+        deterministic = true;
+      else
+        argv[out++] = argv[i];
+    }
+    argc = out;
+  }
   if (argc < 3)
   {
     std::fprintf(stderr, "usage: see the header of nvBench.cpp\n");
@@ -93,6 +106,7 @@ int main(int argc, char** argv)
       {
         TrainConfig tc;
         tc.batchSize = int(size);
+        tc.deterministic = deterministic;
         const int steps = argc > 6 ? std::atoi(argv[6]) : 10;
         auto tr = session->createTrainer(vol, tc);
         tr->step();
@@ -112,9 +126,10 @@ int main(int argc, char** argv)
         const double b2b = seconds(b, Clock::now()) / steps;
         std::printf("RESULT {\"what\":\"train_step\",\"device\":\"%s\",\"batch\":%lld,\"log2T\":%d,\"finest\":%d,"
                     "\"params\":%zu,\"ms_median\":%.3f,\"ms_min\":%.3f,\"ms_back_to_back\":%.3f,\"samples_per_s\":%.4g,"
-                    "\"device_mem_MiB\":%.1f}\n",
+                    "\"device_mem_MiB\":%.1f,\"deterministic\":%d}\n",
           deviceName(dev), (long long)size, c.encoding.log2TableSize, c.encoding.finestResolution, m.paramCount(),
-          med * 1e3, ts.front() * 1e3, b2b * 1e3, double(size) / b2b, tr->deviceMemoryBytes() / 1048576.0);
+          med * 1e3, ts.front() * 1e3, b2b * 1e3, double(size) / b2b, tr->deviceMemoryBytes() / 1048576.0,
+          int(deterministic));
       }
       else if (mode == "infer")
       {
@@ -150,6 +165,7 @@ int main(int argc, char** argv)
       const double budget = std::atof(argv[5]);
       TrainConfig tc;
       tc.batchSize = std::atoi(argv[6]);
+      tc.deterministic = deterministic;
       const auto a = Clock::now();
       const auto session = NetworkSession::create(dev, m, options);
       auto tr = session->createTrainer(raw.view, tc);
@@ -177,12 +193,13 @@ int main(int argc, char** argv)
       TrainConfig tc;
       tc.seed = seed;
       tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;
+      tc.deterministic = deterministic;
       const auto session = NetworkSession::create(dev, m, options);
       auto tr = session->createTrainer(raw.view, tc);
       double trainTime = 0;
       std::printf("RESULT {\"what\":\"curve\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"finest\":%d,"
-                  "\"batch\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T, c.encoding.finestResolution,
-        tc.batchSize);
+                  "\"batch\":%d,\"deterministic\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T,
+        c.encoding.finestResolution, tc.batchSize, int(deterministic));
       int done = 0;
       for (size_t k = 0; k < marks.size(); ++k)
       {

@@ -5,7 +5,7 @@
 # .nhdr + .raw, as in ../shared/data; timeseries/ from export_timeseries.py); ref/: the PyTorch reference scripts). Usage:
 # run_gpu_bench.sh SECTION... with SECTION in
 #   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
-#   online | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
+#   online | deterministic | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -93,6 +93,20 @@ for s in "$@"; do
       $B/nvBenchOnline cuda warm $D/timeseries/cth 0 9 16 1000 2>&1 | tee "$O/online_warm_cth.log"
       $B/nvBenchOnline cuda restore $STENT 16 1000 1280 720 2>&1 | tee "$O/online_restore.log"
       $B/nvBenchOnline cuda restore $STENT@2 19 1000 1280 720 2>&1 | tee -a "$O/online_restore.log" ;;
+    deterministic)
+      # Deterministic training (fixed-point gradient sums): bitwise repeatable on every kernel path, gradients
+      # against the CPU, sanitizers, step time and accuracy against the default float atomics.
+      nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv | tee "$O/gpu.txt"
+      for f in "" --two-pass=1 --wmma; do echo "== kernels: ${f:-default}"
+        $B/nvTestGpuParity deterministic_training_is_bitwise_repeatable $f
+        $B/nvTestGpuParity gradients_match_cpu $f; done 2>&1 | tee "$O/det_parity.log"
+      $B/nvTestFilterTrainingGpu deterministic_run_on_gpu_is_bitwise_repeatable 2>&1 | tee "$O/det_filter.log"
+      for t in memcheck racecheck; do
+        compute-sanitizer --tool $t $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -4; done 2>&1 | tee "$O/det_sanitize.log"
+      for d in "" --deterministic; do for t in 14 19; do for b in 65536 262144; do
+        $B/nvBench $d step cuda $b $t 4096 200; done; done; done 2>&1 | tee "$O/det_step.log"
+      for d in "" --deterministic --deterministic; do
+        $B/nvBench $d curve cuda $STENT 19 1000,4000 65536 1; done 2>&1 | tee "$O/det_curve.log" ;;
     rendertrain)
       $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
     renderlarge)
