@@ -4,12 +4,15 @@
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressState.h"
 #include "vtkNeuralCompressOutput.h"
+#include "vtkNeuralCompressResample.h"
 #include "vtkNeuralNetworkArray.h"
 
 #include "Core/Error.h"
 #include "Core/Serialization.h"
 
+#include "vtkAlgorithmOutput.h"
 #include "vtkCellData.h"
+#include "vtkCompositeDataSet.h"
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
@@ -66,9 +69,10 @@ vtkNeuralCompress::~vtkNeuralCompress()
 //------------------------------------------------------------------------------
 int vtkNeuralCompress::FillInputPortInformation(int, vtkInformation* info)
 {
-  // Any dataset is accepted so that unsupported types get a clear message instead of a
-  // pipeline type error.
+  // Any dataset or composite dataset (the whole composite arrives here: one network over the
+  // union of its blocks).
   info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkDataSet");
+  info->Append(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkCompositeDataSet");
   return 1;
 }
 
@@ -97,6 +101,41 @@ int vtkNeuralCompress::RequestInformation(
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
   vtkDataObject* input = inInfo ? inInfo->Get(vtkDataObject::DATA_OBJECT()) : nullptr;
+  std::fill(this->Internals->AnnouncedDims, this->Internals->AnnouncedDims + 3, 0);
+  if (input && !vtkImageData::SafeDownCast(input))
+  {
+    // A resampled input: its image's extent follows from the sampling dimensions, which (when automatic) come
+    // from the input data; RequestData then resamples at these (see Execute()). ParaView's representations need
+    // the extent now, so an input that has not executed yet is brought up to date first.
+    vtkAlgorithm* producer = this->GetInputAlgorithm(0, 0);
+    const bool empty = vtkDataSet::SafeDownCast(input) ? vtkDataSet::SafeDownCast(input)->GetNumberOfPoints() == 0
+      : vtkCompositeDataSet::SafeDownCast(input) ? vtkCompositeDataSet::SafeDownCast(input)->GetNumberOfPoints() == 0
+                                                 : true;
+    if (empty && producer)
+    {
+      producer->Update(this->GetInputConnection(0, 0)->GetIndex());
+      input = inInfo->Get(vtkDataObject::DATA_OBJECT());
+    }
+    vtkInformation* ai = this->GetInputArrayInformation(0);
+    const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
+    const int assoc =
+      ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
+    int dims[3];
+    std::string problem;
+    if (name && nvi::ResolveSamplingDimensions(input, name, assoc, this->SamplingDimensions, dims, problem))
+    {
+      const int ext[6] = { 0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1 };
+      const double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
+      const nvi::OutputGeometry g = nvi::ComputeGeometry(ext, origin, spacing, false, this->OutputResolution);
+      outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
+      std::copy(dims, dims + 3, this->Internals->AnnouncedDims);
+    }
+    else
+    {
+      outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    }
+    return 1;
+  }
   if (!vtkImageData::SafeDownCast(input) ||
     !inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
@@ -187,6 +226,7 @@ int vtkNeuralCompress::RequestData(
     }
   }
   output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
+
   return 1;
 }
 
@@ -194,13 +234,59 @@ int vtkNeuralCompress::RequestData(
 bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
   vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
 {
+  vtkInternals& in = *this->Internals;
   vtkImageData* input = vtkImageData::SafeDownCast(inputObject);
+  int association = -1;
+  vtkDataArray* array = nullptr;
+  std::shared_ptr<std::vector<uint8_t>> outside;
+  vtkSmartPointer<vtkImageData> resampled;
   if (!input)
   {
-    vtkErrorMacro("Neural Compress supports vtkImageData input only; "
-      << (inputObject ? inputObject->GetClassName() : "no") << " input (unstructured grids, "
-      << "polydata, other datasets) arrives in a later version. The output is empty.");
-    return false;
+    // Not an image: resampled onto one (vtkNeuralCompressResample.h), cached across re-executions.
+    if (!vtkDataSet::SafeDownCast(inputObject) && !vtkCompositeDataSet::SafeDownCast(inputObject))
+    {
+      vtkErrorMacro("Neural Compress: " << (inputObject ? inputObject->GetClassName() : "no")
+                                        << " input; a dataset or composite dataset is needed. The output is empty.");
+      return false;
+    }
+    vtkInformation* ai = this->GetInputArrayInformation(0);
+    const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
+    const int assoc = ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
+    if (!name || !*name ||
+      (assoc != vtkDataObject::FIELD_ASSOCIATION_POINTS && assoc != vtkDataObject::FIELD_ASSOCIATION_CELLS))
+    {
+      vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array "
+                    "(SelectInputScalars). The output is empty.");
+      return false;
+    }
+    int64_t outsideCount = 0;
+    std::string problem;
+    int dims[3];
+    // The dimensions RequestInformation announced (from the input data it saw), else resolved now.
+    if (in.AnnouncedDims[0] > 0)
+      std::copy(in.AnnouncedDims, in.AnnouncedDims + 3, dims);
+    else if (!nvi::ResolveSamplingDimensions(inputObject, name, assoc, this->SamplingDimensions, dims, problem))
+    {
+      vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+                                                            << ". The output is empty.");
+      return false;
+    }
+    if (!in.Resampler.Resample(inputObject, name, assoc, dims, resampled, outsideCount, problem))
+    {
+      vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+                                                            << ". The output is empty.");
+      return false;
+    }
+    input = resampled;
+    array = resampled->GetPointData()->GetArray(name);
+    association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    outside = std::make_shared<std::vector<uint8_t>>(size_t(array->GetNumberOfTuples()), uint8_t(0));
+    for (vtkIdType i = 0; i < array->GetNumberOfTuples(); ++i)
+      (*outside)[size_t(i)] = std::isnan(array->GetComponent(i, 0)) ? 1 : 0;
+  }
+  else
+  {
+    array = this->GetInputArrayToProcess(0, inputVector, association);
   }
   if (input->GetNumberOfPoints() == 0)
   {
@@ -208,8 +294,6 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
                   "The output is empty.");
     return false;
   }
-  int association = -1;
-  vtkDataArray* array = this->GetInputArrayToProcess(0, inputVector, association);
   if (!array)
   {
     vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array of the "
@@ -225,7 +309,6 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
     return false;
   }
 
-  vtkInternals& in = *this->Internals;
   try
   {
     const nvi::Settings settings = this->CurrentSettings();
@@ -248,6 +331,9 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
     std::copy(ext, ext + 6, field.InputExtent);
     std::copy(input->GetOrigin(), input->GetOrigin() + 3, field.InputOrigin);
     std::copy(input->GetSpacing(), input->GetSpacing() + 3, field.InputSpacing);
+    field.Outside = outside;
+    const int64_t outsideCount =
+      outside ? std::count(outside->begin(), outside->end(), uint8_t(1)) : int64_t(0);
     const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
       field.Geometry.SourceDims[2] };
     if (dims[0] * dims[1] * dims[2] <= 0)
@@ -264,6 +350,14 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
       return false;
     }
     field.Description = data->Field.Description;
+    if (outside)
+    {
+      // The source's own samples measure the result; its own array's bytes give the compression ratio.
+      field.Samples = in.Resampler.Samples(this->VectorMode, this->VectorComponent);
+      data->Field.RawBytes = field.Samples->SourceBytes;
+      field.Description = field.Description.empty() ? in.Resampler.Description()
+                                                    : field.Description + "; " + in.Resampler.Description();
+    }
     // The run may read the array in place from another thread: keep it alive.
     array->Register(this);
     data->Owner = std::shared_ptr<void>(array, [](void* a) { static_cast<vtkDataArray*>(a)->UnRegister(nullptr); });
@@ -282,9 +376,13 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
     in.KeySettings = canonical;
     if (!in.Current || in.Current->Key != in.Key || in.Current->Time != time)
     {
-      if (field.Stats.invalid > 0)
+      if (outside)
       {
-        vtkWarningMacro("Neural Compress: " << field.Stats.invalid << " of " << data->Field.View.count()
+        vtkDebugMacro("Neural Compress: " << in.Resampler.Description());
+      }
+      if (field.Stats.invalid > outsideCount)
+      {
+        vtkWarningMacro("Neural Compress: " << field.Stats.invalid - outsideCount << " of " << data->Field.View.count()
                                             << " values of '" << field.Name
                                             << "' are NaN or Inf; they are excluded from training "
                                                "and decode to finite values.");

@@ -2,9 +2,13 @@
  * @class   vtkNeuralCompress
  * @brief   trains a neural representation (multiresolution hash grid + MLP) of a scalar field
  *
- * vtkNeuralCompress takes a vtkImageData and one of its point or cell arrays (any numeric
- * type; vectors are reduced to their magnitude or to one component) and trains a neural
- * network that represents the field. The work is done by the VTK-free NeuralVolume engine;
+ * vtkNeuralCompress takes a dataset and one of its point or cell arrays (any numeric type;
+ * vectors are reduced to their magnitude or to one component) and trains a neural network that
+ * represents the field. Images train directly; rectilinear, structured and unstructured grids,
+ * planar poly data, composite datasets (one network over the union of the blocks) and AMR
+ * (the finest level wins) are first resampled onto an image covering their bounds
+ * (SamplingDimensions; VTK's vtkResampleToImage), whose points outside the domain are never
+ * trained on and decode to NaN. The work is done by the VTK-free NeuralVolume engine;
  * this class only translates VTK data and properties into engine calls.
  *
  * Output port 0: vtkImageData with the input's bounds (spacing adapted when OutputResolution
@@ -195,6 +199,14 @@ public:
   ///@}
 
   ///@{
+  /// Inputs that are not images: samples per axis of the image they are resampled onto before
+  /// training (0 0 0 = automatic: about 27 per source point or cell, for AMR the finest level's
+  /// spacing, between 32^3 and 256^3 in all). Ignored for image inputs.
+  vtkSetVector3Macro(SamplingDimensions, int);
+  vtkGetVector3Macro(SamplingDimensions, int);
+  ///@}
+
+  ///@{
   /// Steps between two PSNR estimates in the training log (0 = only at the end).
   vtkSetClampMacro(PSNRInterval, int, 0, VTK_INT_MAX);
   vtkGetMacro(PSNRInterval, int);
@@ -322,6 +334,7 @@ protected:
   int Threads = 0;
   int TrainingStrategy = STRATEGY_AUTO;
   int OutputResolution[3] = { 0, 0, 0 };
+  int SamplingDimensions[3] = { 0, 0, 0 };
   int PSNRInterval = 100;
   double TargetPSNR = 0.0;
   int OutputMode = OUTPUT_NETWORK_ONLY;

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <sstream>
 
 namespace vtkNeuralCompressInternals
@@ -133,6 +134,77 @@ uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const S
   return h;
 }
 
+/// NaN at the decoded points whose nearest source sample is outside the domain of a resampled input.
+static void MaskOutside(const FieldInfo& f, vtkDataArray* array)
+{
+  const OutputGeometry& g = f.Geometry;
+  const std::vector<uint8_t>& outside = *f.Outside;
+  if (int64_t(outside.size()) != int64_t(g.SourceDims[0]) * g.SourceDims[1] * g.SourceDims[2])
+  {
+    return;
+  }
+  std::vector<int64_t> map[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    const int nd = g.DecodedDims[a], ns = g.SourceDims[a];
+    map[a].resize(size_t(nd));
+    for (int i = 0; i < nd; ++i)
+      map[a][size_t(i)] = nd > 1 && ns > 1 ? std::llround(double(i) * (ns - 1) / (nd - 1)) : 0;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  vtkIdType k = 0;
+  for (int z = 0; z < g.DecodedDims[2]; ++z)
+    for (int y = 0; y < g.DecodedDims[1]; ++y)
+      for (int x = 0; x < g.DecodedDims[0]; ++x, ++k)
+      {
+        const int64_t s = (map[2][size_t(z)] * g.SourceDims[1] + map[1][size_t(y)]) * g.SourceDims[0] + map[0][size_t(x)];
+        if (outside[size_t(s)])
+          array->SetComponent(k, 0, nan);
+      }
+}
+
+/// Error of the network at the source's own samples of a resampled input, values normalised by [lo, hi] as in
+/// training. A non-finite network value counts as an infinite error (the PSNR is then -inf, never a good number).
+static nv::ErrorStats SourceError(
+  nv::NetworkSession& session, const nv::Model& model, const SourceSamples& s, double lo, double hi)
+{
+  nv::ErrorStats e;
+  const size_t n = s.Values.size();
+  if (n == 0)
+  {
+    e.psnr = std::numeric_limits<double>::quiet_NaN();
+    return e;
+  }
+  std::vector<float> xyz(3 * n), out(n);
+  const double* b = model.source.bounds;
+  for (size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a)
+    {
+      const double len = b[2 * a + 1] - b[2 * a];
+      const double u = len > 0.0 ? (s.Xyz[3 * i + size_t(a)] - b[2 * a]) / len : 0.5;
+      xyz[3 * i + size_t(a)] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
+    }
+  session.inferPoints(xyz.data(), static_cast<int64_t>(n), out.data(), nv::Memory::Host);
+  const double range = hi > lo ? hi - lo : 1.0;
+  double se = 0.0;
+  for (size_t i = 0; i < n; ++i)
+  {
+    const double src = s.Values[i];
+    if (!std::isfinite(src))
+      continue; // NaN / Inf source samples are not trained on (counted as invalid elsewhere)
+    const double v = model.denormalize(static_cast<double>(out[i]));
+    const double d = std::isfinite(v) ? v - src : std::numeric_limits<double>::infinity();
+    se += (d / range) * (d / range);
+    e.maxAbsError = std::max(e.maxAbsError, std::fabs(d));
+    ++e.count;
+  }
+  e.mse = e.count > 0 ? se / double(e.count) : 0.0;
+  e.psnr = e.count == 0 ? std::numeric_limits<double>::quiet_NaN()
+    : e.mse > 0.0       ? 10.0 * std::log10(1.0 / e.mse)
+                        : std::numeric_limits<double>::infinity();
+  return e;
+}
+
 vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& f, int outputMode)
 {
   if (outputMode == vtkNeuralCompress::OUTPUT_NETWORK_ONLY)
@@ -171,6 +243,10 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const Fi
       }
       array = typed;
     }
+  }
+  if (f.Outside && (array->GetDataType() == VTK_FLOAT || array->GetDataType() == VTK_DOUBLE))
+  {
+    MaskOutside(f, array);
   }
   array->SetName(f.Name.c_str());
   return array;
@@ -232,6 +308,15 @@ void Job::Finalize(const RunStatus& status)
   {
     error = nv::compareToSource(*this->Session, view);
   }
+  double resampledPsnr = std::numeric_limits<double>::quiet_NaN();
+  int64_t sourceSamples = 0;
+  if (this->Field.Samples)
+  {
+    // A resampled input: the error that counts is the one at the source's own samples.
+    resampledPsnr = error.psnr;
+    error = SourceError(*this->Session, model, *this->Field.Samples, this->Field.Stats.min, this->Field.Stats.max);
+    sourceSamples = error.count;
+  }
 
   auto record = std::make_shared<NetworkRecord>();
   record->Key = this->Key;
@@ -252,6 +337,8 @@ void Job::Finalize(const RunStatus& status)
   m.Psnr = error.psnr;
   m.PsnrFinal = true;
   m.MaxError = error.maxAbsError;
+  m.ResampledPsnr = resampledPsnr;
+  m.SourceSamples = sourceSamples;
   m.ModelBytes = model.parameterBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;

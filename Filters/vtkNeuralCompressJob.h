@@ -47,6 +47,10 @@ struct Metrics
   double Psnr = std::numeric_limits<double>::quiet_NaN(); ///< dB over every source sample (an estimate while training)
   bool PsnrFinal = false;
   double MaxError = std::numeric_limits<double>::quiet_NaN();
+  /// Resampled inputs: Psnr and MaxError are measured at the source's own samples (SourceSamples); this is the PSNR
+  /// on the resampled image the network was trained on. NaN for image inputs.
+  double ResampledPsnr = std::numeric_limits<double>::quiet_NaN();
+  int64_t SourceSamples = 0; ///< samples the source PSNR was measured at (0: image input)
   double Ratio = 0.0;
   int64_t ModelBytes = 0;
   int64_t Invalid = 0;
@@ -68,6 +72,18 @@ struct NetworkRecord
 };
 
 /// What the selected array is, where its output goes.
+/// The source's own samples of a resampled input (points, or cell centres; AMR: the visible cells), at most
+/// kMaxSourceSamples of them (an even stride through them beyond): the final PSNR is measured there, with the network
+/// evaluated at each, not on the resampled image.
+struct SourceSamples
+{
+  static constexpr int64_t kMaxSourceSamples = 1 << 21;
+  std::vector<double> Xyz;    ///< world coordinates, interleaved
+  std::vector<double> Values; ///< the trained scalar (magnitude or component as the VectorMode says)
+  int64_t Total = 0;          ///< samples of the source (before the stride)
+  int64_t SourceBytes = 0;    ///< bytes of the selected array in every block (the compression ratio's numerator)
+};
+
 struct FieldInfo
 {
   std::string Name;
@@ -80,6 +96,10 @@ struct FieldInfo
   int InputExtent[6] = { 0, 0, 0, 0, 0, 0 };
   double InputOrigin[3] = { 0, 0, 0 };
   double InputSpacing[3] = { 1, 1, 1 };
+  /// Inputs resampled to an image (vtkNeuralCompressResample.h): 1 for the source samples outside the domain (never
+  /// trained on); the decoded output is NaN at the decoded points nearest to them. Null for image inputs.
+  std::shared_ptr<const std::vector<uint8_t>> Outside;
+  std::shared_ptr<const SourceSamples> Samples; ///< resampled inputs only
 };
 
 /// The decoded output field in the requested type (OutputMode), or null for OUTPUT_NETWORK_ONLY.

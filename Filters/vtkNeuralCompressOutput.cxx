@@ -79,6 +79,12 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", m.Steps);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", m.Psnr);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralMaxError", m.MaxError);
+  if (m.SourceSamples > 0)
+  {
+    // A resampled input: NeuralPSNR and NeuralMaxError are at the source's own samples.
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSourceSamples", m.SourceSamples);
+    AddFieldValue<vtkDoubleArray>(fd, "NeuralResampledPSNR", m.ResampledPsnr);
+  }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", m.ModelBytes);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", m.Invalid);
@@ -185,7 +191,11 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
     if (!m.EndReason.empty() && m.EndReason != "step limit")
       s << " (" << m.EndReason << ")";
   }
-  s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError << "; model "
+  s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError;
+  if (m.SourceSamples > 0)
+    s << " at " << m.SourceSamples << " source samples ("
+      << m.ResampledPsnr << " dB on the resampled image)";
+  s << "; model "
     << FormatBytes(static_cast<double>(m.ModelBytes)) << " (2^" << config.encoding.log2TableSize << " table, "
     << (job.Storage == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << m.Ratio << ":1";
   if (targetRatio > 0.0)

@@ -4,6 +4,7 @@
 
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressResample.h"
 
 #include <map>
 #include <memory>
@@ -20,6 +21,8 @@ struct vtkNeuralCompress::vtkInternals
   int SessionDevice = -1;
   int SessionThreads = -1;
   nvi::NetworkCache Cache;
+  nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
+  int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
   std::map<uint64_t, std::vector<uint8_t>> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;

@@ -141,14 +141,15 @@ expect_empty("bad config", out, table, text, "Neural Compress:")
 log("engine configuration error: %s" % text.strip().splitlines()[-1] if text.strip() else "")
 Delete(filt)
 
-# --- non-image input ---------------------------------------------------------------------------
+# --- non-image inputs that cannot be resampled (any dataset trains: TestNeuralCompressAnyDataset.py) -------------
 wavelet = Wavelet(WholeExtent=[-4, 4, -4, 4, -4, 4])
 tets = Tetrahedralize(Input=wavelet)
-filt, out, table, text = run(tets, array=("POINTS", "RTData"))
-expect_empty("unstructured grid", out, table, text, "supports vtkImageData input only")
-check(out.GetNumberOfPoints() == 0, "unstructured grid: empty output")
-check("vtkUnstructuredGrid" in text and "later version" in text,
-      "unstructured grid: the message names the type and says it comes later")
+filt, out, table, text = run(tets, array=("POINTS", "RTData"), SamplingDimensions=[2000, 2000, 2000])
+expect_empty("huge SamplingDimensions", out, table, text, "exceed 2^30 samples")
+check("vtkUnstructuredGrid" in text, "huge SamplingDimensions: the message names the input type")
+Delete(filt)
+filt, out, table, text = run(tets, array=("CELLS", "NoSuchArray"))
+expect_empty("missing array", out, table, text, "no block of the input has a cell array 'NoSuchArray'")
 Delete(filt)
 
 # --- device selection ----------------------------------------------------------------------------

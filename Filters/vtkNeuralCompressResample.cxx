@@ -1,0 +1,375 @@
+#include "vtkNeuralCompressResample.h"
+#include "vtkNeuralCompressJob.h"
+
+#include "vtkCellData.h"
+#include "vtkCell.h"
+#include "vtkDataSetAttributes.h"
+#include "vtkGenericCell.h"
+#include "vtkUnsignedCharArray.h"
+#include "vtkCompositeDataIterator.h"
+#include "vtkCompositeDataSet.h"
+#include "vtkDataArray.h"
+#include "vtkDataArraySelection.h"
+#include "vtkDataObject.h"
+#include "vtkDataSet.h"
+#include "vtkDoubleArray.h"
+#include "vtkFloatArray.h"
+#include "vtkImageData.h"
+#include "vtkNew.h"
+#include "vtkOverlappingAMR.h"
+#include "vtkPassSelectedArrays.h"
+#include "vtkPointData.h"
+#include "vtkPolyData.h"
+#include "vtkResampleToImage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+constexpr double kMinSamples = 32.0 * 32.0 * 32.0;
+constexpr double kMaxSamples = 256.0 * 256.0 * 256.0;
+
+/// The leaves of `input` (the dataset itself when it is not composite).
+std::vector<vtkDataSet*> Leaves(vtkDataObject* input)
+{
+  std::vector<vtkDataSet*> out;
+  if (auto* ds = vtkDataSet::SafeDownCast(input))
+  {
+    out.push_back(ds);
+  }
+  else if (auto* cd = vtkCompositeDataSet::SafeDownCast(input))
+  {
+    vtkSmartPointer<vtkCompositeDataIterator> it;
+    it.TakeReference(cd->NewIterator());
+    for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
+    {
+      if (auto* leaf = vtkDataSet::SafeDownCast(it->GetCurrentDataObject()))
+      {
+        out.push_back(leaf);
+      }
+    }
+  }
+  return out;
+}
+
+vtkDataArray* FieldArray(vtkDataSet* ds, const std::string& name, int association)
+{
+  return association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? ds->GetCellData()->GetArray(name.c_str())
+                                                                : ds->GetPointData()->GetArray(name.c_str());
+}
+} // namespace
+
+void AutoSamplingDimensions(const double bounds[6], int64_t sourceSamples, double finestSpacing, int dims[3])
+{
+  double len[3];
+  int active = 0;
+  double largest = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    len[a] = std::max(0.0, bounds[2 * a + 1] - bounds[2 * a]);
+    largest = std::max(largest, len[a]);
+  }
+  for (int a = 0; a < 3; ++a)
+  {
+    // An axis under a millionth of the largest extent is flat: one sample.
+    if (len[a] <= 1e-6 * largest)
+      len[a] = 0.0;
+    active += len[a] > 0.0 ? 1 : 0;
+  }
+  double want = 27.0 * static_cast<double>(std::max<int64_t>(sourceSamples, 1));
+  if (finestSpacing > 0.0 && active > 0)
+  {
+    want = 1.0;
+    for (int a = 0; a < 3; ++a)
+      want *= len[a] > 0.0 ? len[a] / finestSpacing + 1.0 : 1.0;
+  }
+  const double maxTotal = active == 3 ? kMaxSamples : active == 2 ? 4096.0 * 4096.0 : 1 << 20;
+  const double minTotal = active == 3 ? kMinSamples : active == 2 ? 64.0 * 64.0 : 256.0;
+  want = std::min(std::max(want, minTotal), maxTotal);
+  double volume = 1.0;
+  for (int a = 0; a < 3; ++a)
+    volume *= len[a] > 0.0 ? len[a] : 1.0;
+  const double h = active > 0 ? std::pow(volume / want, 1.0 / active) : 1.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    dims[a] = len[a] > 0.0 ? static_cast<int>(std::max(2.0, std::round(len[a] / h) + 1.0)) : 1;
+  }
+}
+
+bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, int association,
+  const int requested[3], int dims[3], std::string& problem)
+{
+  if (!input)
+  {
+    problem = "no input";
+    return false;
+  }
+  // The array: present in at least one leaf; counts and bounds of the leaves that have it.
+  const std::vector<vtkDataSet*> leaves = Leaves(input);
+  int64_t samples = 0, withArray = 0;
+  bool flat3d = false;
+  for (vtkDataSet* leaf : leaves)
+  {
+    vtkDataArray* a = FieldArray(leaf, name, association);
+    if (!a)
+      continue;
+    ++withArray;
+    samples += association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? leaf->GetNumberOfCells()
+                                                                     : leaf->GetNumberOfPoints();
+    if (auto* pd = vtkPolyData::SafeDownCast(leaf))
+    {
+      double b[6];
+      pd->GetBounds(b);
+      const double lx = b[1] - b[0], ly = b[3] - b[2], lz = b[5] - b[4];
+      const double largest = std::max(lx, std::max(ly, lz));
+      flat3d |= std::min(lx, std::min(ly, lz)) > 1e-6 * largest;
+    }
+  }
+  if (withArray == 0)
+  {
+    problem = "no block of the input has a " +
+      std::string(association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? "cell" : "point") + " array '" + name + "'";
+    return false;
+  }
+  if (flat3d)
+  {
+    problem = "poly data is a surface, line or point set in 3D and has no volume to sample; Neural Compress "
+              "takes volumes (image, rectilinear, structured, unstructured grids, AMR) or planar poly data";
+    return false;
+  }
+  double bounds[6];
+  if (auto* ds = vtkDataSet::SafeDownCast(input))
+    ds->GetBounds(bounds);
+  else if (auto* amr = vtkUniformGridAMR::SafeDownCast(input))
+    amr->GetBounds(bounds);
+  else
+    vtkCompositeDataSet::SafeDownCast(input)->GetBounds(bounds);
+  if (!(bounds[1] >= bounds[0] && bounds[3] >= bounds[2] && bounds[5] >= bounds[4]) ||
+    !std::isfinite(bounds[0] + bounds[1] + bounds[2] + bounds[3] + bounds[4] + bounds[5]))
+  {
+    problem = "the input has no valid bounds (no points)";
+    return false;
+  }
+  // Composites of images (AMR, multiblocks of grids): the finest spacing of their blocks sets the resolution.
+  double finest = 0.0;
+  if (!vtkDataSet::SafeDownCast(input))
+  {
+    for (vtkDataSet* leaf : leaves)
+    {
+      auto* im = vtkImageData::SafeDownCast(leaf);
+      if (!im || !FieldArray(leaf, name, association))
+        continue;
+      const double* h = im->GetSpacing();
+      int ext[6];
+      im->GetExtent(ext);
+      for (int a = 0; a < 3; ++a)
+        if (ext[2 * a + 1] > ext[2 * a] && h[a] > 0.0)
+          finest = finest > 0.0 ? std::min(finest, h[a]) : h[a];
+    }
+  }
+  std::copy(requested, requested + 3, dims);
+  if (dims[0] <= 0 || dims[1] <= 0 || dims[2] <= 0)
+  {
+    AutoSamplingDimensions(bounds, samples, finest, dims);
+  }
+  const double total = double(dims[0]) * dims[1] * dims[2];
+  if (total > 1024.0 * 1024.0 * 1024.0)
+  {
+    std::ostringstream s;
+    s << "SamplingDimensions " << dims[0] << " x " << dims[1] << " x " << dims[2]
+      << " exceed 2^30 samples; choose at most 1024^3";
+    problem = s.str();
+    return false;
+  }
+
+  return true;
+}
+
+bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int association, const int dimsIn[3],
+  vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem)
+{
+  if (!input)
+  {
+    problem = "no input";
+    return false;
+  }
+  if (this->Image && this->Input == input && this->InputMTime == input->GetMTime() && this->Name == name &&
+    this->Association == association && std::equal(dimsIn, dimsIn + 3, this->Dims))
+  {
+    image = this->Image;
+    outside = this->Outside;
+    return true;
+  }
+  this->Image = nullptr;
+  int dims[3];
+  if (!ResolveSamplingDimensions(input, name, association, dimsIn, dims, problem))
+    return false;
+  const std::vector<vtkDataSet*> leaves = Leaves(input);
+  int64_t samples = 0, withArray = 0;
+  for (vtkDataSet* leaf : leaves)
+  {
+    if (vtkDataArray* a = FieldArray(leaf, name, association))
+    {
+      ++withArray;
+      samples += a->GetNumberOfTuples();
+    }
+  }
+
+  // Only the selected array (and the ghost arrays AMR blanking needs) is probed.
+  vtkNew<vtkPassSelectedArrays> pass;
+  pass->SetInputDataObject(input);
+  pass->GetArraySelection(association)->EnableArray(name.c_str());
+  vtkNew<vtkResampleToImage> resample;
+  resample->SetInputConnection(pass->GetOutputPort());
+  resample->SetUseInputBounds(true);
+  resample->SetSamplingDimensions(dims);
+  resample->Update();
+  vtkImageData* out = resample->GetOutput();
+  vtkDataArray* values = out ? out->GetPointData()->GetArray(name.c_str()) : nullptr;
+  vtkDataArray* mask = out ? out->GetPointData()->GetArray(resample->GetMaskArrayName()) : nullptr;
+  if (!values || !mask || mask->GetNumberOfTuples() != values->GetNumberOfTuples())
+  {
+    problem = "resampling the input to an image gave no '" + name + "' values";
+    return false;
+  }
+
+  // Floating-point copy of the values with NaN where the image point is outside every cell.
+  const vtkIdType n = values->GetNumberOfTuples();
+  const int nc = values->GetNumberOfComponents();
+  vtkSmartPointer<vtkDataArray> field;
+  if (values->GetDataType() == VTK_DOUBLE)
+    field = vtkSmartPointer<vtkDoubleArray>::New();
+  else
+    field = vtkSmartPointer<vtkFloatArray>::New();
+  field->SetName(name.c_str());
+  field->SetNumberOfComponents(nc);
+  field->SetNumberOfTuples(n);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  int64_t out0 = 0;
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    const bool in = mask->GetComponent(i, 0) != 0.0;
+    out0 += in ? 0 : 1;
+    for (int c = 0; c < nc; ++c)
+      field->SetComponent(i, c, in ? values->GetComponent(i, c) : nan);
+  }
+  if (out0 == n)
+  {
+    problem = "no sample of the " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+      std::to_string(dims[2]) + " resampling lies inside a cell of the input";
+    return false;
+  }
+  auto img = vtkSmartPointer<vtkImageData>::New();
+  img->SetOrigin(out->GetOrigin());
+  img->SetSpacing(out->GetSpacing());
+  img->SetExtent(out->GetExtent());
+  img->GetPointData()->AddArray(field);
+
+  std::ostringstream d;
+  d << input->GetClassName();
+  if (leaves.size() != 1 || !vtkDataSet::SafeDownCast(input))
+    d << " (" << withArray << " of " << leaves.size() << " blocks with '" << name << "')";
+  d << ", " << samples << (association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? " cells" : " points")
+    << " resampled to " << dims[0] << " x " << dims[1] << " x " << dims[2] << " (" << out0
+    << " samples outside the domain)";
+  this->Text = d.str();
+  this->Input = input;
+  this->InputMTime = input->GetMTime();
+  this->Name = name;
+  this->Association = association;
+  std::copy(dimsIn, dimsIn + 3, this->Dims);
+  this->Image = img;
+  this->Outside = out0;
+  this->Cached = nullptr;
+  image = img;
+  outside = out0;
+  return true;
+}
+
+std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int component)
+{
+  if (!this->Input || !this->Image)
+    return nullptr;
+  if (this->Cached && this->SamplesMode == vectorMode && this->SamplesComponent == component)
+    return this->Cached;
+  const bool cells = this->Association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
+  // Cells hidden by a finer AMR level or duplicated as ghosts are not the source's own samples.
+  const unsigned char skipCell = vtkDataSetAttributes::DUPLICATECELL | vtkDataSetAttributes::HIDDENCELL |
+    vtkDataSetAttributes::REFINEDCELL;
+  const unsigned char skipPoint = vtkDataSetAttributes::DUPLICATEPOINT | vtkDataSetAttributes::HIDDENPOINT;
+  auto samples = std::make_shared<SourceSamples>();
+  struct Leaf
+  {
+    vtkDataSet* ds;
+    vtkDataArray* a;
+    vtkUnsignedCharArray* ghost;
+  };
+  std::vector<Leaf> leaves;
+  for (vtkDataSet* leaf : Leaves(this->Input))
+  {
+    vtkDataArray* a = FieldArray(leaf, this->Name, this->Association);
+    if (!a)
+      continue;
+    samples->SourceBytes += int64_t(a->GetNumberOfValues()) * std::max(1, a->GetDataTypeSize());
+    vtkUnsignedCharArray* ghost = cells ? leaf->GetCellGhostArray() : leaf->GetPointGhostArray();
+    leaves.push_back({ leaf, a, ghost });
+    const vtkIdType n = a->GetNumberOfTuples();
+    for (vtkIdType i = 0; i < n; ++i)
+      samples->Total += ghost && (ghost->GetValue(i) & (cells ? skipCell : skipPoint)) ? 0 : 1;
+  }
+  const int64_t stride =
+    std::max<int64_t>(1, (samples->Total + SourceSamples::kMaxSourceSamples - 1) / SourceSamples::kMaxSourceSamples);
+  vtkNew<vtkGenericCell> cell;
+  std::vector<double> weights;
+  int64_t k = 0;
+  for (const Leaf& l : leaves)
+  {
+    const int nc = l.a->GetNumberOfComponents();
+    const int c = std::min(std::max(component, 0), nc - 1);
+    const vtkIdType n = l.a->GetNumberOfTuples();
+    for (vtkIdType i = 0; i < n; ++i)
+    {
+      if (l.ghost && (l.ghost->GetValue(i) & (cells ? skipCell : skipPoint)))
+        continue;
+      if (k++ % stride != 0)
+        continue;
+      double x[3];
+      if (cells)
+      {
+        // Parametric centre of the cell, mapped to world coordinates.
+        l.ds->GetCell(i, cell);
+        double pc[3];
+        weights.resize(size_t(std::max<vtkIdType>(cell->GetNumberOfPoints(), 1)));
+        int sub = cell->GetParametricCenter(pc);
+        cell->EvaluateLocation(sub, pc, x, weights.data());
+      }
+      else
+      {
+        l.ds->GetPoint(i, x);
+      }
+      double v = 0.0;
+      if (nc == 1 || vectorMode == 1)
+        v = l.a->GetComponent(i, nc == 1 ? 0 : c);
+      else
+      {
+        for (int q = 0; q < nc; ++q)
+          v += l.a->GetComponent(i, q) * l.a->GetComponent(i, q);
+        v = std::sqrt(v);
+      }
+      samples->Xyz.insert(samples->Xyz.end(), x, x + 3);
+      samples->Values.push_back(v);
+    }
+  }
+  this->SamplesMode = vectorMode;
+  this->SamplesComponent = component;
+  this->Cached = samples;
+  return samples;
+}
+
+} // namespace vtkNeuralCompressInternals

@@ -1,0 +1,69 @@
+// Neural Compress on datasets that are not images (private header): rectilinear, structured, unstructured grids,
+// poly data with volume cells, composite datasets (multiblock, partitioned collections) and AMR are resampled once
+// onto an image covering their bounds with VTK's vtkResampleToImage (point location and interpolation inside the
+// source cells by VTK; overlapping AMR: the finest level that covers a point wins). Image points outside the
+// domain get NaN, so the engine never trains on them and the decoded output marks them NaN.
+#ifndef vtkNeuralCompressResample_h
+#define vtkNeuralCompressResample_h
+
+#include "vtkSmartPointer.h"
+#include "vtkType.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+class vtkDataArray;
+class vtkDataObject;
+class vtkImageData;
+
+namespace vtkNeuralCompressInternals
+{
+struct SourceSamples;
+
+/// Samples per axis for resampling an input of `bounds` with `sourceSamples` points or cells (finestSpacing > 0:
+/// composites of images such as AMR: their finest spacing): about 27 image points per source sample (or that spacing),
+/// between 32^3 and 256^3 in all, shared between the axes in proportion to the extents (a flat axis gets 1).
+void AutoSamplingDimensions(const double bounds[6], int64_t sourceSamples, double finestSpacing, int dims[3]);
+
+/// The samples per axis a non-image input is resampled at: `requested`, or AutoSamplingDimensions where it is
+/// 0 0 0. False with `problem` set when the input has no such array or no volume for it (e.g. poly data of
+/// surfaces only).
+bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, int association,
+  const int requested[3], int dims[3], std::string& problem);
+
+/// The resampled field of a non-image input; reused while the input, the array and the dimensions stay the same
+/// (the filter re-executes for live refreshes during training).
+class InputResampler
+{
+public:
+  /// Resamples array `name` (point or cell association, any number of components) of `input` at `dims`
+  /// (ResolveSamplingDimensions). On success `image` holds the array as point data (float32 or float64, NaN
+  /// outside the domain) and `outside` counts those points. False with `problem` set when the input has no such
+  /// array or no volume for it (e.g. poly data of surfaces only).
+  bool Resample(vtkDataObject* input, const std::string& name, int association, const int dims[3],
+    vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem);
+
+  /// The source's own samples of the last resampled input (points or visible cell centres) with the scalar the
+  /// network learns from them (vectorMode 0: magnitude, 1: `component`), for measuring the PSNR at the source.
+  std::shared_ptr<const SourceSamples> Samples(int vectorMode, int component);
+
+  /// A one-line description of the last resampled input ("vtkUnstructuredGrid, 7472 cells -> 64 x 64 x 113").
+  const std::string& Description() const { return this->Text; }
+
+private:
+  vtkDataObject* Input = nullptr;
+  vtkMTimeType InputMTime = 0;
+  std::string Name;
+  int Association = -1;
+  int Dims[3] = { 0, 0, 0 };
+  vtkSmartPointer<vtkImageData> Image;
+  int64_t Outside = 0;
+  int SamplesMode = -1, SamplesComponent = -1;
+  std::shared_ptr<const SourceSamples> Cached;
+  std::string Text;
+};
+
+} // namespace vtkNeuralCompressInternals
+
+#endif
