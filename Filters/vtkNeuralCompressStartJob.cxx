@@ -121,6 +121,14 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   src.arrayName = field.Name;
   src.association = field.Cells ? 1 : 0;
   src.rawBytes = data->Field.RawBytes;
+  if (field.Outside && int64_t(field.Outside->size()) == dims[0] * dims[1] * dims[2])
+  {
+    // A resampled input: the network keeps its domain, so renderers draw nothing outside it.
+    src.domain.assign(size_t((field.Outside->size() + 31) / 32), 0u);
+    for (size_t i = 0; i < field.Outside->size(); ++i)
+      if (!(*field.Outside)[i])
+        src.domain[i >> 5] |= 1u << (i & 31);
+  }
 
   // Warm start: the network of the nearest time step trained before, when its layout is the same.
   bool warm = false;

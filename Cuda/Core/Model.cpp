@@ -1,5 +1,6 @@
 #include "Model.h"
 
+#include "DomainMask.h"
 #include "Error.h"
 
 #include <cmath>
@@ -236,4 +237,16 @@ float halfToFloat(uint16_t h)
   return f;
 }
 
+} // namespace nv
+
+namespace nv
+{
+bool inDomain(const SourceInfo& src, const float u[3])
+{
+  const int64_t samples = src.dims[0] * src.dims[1] * src.dims[2];
+  if (src.domain.empty() || int64_t(src.domain.size()) != (samples + 31) / 32)
+    return true;
+  const int dims[3] = { static_cast<int>(src.dims[0]), static_cast<int>(src.dims[1]), static_cast<int>(src.dims[2]) };
+  return domainBit(src.domain.data(), dims, u[0], u[1], u[2]);
+}
 } // namespace nv

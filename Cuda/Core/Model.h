@@ -23,7 +23,13 @@ struct SourceInfo
   std::string arrayName;
   int association = 0;                 ///< 0 = point data, 1 = cell data
   int64_t rawBytes = 0;                ///< bytes of the source array (for the compression ratio)
+  /// The source's domain inside the box (inputs resampled onto an image): one bit per source sample, x fastest,
+  /// 1 = inside. Empty: the whole box. Renderers draw nothing where the nearest source sample is outside.
+  std::vector<uint32_t> domain;
 };
+
+/// Whether the normalised point u (in [0,1]^3) lies in the domain of `src` (always true without a domain mask).
+bool inDomain(const SourceInfo& src, const float u[3]);
 
 struct TrainingStats
 {

@@ -103,8 +103,12 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
 /// Blinn-Phong with the light, the normal facing the viewer (two-sided), white specular.
 NV_HD void shadeGradient(const Params& P, const Ray& r, const float* v, float rgb[3])
 {
-  const V3 gu = mk((v[1] - v[2]) / (2.0f * P.gradH[0]), (v[3] - v[4]) / (2.0f * P.gradH[1]),
-    (v[5] - v[6]) / (2.0f * P.gradH[2]));
+  // A neighbour outside the source's domain (NaN) counts as the centre value: a one-sided difference there.
+  float w[7];
+  for (int k = 0; k < 7; ++k)
+    w[k] = v[k] == v[k] ? v[k] : v[0];
+  const V3 gu = mk((w[1] - w[2]) / (2.0f * P.gradH[0]), (w[3] - w[4]) / (2.0f * P.gradH[1]),
+    (w[5] - w[6]) / (2.0f * P.gradH[2]));
   V3 g = gradToWorld(P, gu);
   const float gl = sqrtf(dot(g, g));
   if (!(gl > 1e-12f))

@@ -2,6 +2,7 @@
 // RayMachine.h for how a ray is driven.
 #pragma once
 
+#include "DomainMask.h"
 #include "HashGridMath.h"
 #include "HostDevice.h"
 
@@ -123,7 +124,27 @@ struct Params
   int maxBounces;
   uint32_t seed, frame;
   const float* depth;    ///< window depth of opaque geometry per pixel, or null
+  // The source's domain (SourceInfo::domain, in the renderer's memory): one bit per source sample, x fastest;
+  // null: the whole box. A query whose nearest source sample is outside has no value (NaN: transparent).
+  const uint32_t* domain;
+  int domainDims[3];
 };
+
+/// True when the nearest source sample of network point q is inside the domain (or there is no domain mask).
+NV_HD bool inDomain(const Params& P, const V3& q)
+{
+  return !P.domain || domainBit(P.domain, P.domainDims, q.x, q.y, q.z);
+}
+
+/// After the queries q[0..n) are evaluated into v: NaN (no value) for those outside the source's domain.
+NV_HD void maskOutsideDomain(const Params& P, const V3* q, float* v, int n)
+{
+  if (!P.domain)
+    return;
+  for (int i = 0; i < n; ++i)
+    if (!inDomain(P, q[i]))
+      v[i] = NAN;
+}
 
 struct Ray
 {

@@ -377,6 +377,12 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
   P.frame = 0;
+  // The source's domain: host memory here (the GPU renderer points P.domain at its device copy).
+  const int64_t domainSamples = src.dims[0] * src.dims[1] * src.dims[2];
+  const bool domain = !src.domain.empty() && int64_t(src.domain.size()) == (domainSamples + 31) / 32;
+  P.domain = domain ? src.domain.data() : nullptr;
+  for (int a = 0; a < 3; ++a)
+    P.domainDims[a] = static_cast<int>(src.dims[a]);
 
   for (int a = 0; a < 3; ++a)
     s.gridDims[a] = q.decodeResolution[a] > 0 ? q.decodeResolution[a] : std::max<int64_t>(1, src.dims[a]);

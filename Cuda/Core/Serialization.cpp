@@ -173,9 +173,10 @@ std::vector<uint8_t> serialize(const Model& model)
   h.put<int64_t>(t.invalidSamples);
   h.putString(t.device);
 
+  const bool mask = !s.domain.empty();
   Writer w;
   w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.put<uint32_t>(kFormatVersion);
+  w.put<uint32_t>(mask ? kFormatVersion : kFormatVersionNoMask);
   w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
   w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
   const std::vector<float>& p = model.params();
@@ -195,6 +196,28 @@ std::vector<uint8_t> serialize(const Model& model)
     const uint8_t* b = reinterpret_cast<const uint8_t*>(p.data());
     w.bytes.insert(w.bytes.end(), b, b + p.size() * sizeof(float));
   }
+  if (mask)
+  {
+    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
+    NV_CHECK(int64_t(s.domain.size()) == (samples + 31) / 32, "domain mask size does not match the source dims");
+    std::vector<uint32_t> runs;
+    uint32_t value = 0, length = 0;
+    for (int64_t i = 0; i < samples; ++i)
+    {
+      const uint32_t bit = (s.domain[size_t(i >> 5)] >> (i & 31)) & 1u;
+      if (bit != value)
+      {
+        runs.push_back(length);
+        value = bit;
+        length = 0;
+      }
+      ++length;
+    }
+    runs.push_back(length);
+    w.put<uint64_t>(runs.size());
+    for (uint32_t r : runs)
+      w.put<uint32_t>(r);
+  }
   w.put<uint32_t>(crc32(w.bytes.data(), w.bytes.size()));
   return std::move(w.bytes);
 }
@@ -210,7 +233,7 @@ Model deserialize(const uint8_t* data, size_t size)
   Reader r(data, size);
   r.skip(8);
   const uint32_t version = r.get<uint32_t>("version");
-  if (version != kFormatVersion)
+  if (version != kFormatVersion && version != kFormatVersionNoMask)
   {
     NV_THROW("unsupported NeuralVolume model version " + std::to_string(version) + " (this build reads version " +
       std::to_string(kFormatVersion) + ")");
@@ -291,6 +314,28 @@ Model deserialize(const uint8_t* data, size_t size)
     r.need(n * 4, "parameters");
     std::memcpy(p.data(), r.here(), n * 4);
     r.skip(n * 4);
+  }
+  if (version >= 2)
+  {
+    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
+    NV_CHECK(s.dims[0] <= (1 << 20) && s.dims[1] <= (1 << 20) && s.dims[2] <= (1 << 20) && samples < (int64_t(1) << 32),
+      "corrupt model: a domain mask over " + std::to_string(samples) + " samples");
+    const uint64_t count = r.get<uint64_t>("domain run count");
+    NV_CHECK(count >= 1 && count <= uint64_t(samples) + 1, "corrupt model: " + std::to_string(count) + " domain runs");
+    r.need(count * 4, "domain runs");
+    s.domain.assign(size_t((samples + 31) / 32), 0u);
+    int64_t at = 0;
+    for (uint64_t k = 0; k < count; ++k)
+    {
+      const int64_t len = r.get<uint32_t>("domain run");
+      NV_CHECK(len <= samples - at, "corrupt model: the domain runs exceed the source samples");
+      if (k % 2 == 1)
+        for (int64_t i = at; i < at + len; ++i)
+          s.domain[size_t(i >> 5)] |= 1u << (i & 31);
+      at += len;
+    }
+    NV_CHECK(at == samples, "corrupt model: the domain runs cover " + std::to_string(at) + " of " +
+        std::to_string(samples) + " samples");
   }
   NV_CHECK(r.pos() + 4 == size, "corrupt model: " + std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
   return m;

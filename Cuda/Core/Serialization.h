@@ -1,8 +1,10 @@
 // NeuralVolume engine: versioned binary format of a model.
 //
 // Layout (little endian): magic "NVOLNET\0", u32 version, u32 header bytes, header fields (config, storage
-// precision, source info, training stats), u64 parameter count, parameters (fp32 or fp16), u32 CRC-32 of
-// everything before it. Reading checks magic, version, sizes, ranges and the checksum.
+// precision, source info, training stats), u64 parameter count, parameters (fp32 or fp16), [version 2: the domain
+// mask -- u64 run count, then u32 run lengths over the source samples (x fastest), alternately outside and inside,
+// starting with outside], u32 CRC-32 of everything before it. Models without a domain mask are written as version 1
+// (byte for byte as before); both versions are read. Reading checks magic, version, sizes, ranges and the checksum.
 #pragma once
 
 #include "Model.h"
@@ -14,7 +16,8 @@
 namespace nv
 {
 
-constexpr uint32_t kFormatVersion = 1;
+constexpr uint32_t kFormatVersion = 2;     ///< the newest version this build reads and writes
+constexpr uint32_t kFormatVersionNoMask = 1; ///< written for models without a domain mask
 
 std::vector<uint8_t> serialize(const Model& model);
 /// Throws nv::Error with a clear message on truncated, corrupt or wrong-version input.

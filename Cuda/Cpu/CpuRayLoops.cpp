@@ -64,6 +64,7 @@ void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& f
                 runaway();
               const int n = ray::emit(P, r, 1, q);
               field(q, n, v);
+              ray::maskOutsideDomain(P, q, v, n);
               c.evaluated += n;
               ray::consume(P, r, 1, v, n);
             }
@@ -195,7 +196,10 @@ void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, cons
       for (int64_t i = b; i < e; ++i)
       {
         Slot& s = live[static_cast<size_t>(i)];
-        ray::consume(P, s.r, K, values.data() + offset[static_cast<size_t>(i)], count[static_cast<size_t>(i)]);
+        float* v = values.data() + offset[static_cast<size_t>(i)];
+        ray::maskOutsideDomain(P, reinterpret_cast<const ray::V3*>(batch.data() + 3 * offset[static_cast<size_t>(i)]),
+          v, static_cast<int>(count[static_cast<size_t>(i)]));
+        ray::consume(P, s.r, K, v, count[static_cast<size_t>(i)]);
       }
     });
     // 4. retire finished rays (in list order: deterministic), compact, admit waiting rays

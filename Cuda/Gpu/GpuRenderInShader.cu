@@ -112,6 +112,7 @@ __global__ void __launch_bounds__(256, 1) inShaderKernel(const __grid_constant__
       float v[ray::kMaxQueriesPerStep];
       for (int k = 0; k < n; ++k)
         v[k] = vs[off + k];
+      ray::maskOutsideDomain(P, q, v, n);
       ray::consume(P, r, 1, v, n);
       evaluated += n;
       if (r.phase == ray::Done)

@@ -71,6 +71,7 @@ __global__ void __launch_bounds__(256) marchGridKernel(const __grid_constant__ r
         const int n = ray::emit(P, r, 1, q);
         for (int k = 0; k < n; ++k)
           v[k] = gridValue(tex, nx1, ny1, nz1, q[k]);
+        ray::maskOutsideDomain(P, q, v, n);
         ray::consume(P, r, 1, v, n);
         evaluated += n;
       }
@@ -134,10 +135,12 @@ __global__ void packKernel(uint32_t n, int stride, const float* __restrict__ slo
   }
 }
 
-/// Consume each live ray's values; finished rays write their pixel, the others go to the next live list.
+/// Consume each live ray's values (those of queries outside the source's domain made NaN first, in place; points:
+/// the packed queries); finished rays write their pixel, the others go to the next live list.
 __global__ void consumeKernel(const __grid_constant__ ray::Params P, ray::Ray* __restrict__ rays,
   const uint32_t* __restrict__ active, uint32_t n, int K, const uint32_t* __restrict__ counts,
-  const uint32_t* __restrict__ offsets, const float* __restrict__ values, uint32_t* __restrict__ nextActive,
+  const uint32_t* __restrict__ offsets, const float* __restrict__ points, float* __restrict__ values,
+  uint32_t* __restrict__ nextActive,
   unsigned int* nextCount, RenderCounters* counters, float4* image, float4* accum)
 {
   unsigned long long evaluated = 0, plain = 0;
@@ -149,6 +152,8 @@ __global__ void consumeKernel(const __grid_constant__ ray::Params P, ray::Ray* _
     {
       const uint32_t id = active[i];
       ray::Ray r = rays[id];
+      ray::maskOutsideDomain(P, reinterpret_cast<const ray::V3*>(points + 3 * size_t(offsets[i])), values + offsets[i],
+        static_cast<int>(counts[i]));
       ray::consume(P, r, K, values + offsets[i], static_cast<int>(counts[i]));
       evaluated += counts[i];
       if (r.phase == ray::Done)

@@ -272,8 +272,8 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
         NV_CUDA_LAUNCH();
         launchInference(Dm, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), St);
       }
-      consumeKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(), Values.get(),
-        Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
+      consumeKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(), Points.get(),
+        Values.get(), Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
       NV_CUDA_LAUNCH();
       ++st.wavefronts;
     }
@@ -317,6 +317,20 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       Tf.allocate(s.table.size(), "transfer function");
     NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice, St));
     P.tf = Tf.get();
+    if (P.domain)
+    {
+      // The source's domain mask, uploaded once per network version.
+      const size_t words = model.source.domain.size();
+      if (DomainVersion != version || Domain.size() != words)
+      {
+        if (Domain.size() != words)
+          Domain.allocate(words, "domain mask");
+        NV_CUDA(cudaMemcpyAsync(Domain.get(), model.source.domain.data(), words * sizeof(uint32_t),
+          cudaMemcpyHostToDevice, St));
+        DomainVersion = version;
+      }
+      P.domain = Domain.get();
+    }
     prepareMajorants(s, P);
     if (q.depth)
     {

@@ -74,6 +74,8 @@ private:
   GridTexture Grid;
   int64_t GridDims[3] = { 0, 0, 0 };
   uint64_t GridVersion = 0;
+  DeviceBuffer<uint32_t> Domain; ///< SourceInfo::domain on the device
+  uint64_t DomainVersion = ~0ull;
   const void* GridSource = nullptr;
   RangeKey Ranges;
   uint64_t RangeStamp = 0;   ///< increments whenever Range changes

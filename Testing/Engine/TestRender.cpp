@@ -335,6 +335,59 @@ NV_TEST(macrocells_recompute_only_what_changed)
   }
 }
 
+NV_TEST(nothing_is_drawn_outside_the_domain)
+{
+  // A resampled source's domain mask (SourceInfo::domain): here the half x < 0.5 of the box. Looking along -z with
+  // an orthographic camera, every ray stays on one side: pixels over the outside half are empty (alpha exactly 0)
+  // on every path and shading mode, pixels over the inside half are the picture without a mask, bit for bit.
+  Model masked = scene().model;
+  const int64_t* n = masked.source.dims;
+  masked.source.domain.assign(size_t((n[0] * n[1] * n[2] + 31) / 32), 0u);
+  for (int64_t z = 0; z < n[2]; ++z)
+    for (int64_t y = 0; y < n[1]; ++y)
+      for (int64_t x = 0; x < (n[0] - 1) / 2; ++x) // u_x = x / (n - 1) < 0.5
+      {
+        const int64_t i = (z * n[1] + y) * n[0] + x;
+        masked.source.domain[size_t(i >> 5)] |= 1u << (i & 31);
+      }
+  const int w = 48, h = 40;
+  const double eye[3] = { 0, 0, 5 }, c[3] = { 0, 0, 0 }, up[3] = { 0, 1, 0 };
+  const Mat4 vp = mul(ortho(-1.2, 1.2, -1.0, 1.0, 0.5, 20.0), lookAt(eye, c, up));
+  for (int path = 0; path < 3; ++path)
+    for (int mode = 0; mode < 2; ++mode)
+    {
+      CpuRenderer plainR(pool()), maskedR(pool());
+      RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode(mode), w, h);
+      setCamera(q, vp);
+      RenderResult a, b;
+      plainR.render(scene().model, 1, q, a);
+      maskedR.render(masked, 1, q, b);
+      int64_t outsideLit = 0, insideDiffer = 0, insideLit = 0, outsidePixels = 0, outsideLitPlain = 0;
+      for (int py = 0; py < h; ++py)
+        for (int px = 0; px < w; ++px)
+        {
+          const double ux = (-1.2 + 2.4 * (px + 0.5) / w + 1.0) / 2.0;
+          const size_t k = 4 * (size_t(py) * w + px);
+          if (ux > 0.5 + 1.0 / double(n[0] - 1))
+          {
+            ++outsidePixels;
+            outsideLit += b.rgba[k + 3] != 0.0f ? 1 : 0;
+            outsideLitPlain += a.rgba[k + 3] > 0.01f ? 1 : 0;
+          }
+          else if (ux < 0.5 - 2.5 / double(n[0] - 1) && ux > 0.0) // gradient neighbours inside too
+          {
+            insideLit += a.rgba[k + 3] > 0.01f ? 1 : 0;
+            for (int ch = 0; ch < 4; ++ch)
+              insideDiffer += a.rgba[k + ch] != b.rgba[k + ch] ? 1 : 0;
+          }
+        }
+      std::printf("  %-9s %-9s outside: %lld of %lld pixels lit; inside: %lld lit, %lld values differ\n", pathTag(path),
+        modeTag(mode), (long long)outsideLit, (long long)outsidePixels, (long long)insideLit, (long long)insideDiffer);
+      EXPECT_TRUE(outsidePixels > 0 && outsideLit == 0 && outsideLitPlain > 50); // drawn there without the mask
+      EXPECT_TRUE(insideLit > 50 && insideDiffer == 0);
+    }
+}
+
 NV_TEST(skipping_does_not_change_the_picture)
 {
   // Ray-marching modes of every path with skipping on and off: the macrocell ranges are exact for the decoded grid

@@ -109,6 +109,34 @@ check(np.isnan(decoded[inner]).all(), "structured: every image point inside the 
       % (np.isnan(decoded[inner]).sum(), inner.sum()))
 check(np.isfinite(decoded[inside]).all(), "structured: every point well inside the shell is finite (%d of %d)"
       % (np.isfinite(decoded[inside]).sum(), inside.sum()))
+if os.environ.get("DISPLAY"):
+    # The Neural Volume draws nothing in the hole of the annulus (the network is defined there, the source is not),
+    # on every render path; constant opacity, so that everything inside the shell is drawn.
+    W = H = 160
+    view = nvtest.render_view([W, H], background=(0, 0, 0))
+    display = Show(nc, view)
+    display.SetScalarBarVisibility(view, False)
+    otf = GetOpacityTransferFunction("g")
+    lo, hi = out.GetFieldData().GetArray("NeuralValueRange").GetRange()
+    otf.Points = [lo, 0.6, 0.5, 0.0, hi, 0.6, 0.5, 0.0]
+    Render(view)  # the first render resets the camera; the view is set after it
+    nvtest.set_camera(view, (0.0, 0.5, 10.0), focal=(0.0, 0.5, 0.5), up=(0.0, 1.0, 0.0), parallel=1, scale=1.05)
+    py, px = np.mgrid[0:H, 0:W]
+    wx = 1.05 * (2.0 * (px + 0.5) / W - 1.0)
+    wy = 0.5 + 1.05 * (2.0 * (py + 0.5) / H - 1.0)  # read_png's rows go bottom up
+    rr = np.hypot(wx, wy)
+    hole = (rr < 0.42) & (wy > 0.03)
+    shell = (rr > 0.6) & (rr < 0.9) & (wy > 0.05)
+    for path in ("Decode", "Sample Streaming", "In-Shader"):
+        display.RenderPath = path
+        pixels = nvtest.read_png(nvtest.shot(view, os.path.join(nvtest.output_dir(), "anydataset_annulus_%s.png"
+                                                                % path.split()[0].lower()), [W, H]))
+        lit = pixels.max(axis=2) > 8
+        check(hole.sum() > 500 and not lit[hole].any(), "structured, %s: nothing drawn in the hole (%d of %d pixels lit)"
+              % (path, lit[hole].sum(), hole.sum()))
+        check(lit[shell].mean() > 0.95, "structured, %s: the shell is drawn (%.0f%% of its pixels)"
+              % (path, 100 * lit[shell].mean()))
+    Delete(display)
 
 # 3. A multiblock of two images side by side: ONE network over both (the issue's "two separate networks"), which
 #    the Neural Volume renders.
