@@ -6,7 +6,9 @@
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
 //   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
 // DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h; --deterministic: TrainConfig::deterministic (step,
-// budget, curve). Prints lines "RESULT {json}".
+// budget, curve); --points=PREFIX (curve): also the PSNR at the points of PREFIX.points.f32 (network coordinates,
+// float32 x 3) against PREFIX.values.f64 (a resampled source's own samples, anydataset_bench.py). Prints lines
+// "RESULT {json}".
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "KernelFlags.h"
@@ -19,6 +21,8 @@
 #include <cstdlib>
 #include <sstream>
 #include <string>
+#include <cstring>
+#include <stdexcept>
 #include <vector>
 
 using namespace nv;
@@ -63,11 +67,14 @@ int main(int argc, char** argv)
   SessionOptions options;
   options.kernels = nvbench::parseKernelFlags(argc, argv);
   bool deterministic = false;
+  std::string pointsPrefix;
   {
     int out = 1;
     for (int i = 1; i < argc; ++i)
     {
-      if (std::string(argv[i]) == "--deterministic")
+      if (std::string(argv[i]).rfind("--points=", 0) == 0)
+        pointsPrefix = std::string(argv[i]).substr(9);
+      else if (std::string(argv[i]) == "--deterministic")
         deterministic = true;
       else
         argv[out++] = argv[i];
@@ -196,6 +203,44 @@ int main(int argc, char** argv)
       tc.deterministic = deterministic;
       const auto session = NetworkSession::create(dev, m, options);
       auto tr = session->createTrainer(raw.view, tc);
+      std::vector<float> pts;
+      std::vector<double> vals;
+      if (!pointsPrefix.empty())
+      {
+        auto slurp = [](const std::string& path) {
+          FILE* f = std::fopen(path.c_str(), "rb");
+          if (!f)
+            throw std::runtime_error("cannot open " + path);
+          std::vector<char> b;
+          char buf[65536];
+          size_t k;
+          while ((k = std::fread(buf, 1, sizeof buf, f)) > 0)
+            b.insert(b.end(), buf, buf + k);
+          std::fclose(f);
+          return b;
+        };
+        const std::vector<char> a = slurp(pointsPrefix + ".points.f32"), b = slurp(pointsPrefix + ".values.f64");
+        pts.resize(a.size() / 4);
+        vals.resize(b.size() / 8);
+        std::memcpy(pts.data(), a.data(), pts.size() * 4);
+        std::memcpy(vals.data(), b.data(), vals.size() * 8);
+        if (pts.size() != 3 * vals.size())
+          throw std::runtime_error("points and values of " + pointsPrefix + " do not match");
+      }
+      // PSNR of the session's network at the source's own samples (values normalised by the trained range).
+      auto pointsPsnr = [&]() {
+        std::vector<float> out(vals.size());
+        session->inferPoints(pts.data(), int64_t(vals.size()), out.data(), Memory::Host);
+        const double lo = raw.view.valueMin, range = raw.view.valueMax > lo ? raw.view.valueMax - lo : 1.0;
+        double se = 0.0;
+        for (size_t i = 0; i < vals.size(); ++i)
+        {
+          const double v = lo + double(out[i]) * range;
+          const double d = std::isfinite(v) ? (v - vals[i]) / range : INFINITY;
+          se += d * d;
+        }
+        return 10.0 * std::log10(double(vals.size()) / se);
+      };
       double trainTime = 0;
       std::printf("RESULT {\"what\":\"curve\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"finest\":%d,"
                   "\"batch\":%d,\"deterministic\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T,
@@ -212,7 +257,10 @@ int main(int argc, char** argv)
         tr->publish();
         trainTime += seconds(a, Clock::now());
         const ErrorStats e = compareToSource(*session, raw.view);
-        std::printf("%s[%d,%.2f,%.2f]", k ? "," : "", done, trainTime, e.psnr);
+        if (vals.empty())
+          std::printf("%s[%d,%.2f,%.2f]", k ? "," : "", done, trainTime, e.psnr);
+        else
+          std::printf("%s[%d,%.2f,%.2f,%.2f]", k ? "," : "", done, trainTime, e.psnr, pointsPsnr());
         std::fflush(stdout);
       }
       std::printf("]}\n");

@@ -5,7 +5,7 @@
 # .nhdr + .raw, as in ../shared/data; timeseries/ from export_timeseries.py); ref/: the PyTorch reference scripts). Usage:
 # run_gpu_bench.sh SECTION... with SECTION in
 #   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
-#   online | deterministic | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
+#   online | deterministic | anydataset | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -107,6 +107,14 @@ for s in "$@"; do
         $B/nvBench $d step cuda $b $t 4096 200; done; done; done 2>&1 | tee "$O/det_step.log"
       for d in "" --deterministic --deterministic; do
         $B/nvBench $d curve cuda $STENT 19 1000,4000 65536 1; done 2>&1 | tee "$O/det_curve.log" ;;
+    anydataset)
+      # Datasets that are not images, resampled onto the filter's automatic image (anydataset_bench.py exports them
+      # to data/anydataset with their own samples): PSNR on the image and at the source's points / cells after
+      # 1000 / 4000 GPU-resident steps, and the step rate next to stent's (an image) at the same table size.
+      nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
+      for n in disk_out_ref mug_t10 enzo_amr cth_amr; do for t in 14 19; do
+        $B/nvBench --points=$D/anydataset/$n curve cuda $D/anydataset/$n.nhdr $t 1000,4000 65536 1; done; done 2>&1 | tee "$O/anydataset_curves.log"
+      for t in 14 19; do $B/nvBench curve cuda $STENT $t 1000,4000 65536 1; done 2>&1 | tee -a "$O/anydataset_curves.log" ;;
     rendertrain)
       $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
     renderlarge)
