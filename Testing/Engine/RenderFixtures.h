@@ -113,6 +113,27 @@ inline void setCamera(nv::RenderRequest& q, const Mat4& vp)
   std::copy(vp.m, vp.m + 16, q.viewProjection);
 }
 
+/// Orthographic view along -z of the box [-1,1]^3: x in [-1.2, 1.2] across the width, y in [-1, 1] up the height.
+inline Mat4 orthoAlongZ()
+{
+  const double eye[3] = { 0, 0, 5 }, c[3] = { 0, 0, 0 }, up[3] = { 0, 1, 0 };
+  return mul(ortho(-1.2, 1.2, -1.0, 1.0, 0.5, 20.0), lookAt(eye, c, up));
+}
+
+/// A domain mask (SourceInfo::domain) keeping the source samples with x index < (nx - 1) / 2: the half u_x < 0.5.
+inline void keepHalfX(nv::Model& m)
+{
+  const int64_t* n = m.source.dims;
+  m.source.domain.assign(size_t((n[0] * n[1] * n[2] + 31) / 32), 0u);
+  for (int64_t z = 0; z < n[2]; ++z)
+    for (int64_t y = 0; y < n[1]; ++y)
+      for (int64_t x = 0; x < (n[0] - 1) / 2; ++x)
+      {
+        const int64_t i = (z * n[1] + y) * n[0] + x;
+        m.source.domain[size_t(i >> 5)] |= 1u << (i & 31);
+      }
+}
+
 /// The tests' default view: perspective from an oblique direction, the box filling most of the frame.
 inline Mat4 defaultCamera(int w, int h)
 {

@@ -341,18 +341,10 @@ NV_TEST(nothing_is_drawn_outside_the_domain)
   // an orthographic camera, every ray stays on one side: pixels over the outside half are empty (alpha exactly 0)
   // on every path and shading mode, pixels over the inside half are the picture without a mask, bit for bit.
   Model masked = scene().model;
+  keepHalfX(masked);
   const int64_t* n = masked.source.dims;
-  masked.source.domain.assign(size_t((n[0] * n[1] * n[2] + 31) / 32), 0u);
-  for (int64_t z = 0; z < n[2]; ++z)
-    for (int64_t y = 0; y < n[1]; ++y)
-      for (int64_t x = 0; x < (n[0] - 1) / 2; ++x) // u_x = x / (n - 1) < 0.5
-      {
-        const int64_t i = (z * n[1] + y) * n[0] + x;
-        masked.source.domain[size_t(i >> 5)] |= 1u << (i & 31);
-      }
   const int w = 48, h = 40;
-  const double eye[3] = { 0, 0, 5 }, c[3] = { 0, 0, 0 }, up[3] = { 0, 1, 0 };
-  const Mat4 vp = mul(ortho(-1.2, 1.2, -1.0, 1.0, 0.5, 20.0), lookAt(eye, c, up));
+  const Mat4 vp = orthoAlongZ();
   for (int path = 0; path < 3; ++path)
     for (int mode = 0; mode < 2; ++mode)
     {

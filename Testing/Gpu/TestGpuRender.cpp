@@ -133,19 +133,11 @@ NV_TEST(gpu_draws_nothing_outside_the_domain)
   // shading modes: outside pixels of an orthographic view along -z stay empty (alpha exactly 0, where the same
   // view without a mask draws), and the picture agrees with the CPU oracle's masked one.
   Model masked = scene().model;
+  keepHalfX(masked);
   const int64_t* n = masked.source.dims;
-  masked.source.domain.assign(size_t((n[0] * n[1] * n[2] + 31) / 32), 0u);
-  for (int64_t z = 0; z < n[2]; ++z)
-    for (int64_t y = 0; y < n[1]; ++y)
-      for (int64_t x = 0; x < (n[0] - 1) / 2; ++x)
-      {
-        const int64_t i = (z * n[1] + y) * n[0] + x;
-        masked.source.domain[size_t(i >> 5)] |= 1u << (i & 31);
-      }
   auto gpu = gpuSession(masked, false);
   auto plain = gpuSession(scene().model, false);
-  const double eye[3] = { 0, 0, 5 }, c[3] = { 0, 0, 0 }, up[3] = { 0, 1, 0 };
-  const Mat4 vp = mul(ortho(-1.2, 1.2, -1.0, 1.0, 0.5, 20.0), lookAt(eye, c, up));
+  const Mat4 vp = orthoAlongZ();
   for (int p = 0; p < 3; ++p)
     for (int m = 0; m < 5; ++m)
     {
