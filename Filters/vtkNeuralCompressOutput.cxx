@@ -92,6 +92,7 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   AddFieldValue<vtkIntArray>(fd, "NeuralWarmStart", m.WarmStart ? 1 : 0);
   AddFieldValue<vtkIntArray>(fd, "NeuralRestored", m.Restored ? 1 : 0);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralTime", record.Time);
+  AddFieldValue<vtkIntArray>(fd, "NeuralSourceType", field.VtkType); // "Decoded, input type" from a saved network
   AddString(fd, "NeuralDevice", m.Device);
   AddString(fd, "NeuralTrainingState", m.State);
   // The field's range: the colour and opacity maps fit it when no decoded array is output.

@@ -272,6 +272,20 @@ bool NetworkArray(vtkSMProxy* representation, std::string& name, int& associatio
       return true;
     }
   }
+  // A NeuralVolume file read without decoding: the array its networks represent.
+  if (producer->GetXMLName() && std::strcmp(producer->GetXMLName(), "NeuralVolumeReader") == 0)
+  {
+    producer->UpdatePropertyInformation();
+    vtkSMPropertyHelper array(producer, "ArrayName", /*quiet=*/true);
+    const char* arrayName = array.GetNumberOfElements() >= 1 ? array.GetAsString(0) : nullptr;
+    if (arrayName && *arrayName)
+    {
+      name = arrayName;
+      association = vtkSMPropertyHelper(producer, "ArrayAssociation", true).GetAsInt() == 1 ? vtkDataObject::CELL
+                                                                                              : vtkDataObject::POINT;
+      return true;
+    }
+  }
   for (int a : associations)
   {
     vtkPVDataSetAttributesInformation* attributes = info->GetAttributeInformation(a);

@@ -1,0 +1,163 @@
+#include "vtkNeuralVolumeFile.h"
+
+#include "Core/Error.h"
+#include "Core/Serialization.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+const char kMagic[8] = { 'N', 'V', 'O', 'L', 'F', 'I', 'L', 'E' };
+
+struct Out
+{
+  std::vector<uint8_t> b;
+  template <typename T>
+  void put(const T& v)
+  {
+    const auto* p = reinterpret_cast<const uint8_t*>(&v);
+    b.insert(b.end(), p, p + sizeof(T));
+  }
+  template <typename T>
+  void put(const T* v, int n)
+  {
+    for (int i = 0; i < n; ++i)
+      put(v[i]);
+  }
+};
+
+struct In
+{
+  const uint8_t* d;
+  size_t n, at = 0;
+  void need(size_t k, const char* what)
+  {
+    if (k > n - at)
+      NV_THROW(std::string("truncated NeuralVolume file: ") + what + " needs " + std::to_string(k) + " bytes at offset " +
+        std::to_string(at) + ", " + std::to_string(n - at) + " left");
+  }
+  template <typename T>
+  T get(const char* what)
+  {
+    need(sizeof(T), what);
+    T v;
+    std::memcpy(&v, d + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+  }
+  template <typename T>
+  void get(T* v, int k, const char* what)
+  {
+    for (int i = 0; i < k; ++i)
+      v[i] = get<T>(what);
+  }
+};
+} // namespace
+
+std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries)
+{
+  NV_CHECK(!entries.empty() && entries.size() <= 65536, "a NeuralVolume file holds 1 to 65536 entries");
+  Out o;
+  o.b.insert(o.b.end(), kMagic, kMagic + 8);
+  o.put<uint32_t>(kVolumeFileVersion);
+  o.put<uint32_t>(static_cast<uint32_t>(entries.size()));
+  for (const VolumeFileEntry& e : entries)
+  {
+    NV_CHECK(!e.Network.empty(), "an entry without a network");
+    o.put(e.Time);
+    o.put(e.Extent, 6);
+    o.put(e.Origin, 3);
+    o.put(e.Spacing, 3);
+    o.put(e.Direction, 9);
+    o.put<int32_t>(e.Cells);
+    o.put<int32_t>(e.VtkType);
+    o.put(e.SourceDims, 3);
+    o.put(e.DecodedDims, 3);
+    o.put<int32_t>(e.OnSourceGrid);
+    o.put(e.ValueRange, 2);
+    o.put<uint32_t>(static_cast<uint32_t>(e.Name.size()));
+    o.b.insert(o.b.end(), e.Name.begin(), e.Name.end());
+    o.put<uint64_t>(e.Network.size());
+    o.b.insert(o.b.end(), e.Network.begin(), e.Network.end());
+  }
+  o.put<uint32_t>(nv::crc32(o.b.data(), o.b.size()));
+  return o.b;
+}
+
+std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
+{
+  if (!data || size < 8 || std::memcmp(data, kMagic, 8) != 0)
+    NV_THROW("not a NeuralVolume (.nvol) file (" + std::to_string(size) + " bytes, bad magic)");
+  In r{ data, size };
+  r.at = 8;
+  const uint32_t version = r.get<uint32_t>("version");
+  if (version == 0 || version > kVolumeFileVersion)
+    NV_THROW("NeuralVolume file version " + std::to_string(version) + " is not supported (this build reads versions "
+      "1 to " + std::to_string(kVolumeFileVersion) + "; a newer plugin wrote it)");
+  const uint32_t count = r.get<uint32_t>("entry count");
+  if (count == 0 || count > 65536)
+    NV_THROW("corrupt NeuralVolume file: " + std::to_string(count) + " entries");
+  if (size < 20)
+    NV_THROW("truncated NeuralVolume file (" + std::to_string(size) + " bytes)");
+  uint32_t stored = 0;
+  std::memcpy(&stored, data + size - 4, 4);
+  if (nv::crc32(data, size - 4) != stored)
+    NV_THROW("corrupt or truncated NeuralVolume file: checksum mismatch over " + std::to_string(size) + " bytes");
+  r.n = size - 4;
+  std::vector<VolumeFileEntry> out(count);
+  for (VolumeFileEntry& e : out)
+  {
+    e.Time = r.get<double>("time");
+    r.get(e.Extent, 6, "extent");
+    r.get(e.Origin, 3, "origin");
+    r.get(e.Spacing, 3, "spacing");
+    r.get(e.Direction, 9, "direction");
+    e.Cells = r.get<int32_t>("association");
+    e.VtkType = r.get<int32_t>("type");
+    r.get(e.SourceDims, 3, "source dims");
+    r.get(e.DecodedDims, 3, "decoded dims");
+    e.OnSourceGrid = r.get<int32_t>("on source grid");
+    r.get(e.ValueRange, 2, "value range");
+    const uint32_t nameBytes = r.get<uint32_t>("name length");
+    NV_CHECK(nameBytes <= 4096, "corrupt NeuralVolume file: an array name of " + std::to_string(nameBytes) + " bytes");
+    r.need(nameBytes, "name");
+    e.Name.assign(reinterpret_cast<const char*>(data + r.at), nameBytes);
+    r.at += nameBytes;
+    const uint64_t networkBytes = r.get<uint64_t>("network length");
+    r.need(static_cast<size_t>(std::min<uint64_t>(networkBytes, uint64_t(1) << 62)), "network");
+    e.Network.assign(data + r.at, data + r.at + networkBytes);
+    r.at += networkBytes;
+    bool finite = std::isfinite(e.Time) && std::isfinite(e.ValueRange[0]) && std::isfinite(e.ValueRange[1]);
+    for (int a = 0; a < 3; ++a)
+    {
+      finite = finite && std::isfinite(e.Origin[a]) && std::isfinite(e.Spacing[a]);
+      const int span = e.Extent[2 * a + 1] - e.Extent[2 * a];
+      NV_CHECK(span >= 0 && span < (1 << 20) && e.DecodedDims[a] >= 1 && e.DecodedDims[a] <= span + 1 &&
+          e.SourceDims[a] >= 1 && e.SourceDims[a] < (1 << 20),
+        "corrupt NeuralVolume file: inconsistent extent and dimensions");
+    }
+    NV_CHECK(finite, "corrupt NeuralVolume file: non-finite geometry, time or range");
+    NV_CHECK(e.Cells == 0 || e.Cells == 1, "corrupt NeuralVolume file: unknown association");
+  }
+  NV_CHECK(r.at == r.n, "corrupt NeuralVolume file: " + std::to_string(r.n - r.at) + " unexpected trailing bytes");
+  return out;
+}
+
+std::vector<uint8_t> ReadFileBytes(const std::string& path)
+{
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  NV_CHECK(f.good(), "cannot open '" + path + "'");
+  const std::streamoff size = f.tellg();
+  NV_CHECK(size >= 0 && size <= (std::streamoff(1) << 32), "'" + path + "' is not a readable file of at most 4 GiB");
+  std::vector<uint8_t> b(static_cast<size_t>(size));
+  f.seekg(0);
+  f.read(reinterpret_cast<char*>(b.data()), size);
+  NV_CHECK(f.good() || size == 0, "failed reading '" + path + "'");
+  return b;
+}
+
+} // namespace vtkNeuralCompressInternals
