@@ -50,6 +50,10 @@ saved = servermanager.Fetch(nc)
 path = os.path.join(out_dir, "wavelet.nvol")
 SaveData(path, proxy=nc)
 check(os.path.exists(path) and open(path, "rb").read(8) == b"NVOLFILE", "Save Data wrote an .nvol file")
+opened = OpenDataFile(path)  # ParaView's reader factory picks the NeuralVolume reader for .nvol
+check(opened is not None and opened.GetXMLName() == "NeuralVolumeReader", "Open picks the NeuralVolume reader (%s)"
+      % (opened.GetXMLName() if opened else None))
+Delete(opened)
 reader, loaded, text = read(path)
 check("ERROR" not in text, "reading gives no error (%s)" % text.strip())
 check(net_bytes(loaded) == net_bytes(saved) and net_bytes(saved) is not None,
