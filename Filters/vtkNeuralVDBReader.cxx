@@ -1,0 +1,182 @@
+#include "vtkNeuralVDBReader.h"
+
+#include "vtkDoubleArray.h"
+#include "vtkFloatArray.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkMatrix3x3.h"
+#include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Dense.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+struct vtkNeuralVDBReader::vtkInternals
+{
+  openvdb::GridBase::Ptr Grid; ///< read by RequestInformation
+  openvdb::CoordBBox Box;      ///< its active voxels' bounding box
+};
+
+namespace
+{
+/// The grid `want` (or the first float / double grid; half grids load as float) of a .vdb file.
+openvdb::GridBase::Ptr ReadGrid(const std::string& path, const std::string& want)
+{
+  openvdb::initialize();
+  openvdb::io::File file(path);
+  file.open(); // throws openvdb::IoError on a missing or non-VDB file
+  openvdb::GridPtrVecPtr metas = file.readAllGridMetadata();
+  std::string name, names;
+  for (const openvdb::GridBase::Ptr& m : *metas)
+  {
+    names += (names.empty() ? "" : ", ") + m->getName() + " (" + m->type() + ")";
+    const bool scalar = m->isType<openvdb::FloatGrid>() || m->isType<openvdb::DoubleGrid>();
+    if (name.empty() && (want.empty() ? scalar : m->getName() == want))
+    {
+      if (!scalar)
+        throw std::runtime_error("grid '" + want + "' is a " + m->type() + " grid, not a float, double or half one");
+      name = m->getName();
+    }
+  }
+  if (name.empty())
+    throw std::runtime_error(want.empty() ? "the file has no float, double or half grid (grids: " + names + ")"
+                                          : "the file has no grid '" + want + "' (grids: " + names + ")");
+  openvdb::GridBase::Ptr grid = file.readGrid(name);
+  file.close();
+  if (!grid->transform().isLinear())
+    throw std::runtime_error("grid '" + name + "' has a non-linear (frustum) transform, which an image cannot hold");
+  return grid;
+}
+
+template <typename GridT, typename ArrayT>
+void CopyDense(const openvdb::GridBase& base, const openvdb::CoordBBox& box, ArrayT* out)
+{
+  const GridT& grid = static_cast<const GridT&>(base);
+  openvdb::tools::Dense<typename GridT::ValueType, openvdb::tools::LayoutXYZ> dense(box, out->GetPointer(0));
+  openvdb::tools::copyToDense(grid, dense);
+}
+} // namespace
+
+vtkStandardNewMacro(vtkNeuralVDBReader);
+
+vtkNeuralVDBReader::vtkNeuralVDBReader()
+  : Internals(new vtkInternals)
+{
+  this->SetNumberOfInputPorts(0);
+}
+
+vtkNeuralVDBReader::~vtkNeuralVDBReader()
+{
+  this->SetFileName(nullptr);
+  this->SetGridName(nullptr);
+}
+
+int vtkNeuralVDBReader::CanReadFile(const char* name)
+{
+  std::ifstream f(name ? name : "", std::ios::binary);
+  unsigned char magic[4] = {};
+  f.read(reinterpret_cast<char*>(magic), 4);
+  // OpenVDB files start with the 64-bit magic 0x56444220 ("VDB ") in little endian.
+  return f.gcount() == 4 && magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56 ? 1 : 0;
+}
+
+int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  this->Internals->Grid.reset();
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+  try
+  {
+    if (!this->FileName || !*this->FileName)
+      throw std::runtime_error("no file name");
+    openvdb::GridBase::Ptr grid = ReadGrid(this->FileName, this->GridName ? this->GridName : "");
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (box.empty())
+      throw std::runtime_error("grid '" + grid->getName() + "' has no active voxels");
+    const openvdb::Coord d = box.dim();
+    if (double(d.x()) * d.y() * d.z() > double(1 << 30))
+      throw std::runtime_error("the active bounding box " + std::to_string(d.x()) + " x " + std::to_string(d.y()) + " x " +
+        std::to_string(d.z()) + " exceeds 2^30 voxels");
+    this->Internals->Grid = grid;
+    this->Internals->Box = box;
+  }
+  catch (const std::exception& e)
+  {
+    vtkErrorMacro("OpenVDB reader: '" << (this->FileName ? this->FileName : "") << "': " << e.what()
+                                      << ". The output is empty.");
+    return 1;
+  }
+  const openvdb::Coord d = this->Internals->Box.dim();
+  const int ext[6] = { 0, d.x() - 1, 0, d.y() - 1, 0, d.z() - 1 };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext, 6);
+  return 1;
+}
+
+int vtkNeuralVDBReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkImageData* output = vtkImageData::GetData(outputVector, 0);
+  output->Initialize();
+  openvdb::GridBase::Ptr grid = this->Internals->Grid;
+  if (!grid)
+    return 1; // reported by RequestInformation
+  const openvdb::CoordBBox& box = this->Internals->Box;
+  const openvdb::Coord d = box.dim();
+  // The transform: world = origin + D diag(spacing) index, from the affine map (row-vector convention).
+  const openvdb::math::Mat4d m = grid->transform().baseMap()->getAffineMap()->getMat4();
+  const openvdb::Vec3d o = grid->transform().indexToWorld(box.min());
+  double spacing[3], dir[9];
+  for (int a = 0; a < 3; ++a)
+  {
+    const double len = std::sqrt(m(a, 0) * m(a, 0) + m(a, 1) * m(a, 1) + m(a, 2) * m(a, 2));
+    spacing[a] = len > 0.0 ? len : 1.0;
+    for (int r = 0; r < 3; ++r)
+      dir[3 * r + a] = len > 0.0 ? m(a, r) / len : (r == a ? 1.0 : 0.0);
+  }
+  output->SetExtent(0, d.x() - 1, 0, d.y() - 1, 0, d.z() - 1);
+  output->SetOrigin(o.x(), o.y(), o.z());
+  output->SetSpacing(spacing);
+  output->SetDirectionMatrix(dir);
+  const vtkIdType n = vtkIdType(d.x()) * d.y() * d.z();
+  try
+  {
+    if (grid->isType<openvdb::DoubleGrid>())
+    {
+      vtkNew<vtkDoubleArray> values;
+      values->SetNumberOfTuples(n);
+      CopyDense<openvdb::DoubleGrid>(*grid, box, values.GetPointer());
+      values->SetName(grid->getName().empty() ? "density" : grid->getName().c_str());
+      output->GetPointData()->SetScalars(values);
+    }
+    else
+    {
+      vtkNew<vtkFloatArray> values;
+      values->SetNumberOfTuples(n);
+      CopyDense<openvdb::FloatGrid>(*grid, box, values.GetPointer());
+      values->SetName(grid->getName().empty() ? "density" : grid->getName().c_str());
+      output->GetPointData()->SetScalars(values);
+    }
+  }
+  catch (const std::exception& e)
+  {
+    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << e.what() << ". The output is empty.");
+    output->Initialize();
+    return 1;
+  }
+  this->ActiveVoxels = static_cast<vtkIdType>(grid->activeVoxelCount());
+  return 1;
+}
+
+void vtkNeuralVDBReader::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n"
+     << indent << "GridName: " << (this->GridName ? this->GridName : "(first scalar grid)") << "\n";
+}
