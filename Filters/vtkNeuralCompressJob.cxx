@@ -252,6 +252,21 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const Fi
   return array;
 }
 
+Metrics MetricsOf(const nv::Model& model, const std::string& device)
+{
+  Metrics m;
+  m.Steps = model.stats.steps;
+  m.Seconds = model.stats.seconds;
+  m.Psnr = model.stats.psnr;
+  m.PsnrFinal = true;
+  m.MaxError = model.stats.maxError;
+  m.ModelBytes = model.parameterBytes();
+  m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.Invalid = model.stats.invalidSamples;
+  m.Device = device;
+  return m;
+}
+
 //------------------------------------------------------------------------------
 std::shared_ptr<const NetworkRecord> Job::Final() const
 {

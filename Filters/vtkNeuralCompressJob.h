@@ -61,6 +61,10 @@ struct Metrics
   std::string EndReason;
 };
 
+/// The figures a stored network carries (its training statistics), for a network taken from a state file, the
+/// cache or a .nvol file; `device`: where it is used now.
+Metrics MetricsOf(const nv::Model& model, const std::string& device);
+
 /// A network of one time step, as it is cached and saved with a state file.
 struct NetworkRecord
 {

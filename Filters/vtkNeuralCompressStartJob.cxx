@@ -196,16 +196,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     }
     else
     {
-      nvi::Metrics& m = record->M;
-      m.Steps = stored.stats.steps;
-      m.Seconds = stored.stats.seconds;
-      m.Psnr = stored.stats.psnr;
-      m.PsnrFinal = true;
-      m.MaxError = stored.stats.maxError;
-      m.ModelBytes = stored.parameterBytes();
-      m.Ratio = static_cast<double>(stored.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
-      m.Invalid = stored.stats.invalidSamples;
-      m.Device = nv::deviceName(j.Session->device());
+      record->M = nvi::MetricsOf(stored, nv::deviceName(j.Session->device()));
     }
     record->M.Restored = restored;
     record->M.State = restored ? "Restored" : record->M.State;

@@ -164,18 +164,9 @@ int vtkNeuralVolumeReader::RequestData(
     nvi::NetworkRecord record;
     record.Time = e.Time;
     record.Bytes = e.Network;
-    nvi::Metrics& m = record.M;
-    m.State = "Loaded";
-    m.Restored = true;
-    m.Steps = model.stats.steps;
-    m.Seconds = model.stats.seconds;
-    m.Psnr = model.stats.psnr;
-    m.PsnrFinal = true;
-    m.MaxError = model.stats.maxError;
-    m.ModelBytes = model.parameterBytes();
-    m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
-    m.Invalid = model.stats.invalidSamples;
-    m.Device = model.stats.device;
+    record.M = nvi::MetricsOf(model, model.stats.device);
+    record.M.State = "Loaded";
+    record.M.Restored = true;
     vtkSmartPointer<vtkDataArray> decoded;
     if (this->OutputMode != 0)
     {
