@@ -44,6 +44,7 @@ struct vtkNeuralVolumeRefreshDriver::vtkInternals
     vtkWeakPointer<vtkRenderWindowInteractor> Interactor;
     unsigned long ModifiedTag = 0;
     unsigned long RenderedTag = 0;
+    unsigned long StartingTag = 0;
     unsigned long TimerTag = 0;
     int TimerId = -1;
   };
@@ -126,6 +127,7 @@ void vtkNeuralVolumeRefreshDriver::AddView(vtkSMProxy* proxy)
   v.ModifiedTag =
     proxy->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewModified);
   v.RenderedTag = proxy->AddObserver(vtkCommand::EndEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewRendered);
+  v.StartingTag = proxy->AddObserver(vtkCommand::StartEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewStarting);
 }
 
 void vtkNeuralVolumeRefreshDriver::RemoveView(vtkSMProxy* proxy)
@@ -139,6 +141,7 @@ void vtkNeuralVolumeRefreshDriver::RemoveView(vtkSMProxy* proxy)
   vtkInternals::View& v = it->second;
   proxy->RemoveObserver(v.ModifiedTag);
   proxy->RemoveObserver(v.RenderedTag);
+  proxy->RemoveObserver(v.StartingTag);
   if (v.Interactor)
   {
     if (v.TimerId >= 0)
@@ -159,6 +162,21 @@ void vtkNeuralVolumeRefreshDriver::OnViewModified(vtkObject* caller, unsigned lo
   {
     return;
   }
+  this->MakeProgressive(view);
+}
+
+void vtkNeuralVolumeRefreshDriver::OnViewStarting(vtkObject* caller, unsigned long, void*)
+{
+  // A state file sets a view's representations before the GUI gives the view its interactor: the first render
+  // (the one that ends LoadState) must not be the blocking full-quality one either.
+  if (auto* view = vtkSMViewProxy::SafeDownCast(caller))
+  {
+    this->MakeProgressive(view);
+  }
+}
+
+void vtkNeuralVolumeRefreshDriver::MakeProgressive(vtkSMViewProxy* view)
+{
   vtkInternals::View& v = this->Internals->Views[view];
   if (!v.Interactor)
   {

@@ -24,6 +24,7 @@
 #include <memory> // for std::unique_ptr
 
 class vtkSMProxy;
+class vtkSMViewProxy;
 
 class NEURALVOLUMEREPRESENTATIONS_EXPORT vtkNeuralVolumeRefreshDriver : public vtkObject
 {
@@ -50,6 +51,9 @@ private:
   void OnUnRegister(vtkObject*, unsigned long, void* info);
   void OnViewModified(vtkObject* caller, unsigned long, void* propertyName);
   void OnViewRendered(vtkObject* caller, unsigned long, void* interactive);
+  void OnViewStarting(vtkObject* caller, unsigned long, void*);
+  /// Once the view has an interactor that runs timers (the GUI's): its representations refine progressively.
+  void MakeProgressive(vtkSMViewProxy* view);
   void OnTimer(vtkObject* caller, unsigned long, void* timerId);
   void AddView(vtkSMProxy* view);
   void RemoveView(vtkSMProxy* view);

@@ -86,6 +86,26 @@ def decoded():
         check(nvtest.info(display, "WorkPending") == 0, "the full grid is shown in the end")
         check(nvtest.info(display, "EngineRenderCount") >= engine_renders + 2, "coarse, then full grid")
     log("decode: view renders after the first: %d" % (len(renders) - first))
+    if not REMOTE:
+        # A state saved by a script (ProgressiveRefinement off, a large decode grid) loaded in the GUI: the view
+        # gets its interactor after the state set its representations, and its first still render must still show a
+        # coarse grid at once instead of blocking the GUI for the full decode.
+        display.SMProxy.GetProperty("ProgressiveRefinement").SetElement(0, 0)
+        display.SMProxy.UpdateVTKObjects()
+        display.DecodeResolution = [200, 200, 200]
+        state = os.path.join(nvtest.output_dir(), "gui_%s_state.pvsm" % LABEL)
+        SaveState(state)
+        before = set(GetRenderViews())
+        LoadState(state)
+        loaded = [v for v in GetRenderViews() if v not in before]
+        check(len(loaded) == 1, "the state brought its own view (%d new)" % len(loaded))
+        if loaded:
+            reps = [r for r in loaded[0].Representations if r.SMProxy.GetProperty("ProgressiveRefinement")]
+            Render(loaded[0])
+            check(len(reps) == 1 and reps[0].SMProxy.GetProperty("ProgressiveRefinement").GetElement(0) == 1,
+                  "the loaded state's Neural Volume refines progressively in the GUI")
+            check(len(reps) == 1 and nvtest.info(reps[0], "WorkPending") == 1,
+                  "its first still render showed a coarse grid at once (the full decode pending)")
     nvtest.finish()
     nvtest._exit(0)
 
