@@ -195,6 +195,20 @@ if data_dir and os.path.isdir(os.path.join(data_dir, "disk_out_ref")):
     mug.PointVariables = ["convected"]
     nc, out, psnr, samples = compress("mug convected t=10", mug, "convected", time=mug.TimestepValues[10])
     check(samples == 3954 and psnr > 25.0, "mug: PSNR at its 3954 points > 25 dB (%s, %s)" % (samples, psnr))
+    # A time series of an unstructured grid: each time step is resampled and trained (warm start from the one
+    # before), the metrics table has a row per time step, and going back to a time step trains nothing.
+    ncm = NeuralCompress(Input=mug, SelectInputScalars=["POINTS", "convected"], WarmStart=1, **COMMON)
+    for t in (mug.TimestepValues[5], mug.TimestepValues[10], mug.TimestepValues[5]):
+        ncm.UpdatePipeline(t)
+    ncm.SMProxy.UpdatePropertyInformation()
+    table = servermanager.Fetch(ncm, idx=2)
+    rows = table.GetNumberOfRows()
+    warm = [table.GetColumnByName("WarmStart").GetValue(r) for r in range(rows)]
+    psnrs = [table.GetColumnByName("PSNR").GetValue(r) for r in range(rows)]
+    steps = int(ncm.GetPropertyValue("TotalStepsTrained"))
+    check(rows == 2 and warm == [0.0, 1.0] and min(psnrs) > 25.0 and steps == 600,
+          "mug time series: 2 rows (%d), the second warm-started (%s), PSNR at the points %s, %d steps (600: "
+          "going back trained nothing)" % (rows, warm, psnrs, steps))
     enzo = EnzoReader(FileNames=[D + "enzo_amr_moving7/DD0010/moving7_0010.hierarchy"])
     enzo.CellArrayStatus = ["Density"]
     nc, out, psnr, samples = compress("Enzo AMR Density", enzo, "Density", "CELLS")
