@@ -306,6 +306,18 @@ std::vector<float> testVolume(int n, bool withNaN)
         v[(size_t(n / 2) * n + y) * n + x] = NAN;
   return v;
 }
+/// The curve tests' model of the 40^3 test volume: 2^14 table, finest resolution 80, initialised with `seed`.
+Model curveModel(const VolumeView& vol, uint64_t seed)
+{
+  ModelConfig c;
+  c.encoding.log2TableSize = 14;
+  c.encoding.finestResolution = 80;
+  Model m(c);
+  m.initialize(seed);
+  m.source.valueMin = vol.valueMin;
+  m.source.valueMax = vol.valueMax;
+  return m;
+}
 } // namespace
 
 NV_TEST(training_curve_matches_cpu)
@@ -313,9 +325,6 @@ NV_TEST(training_curve_matches_cpu)
   const int n = 40;
   const auto data = testVolume(n, true);
   const VolumeView vol = floatCubeView(data, n);
-  ModelConfig c;
-  c.encoding.log2TableSize = 14;
-  c.encoding.finestResolution = 80;
   // Same seed, same curve. The loss is L2: with L1 at lr 1e-2 this small over-parameterised volume is chaotic
   // (each sample's gradient is the sign of its residual, and table entries that few samples touch move by about lr
   // per step whatever their gradient), so fp16 rounding and the order of float atomics alone move the final PSNR
@@ -326,10 +335,7 @@ NV_TEST(training_curve_matches_cpu)
   // (1 dB of MSE is 26%). Tolerances: 1 dB per mark, 30% on the late loss.
   for (uint64_t seed : { 9, 10 })
   {
-    Model m(c);
-    m.initialize(seed);
-    m.source.valueMin = vol.valueMin;
-    m.source.valueMax = vol.valueMax;
+    const Model m = curveModel(vol, seed);
     TrainConfig tc;
     tc.batchSize = 16384;
     tc.seed = seed;
@@ -469,13 +475,7 @@ NV_TEST(deterministic_training_is_bitwise_repeatable)
   const int n = 40;
   const auto data = testVolume(n, true);
   const VolumeView vol = floatCubeView(data, n);
-  ModelConfig c;
-  c.encoding.log2TableSize = 14;
-  c.encoding.finestResolution = 80;
-  Model m(c);
-  m.initialize(4);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  const Model m = curveModel(vol, 4);
   for (const TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
   {
     for (const LossType loss : { LossType::L1, LossType::L2 })
