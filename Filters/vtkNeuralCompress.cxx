@@ -447,6 +447,10 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     if (!decoded)
     {
       decoded = nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode);
+      if (decoded)
+      {
+        job.KeepDecoded(decoded, this->OutputMode);
+      }
     }
   }
   in.DecodeRequested = false;

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 namespace vtkNeuralCompressInternals
 {
@@ -123,12 +124,30 @@ uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const S
   h = Fnv(h, field.Direction, sizeof(field.Direction));
   const int type = static_cast<int>(view.type);
   h = Fnv(h, &type, sizeof(type));
-  // The values: CRC-32 over blocks of 1 MiB, folded in (fast, and every byte counts).
+  // The values: CRC-32 over blocks of 1 MiB, folded in in order (every byte counts). The blocks' CRCs are
+  // independent: large fields compute them on several threads (the key is the same for any split).
   const auto* bytes = static_cast<const uint8_t*>(view.data);
   const int64_t total = view.bytes();
-  for (int64_t off = 0; off < total; off += (1 << 20))
+  const int64_t block = int64_t(1) << 20;
+  const int64_t blocks = (total + block - 1) / block;
+  std::vector<uint32_t> crcs(static_cast<size_t>(blocks));
+  auto crcOf = [&](int64_t b, int64_t e) {
+    for (int64_t k = b; k < e; ++k)
+    {
+      const int64_t off = k * block;
+      crcs[size_t(k)] = nv::crc32(bytes + off, static_cast<size_t>(std::min<int64_t>(block, total - off)));
+    }
+  };
+  const int parts = static_cast<int>(std::max<int64_t>(1,
+    std::min<int64_t>(std::min<int64_t>(8, std::max<unsigned>(1u, std::thread::hardware_concurrency())), blocks / 4)));
+  std::vector<std::thread> threads;
+  for (int t = 1; t < parts; ++t)
+    threads.emplace_back(crcOf, blocks * t / parts, blocks * (t + 1) / parts);
+  crcOf(0, blocks / parts);
+  for (std::thread& t : threads)
+    t.join();
+  for (const uint32_t c : crcs)
   {
-    const uint32_t c = nv::crc32(bytes + off, static_cast<size_t>(std::min<int64_t>(1 << 20, total - off)));
     h = Fnv(h, &c, sizeof(c));
   }
   return h;
@@ -278,6 +297,13 @@ vtkSmartPointer<vtkDataArray> Job::FinalDecoded(int outputMode) const
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
   return this->DecodedMode == outputMode ? this->Decoded : nullptr;
+}
+
+void Job::KeepDecoded(vtkSmartPointer<vtkDataArray> decoded, int outputMode)
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->Decoded = decoded;
+  this->DecodedMode = outputMode;
 }
 
 void Job::Finalize(const RunStatus& status)

@@ -140,6 +140,9 @@ public:
   /// The network and numbers of the last ended phase (null before).
   std::shared_ptr<const NetworkRecord> Final() const;
   vtkSmartPointer<vtkDataArray> FinalDecoded(int outputMode) const;
+  /// Keeps the decoded field of the final network (decoded on demand for a restored or cached one) so that
+  /// re-executions in the same output mode do not decode it again.
+  void KeepDecoded(vtkSmartPointer<vtkDataArray> decoded, int outputMode);
   /// Runs in the training thread at the end of a phase: the stored-precision network becomes the session's, it is
   /// measured over every source sample, serialized and (for decoded output modes) decoded.
   void Finalize(const RunStatus& status);

@@ -306,6 +306,9 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     q.streamingSamples = this->StreamingSamples;
     q.emptySpaceSkipping = this->EmptySpaceSkipping;
     std::copy(this->DecodeResolution, this->DecodeResolution + 3, q.decodeResolution);
+    // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
+    // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
+    q.waitForDecode = !this->ProgressiveRefinement && !interactive;
     q.seed = 1;
 
     // Opaque geometry drawn before the volumes hides what lies behind it.

@@ -17,8 +17,9 @@
  * paths per pixel). An interactive render (render window desired update rate > 1, ParaView's
  * InteractiveRender) renders InteractiveImageScale of the viewport with one path per pixel.
  *
- * Still renders block until the picture is final (the Decode path's background refinement done,
- * path tracing at TargetSamples) unless ProgressiveRefinement is on: then every render does one
+ * Still renders block until the picture is final (the Decode path's full grid, decoded at once on all
+ * the session's threads -- finishing a background decode an interactive render started -- and path
+ * tracing at TargetSamples) unless ProgressiveRefinement is on: then every render does one
  * step and GetWorkPending() says that another render would refine the picture (the GUI's refresh
  * driver, vtkNeuralVolumeRefreshDriver, renders again while it is true).
  *

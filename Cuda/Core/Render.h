@@ -88,6 +88,9 @@ struct RenderRequest
   bool emptySpaceSkipping = true; ///< macrocells x opacity: skip empty space (ray marching), local majorants (tracking)
   double terminationOpacity = 0.99; ///< early ray termination (>= 1: off)
   int decodeResolution[3] = { 0, 0, 0 }; ///< Decode path grid; 0 0 0 = the trained field's dimensions
+  bool waitForDecode = false;     ///< Decode path: render with the full grid now, never a coarse one (a caller that
+                                  ///< waits for the final picture: the CPU backend decodes it on all of the session's
+                                  ///< threads, finishing a background decode already under way); not in the image key
   const float* depth = nullptr;   ///< optional width*height window depths in [0,1] of opaque geometry (row 0 bottom)
   const VolumeView* grid = nullptr; ///< Decode path only: march this volume (its own value range normalised like the
                                     ///< network's source) instead of the decoded network -- the tests' reference

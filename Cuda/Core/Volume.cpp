@@ -2,8 +2,12 @@
 
 #include "Error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <thread>
+#include <type_traits>
+#include <vector>
 
 namespace nv
 {
@@ -65,24 +69,103 @@ double VolumeView::at(int64_t i) const
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+namespace
+{
+/// Stats of values [b, e) of one type: a typed loop (no per-value type switch), min / max in the value's own type.
+template <typename T>
+VolumeStats typedStats(const T* p, int64_t b, int64_t e)
+{
+  VolumeStats s;
+  int64_t valid = 0;
+  if constexpr (std::is_floating_point<T>::value)
+  {
+    T lo = std::numeric_limits<T>::infinity(), hi = -std::numeric_limits<T>::infinity();
+    for (int64_t i = b; i < e; ++i)
+    {
+      const T x = p[i];
+      const bool ok = std::isfinite(x);
+      valid += ok ? 1 : 0;
+      lo = ok && x < lo ? x : lo;
+      hi = ok && x > hi ? x : hi;
+    }
+    s.min = static_cast<double>(lo);
+    s.max = static_cast<double>(hi);
+  }
+  else
+  {
+    T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
+    for (int64_t i = b; i < e; ++i)
+    {
+      const T x = p[i];
+      lo = x < lo ? x : lo;
+      hi = x > hi ? x : hi;
+    }
+    valid = e - b;
+    s.min = e > b ? static_cast<double>(lo) : std::numeric_limits<double>::infinity();
+    s.max = e > b ? static_cast<double>(hi) : -std::numeric_limits<double>::infinity();
+  }
+  s.valid = valid;
+  s.invalid = (e - b) - valid;
+  return s;
+}
+
+VolumeStats rangeStats(const VolumeView& v, int64_t b, int64_t e)
+{
+  switch (v.type)
+  {
+    case ScalarType::Int8:
+      return typedStats(static_cast<const int8_t*>(v.data), b, e);
+    case ScalarType::UInt8:
+      return typedStats(static_cast<const uint8_t*>(v.data), b, e);
+    case ScalarType::Int16:
+      return typedStats(static_cast<const int16_t*>(v.data), b, e);
+    case ScalarType::UInt16:
+      return typedStats(static_cast<const uint16_t*>(v.data), b, e);
+    case ScalarType::Int32:
+      return typedStats(static_cast<const int32_t*>(v.data), b, e);
+    case ScalarType::UInt32:
+      return typedStats(static_cast<const uint32_t*>(v.data), b, e);
+    case ScalarType::Int64:
+      return typedStats(static_cast<const int64_t*>(v.data), b, e);
+    case ScalarType::UInt64:
+      return typedStats(static_cast<const uint64_t*>(v.data), b, e);
+    case ScalarType::Float32:
+      return typedStats(static_cast<const float*>(v.data), b, e);
+    case ScalarType::Float64:
+      return typedStats(static_cast<const double*>(v.data), b, e);
+  }
+  NV_THROW("unknown scalar type");
+}
+} // namespace
+
 VolumeStats computeStats(const VolumeView& v)
 {
   NV_CHECK(v.data != nullptr || v.count() == 0, "volume has no data");
+  const int64_t n = v.count();
+  // Large volumes (a 256^3 field when a state is loaded) on several threads: the result does not depend on the split
+  // (min, max and counts are exact).
+  const int64_t perThread = int64_t(1) << 22;
+  const int parts = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(
+    std::min<int64_t>(8, std::max<unsigned>(1u, std::thread::hardware_concurrency())), n / perThread)));
+  std::vector<VolumeStats> partial(static_cast<size_t>(parts));
+  std::vector<std::thread> threads;
+  for (int t = 1; t < parts; ++t)
+    threads.emplace_back([&, t] { partial[size_t(t)] = rangeStats(v, n * t / parts, n * (t + 1) / parts); });
+  partial[0] = rangeStats(v, 0, n / parts);
+  for (std::thread& t : threads)
+    t.join();
   VolumeStats s;
   s.min = std::numeric_limits<double>::infinity();
   s.max = -std::numeric_limits<double>::infinity();
-  const int64_t n = v.count();
-  for (int64_t i = 0; i < n; ++i)
+  for (const VolumeStats& p : partial)
   {
-    const double x = v.at(i);
-    if (!std::isfinite(x))
+    s.valid += p.valid;
+    s.invalid += p.invalid;
+    if (p.valid > 0)
     {
-      ++s.invalid;
-      continue;
+      s.min = std::min(s.min, p.min);
+      s.max = std::max(s.max, p.max);
     }
-    ++s.valid;
-    s.min = x < s.min ? x : s.min;
-    s.max = x > s.max ? x : s.max;
   }
   if (s.valid == 0)
   {

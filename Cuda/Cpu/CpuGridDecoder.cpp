@@ -5,6 +5,7 @@
 #include "CpuInference.h"
 
 #include <algorithm>
+#include <chrono>
 #include <exception>
 #include <new>
 #include <string>
@@ -28,10 +29,35 @@ struct CpuGridDecoder::Job
   uint64_t version = 0;
   int64_t dims[3] = { 0, 0, 0 };
   std::atomic<bool> cancel{ false };
-  std::atomic<bool> done{ false };
+  std::atomic<bool> done{ false };     ///< the job's thread has ended
   std::shared_ptr<DecodedGrid> result; ///< null when cancelled or failed
   std::string error;
   std::thread thread;
+  // The grid is decoded in blocks of z slices that any thread may claim: the job's thread, and a caller that waits
+  // for the full grid (finish()) with the session's pool.
+  std::shared_ptr<DecodedGrid> grid;   ///< allocated by the job's thread before `ready`
+  std::atomic<bool> ready{ false };
+  int64_t block = 1;                   ///< z slices per block
+  int64_t blocks = 0;
+  std::atomic<int64_t> next{ 0 };      ///< the next unclaimed block
+  std::atomic<int64_t> finished{ 0 };  ///< blocks decoded
+
+  /// Claims and decodes blocks on `pool` until none is left (or the job is cancelled).
+  void work(ThreadPool& pool, const CpuInference& net)
+  {
+    const int64_t slice = dims[0] * dims[1];
+    for (;;)
+    {
+      if (cancel.load())
+        return;
+      const int64_t b = next.fetch_add(1);
+      if (b >= blocks)
+        return;
+      const int64_t z0 = b * block, z1 = std::min(dims[2], z0 + block);
+      net.decodeGrid(pool, dims[0], dims[1], dims[2], z0, z1, grid->values.data() + z0 * slice);
+      finished.fetch_add(1);
+    }
+  }
 };
 
 CpuGridDecoder::CpuGridDecoder(ThreadPool& pool, int64_t progressiveSamples)
@@ -122,7 +148,32 @@ std::shared_ptr<const DecodedGrid> CpuGridDecoder::decodeNow(const Model& model,
   return decode(Pool, model, version, dims, nullptr);
 }
 
-CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t version, const int64_t dims[3])
+void CpuGridDecoder::finishRunning()
+{
+  Job& j = *Running;
+  // The job's thread allocates the grid first (or fails).
+  while (!j.ready.load() && !j.done.load())
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  if (j.ready.load())
+  {
+    try
+    {
+      const CpuInference net(j.model);
+      j.work(Pool, net);
+    }
+    catch (...)
+    {
+      cancelJob(); // a block this thread claimed will never be decoded
+      throw;
+    }
+  }
+  j.thread.join(); // it ends with the block it is decoding
+  j.done = true;
+  if (j.result && j.finished.load() != j.blocks)
+    j.result.reset();
+}
+
+CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t version, const int64_t dims[3], bool wait)
 {
   Result r;
   if (matches(Full.get(), version, dims))
@@ -133,13 +184,16 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   if (Running && Running->version == version && Running->dims[0] == dims[0] && Running->dims[1] == dims[1] &&
     Running->dims[2] == dims[2])
   {
+    if (wait && !Running->done.load())
+      finishRunning(); // the caller waits: its pool decodes the blocks left, alongside the job's thread
     if (!Running->done.load())
     {
       r.grid = Coarse;
       r.pending = true;
       return r;
     }
-    Running->thread.join();
+    if (Running->thread.joinable())
+      Running->thread.join();
     std::unique_ptr<Job> job = std::move(Running);
     Pending = false;
     if (!job->result)
@@ -151,7 +205,7 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   }
   cancelJob(); // a job for another version or resolution: its result would be stale
   r.decoded = true;
-  if (dims[0] * dims[1] * dims[2] <= ProgressiveSamples)
+  if (wait || dims[0] * dims[1] * dims[2] <= ProgressiveSamples)
   {
     Full = decode(Pool, model, version, dims, nullptr);
     r.grid = Full;
@@ -171,10 +225,31 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   Job* j = job.get();
   ThreadPool* pool = &Background;
   Pending = true;
-  job->thread = std::thread([this, j, pool] {
+  // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
+  job->block = std::max<int64_t>(1, (int64_t(1) << 18) / (dims[0] * dims[1]));
+  job->blocks = (dims[2] + job->block - 1) / job->block;
+  job->thread = std::thread([j, pool] {
     try
     {
-      j->result = decode(*pool, j->model, j->version, j->dims, &j->cancel);
+      auto g = std::make_shared<DecodedGrid>();
+      g->values.resize(static_cast<size_t>(j->dims[0] * j->dims[1] * j->dims[2]));
+      j->grid = g;
+      j->ready = true;
+      const CpuInference net(j->model);
+      j->work(*pool, net);
+      if (!j->cancel.load())
+      {
+        g->id = newGridId();
+        g->version = j->version;
+        for (int a = 0; a < 3; ++a)
+          g->dims[a] = j->dims[a];
+        j->result = g; // complete once every block is decoded (a helping caller may still be on its last ones)
+      }
+    }
+    catch (const std::bad_alloc&)
+    {
+      j->error = "out of memory for a decode grid of " + std::to_string(j->dims[0] * j->dims[1] * j->dims[2]) +
+        " samples";
     }
     catch (const std::exception& e)
     {

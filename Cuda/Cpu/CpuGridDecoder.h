@@ -47,11 +47,19 @@ public:
   };
 
   /// The grid to render `dims` of `model` (version `version`) with: the full grid when cached or small enough to
-  /// decode now, else a coarse one while the full grid decodes in the background.
-  Result acquire(const Model& model, uint64_t version, const int64_t dims[3]);
+  /// decode now, else a coarse one while the full grid decodes in the background. `wait`: the full grid in any case
+  /// (decoded now on the session's pool; a background decode of it already running is finished by both: the
+  /// blocks left are shared between its thread and the session's pool).
+  Result acquire(const Model& model, uint64_t version, const int64_t dims[3], bool wait = false);
 
   /// The full grid, decoded now on the session's pool when not cached (never progressive).
   std::shared_ptr<const DecodedGrid> decodeNow(const Model& model, uint64_t version, const int64_t dims[3]);
+
+  /// The last full grid when it is `dims` of version `version` (else null): no decode.
+  std::shared_ptr<const DecodedGrid> cached(uint64_t version, const int64_t dims[3]) const
+  {
+    return matches(Full.get(), version, dims) ? Full : nullptr;
+  }
 
   /// True from the start of a background decode until its grid has been handed out by acquire() (or dropped).
   bool workPending() const { return Pending.load(); }
@@ -65,6 +73,8 @@ public:
 private:
   struct Job;
   void cancelJob();
+  /// Decodes the running job's remaining blocks on Pool, then joins its thread.
+  void finishRunning();
   static std::shared_ptr<DecodedGrid> decode(ThreadPool& pool, const Model& model, uint64_t version,
     const int64_t dims[3], const std::atomic<bool>* cancel);
   static bool matches(const DecodedGrid* g, uint64_t version, const int64_t dims[3]);

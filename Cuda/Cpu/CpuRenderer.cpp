@@ -134,7 +134,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
       grid = referenceGrid(model, *q.grid);
     else
     {
-      const CpuGridDecoder::Result a = Decoder.acquire(model, version, setup.gridDims);
+      const CpuGridDecoder::Result a = Decoder.acquire(model, version, setup.gridDims, q.waitForDecode);
       grid = a.grid;
       st.decodePending = a.pending;
     }

@@ -54,6 +54,12 @@ public:
   /// been shown yet: render again. (A render by another path leaves the job running but does not ask for more.)
   bool workPending() const;
 
+  /// The Decode path's full grid of `dims` for network version `version` when the renderer has it (else null).
+  std::shared_ptr<const DecodedGrid> decodedGrid(uint64_t version, const int64_t dims[3]) const
+  {
+    return Decoder.cached(version, dims);
+  }
+
   /// The macrocells of the last render (tests and statistics).
   const CpuMacrocells& macrocells() const { return Cells; }
 

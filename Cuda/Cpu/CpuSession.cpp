@@ -4,6 +4,8 @@
 #include "Core/Error.h"
 #include "CpuTrainer.h"
 
+#include <cstring>
+
 namespace nv
 {
 
@@ -83,6 +85,14 @@ void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int6
   if (z0 == z1)
     return;
   std::lock_guard<std::mutex> lock(Mutex);
+  // The grid the Decode path rendered last (same network, same dims: the same values, decoded by the same code) is
+  // copied instead of decoded again -- a script that renders a restored network, then asks for the decoded field.
+  const int64_t dims[3] = { nx, ny, nz };
+  if (const std::shared_ptr<const DecodedGrid> grid = Renderer->decodedGrid(Version, dims))
+  {
+    std::memcpy(out, grid->values.data() + z0 * nx * ny, static_cast<size_t>((z1 - z0) * nx * ny) * sizeof(float));
+    return;
+  }
   evaluator().decodeGrid(Pool, nx, ny, nz, z0, z1, out);
 }
 

@@ -1,7 +1,15 @@
-"""State restore through ParaView: a Neural Compress of a 256^3 field is trained, saved with the state, and the state is
-loaded in a new pvbatch process; reports the state file size, the time to the first rendered picture and the steps
-trained on load (must be 0), and checks the decoded field is the saved one bit for bit.
-Usage: pvbatch --force-offscreen-rendering state_restore.py <plugin.so> <out folder> [N=256] [steps=200]"""
+"""State restore through ParaView: a Neural Compress of a 256^3 field is trained on the CPU, saved with the state, and
+the state is loaded in new pvbatch processes. Each load reports, from the moment LoadState starts: the network
+restored (the filter updated, no training step), the first picture (an interactive render: reduced image, a coarse
+decode grid while the full one decodes in the background), the full-quality picture (a still render, as
+SaveScreenshot does), the steps trained on load (must be 0), and whether the decoded field is the saved one bit for bit.
+Sources: "wavelet" (ParaView's Wavelet, regenerated on load) or "file" (a 256^3 float32 raw volume written by numpy and
+read by ParaView's NRRD reader: the source's cost is then reading 64 MB, not computing the field).
+Usage: xvfb-run -a pvbatch --force-offscreen-rendering state_restore.py <plugin.so> <out folder>
+                 [--source wavelet|file] [--n 256] [--steps 100] [--repeat 3]
+GUI: Testing/Benchmarks/state_restore_gui.sh <plugin.so> <out folder>/restore_<source>.pvsm"""
+import argparse
+import json
 import os
 import subprocess
 import sys
@@ -12,58 +20,125 @@ from paraview.simple import *  # noqa: F401,F403
 from paraview import servermanager
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-plugin, out = sys.argv[1], sys.argv[2]
-if len(sys.argv) > 3 and sys.argv[3] == "--load":
+VIEW_SIZE = [1000, 600]
+
+
+def load(plugin, state, npy):
+    t = time.time()
     LoadPlugin(plugin, remote=False, ns=globals())
-    state, view_size = sys.argv[4], [1280, 720]
+    plugin_s = time.time() - t
     t0 = time.time()
     LoadState(state)
+    loadstate = time.time() - t0
     nc = FindSource("Restore")
+    t = time.time()
+    nc.Input.UpdatePipeline()
+    source = time.time() - t
     nc.UpdatePipeline()
-    restored_network = time.time() - t0
-    view = GetRenderViews()[0] if GetRenderViews() else CreateRenderView()
-    view.ViewSize = view_size
+    network = time.time() - t0
+    view = GetRenderViews()[0]
+    view.ViewSize = VIEW_SIZE
+    display = GetDisplayProperties(nc, view)
+    view.InteractiveRender()
+    first = time.time() - t0
+    display.SMProxy.UpdatePropertyInformation()
+    first_size = list(display.GetPropertyValue("LastImageSize"))
+    first_coarse = display.GetPropertyValue("WorkPending")
     Render(view)
-    first_picture = time.time() - t0
+    full = time.time() - t0
+    display.SMProxy.UpdatePropertyInformation()
     nc.SMProxy.UpdatePropertyInformation()
+    result = dict(what="paraview_state_restore", plugin_s=round(plugin_s, 3), loadstate_s=round(loadstate, 3),
+                  source_s=round(source, 3), filter_s=round(network - loadstate - source, 3),
+                  network_restored_s=round(network, 3), first_picture_s=round(first, 3), first_image=first_size,
+                  first_coarse=first_coarse, full_picture_s=round(full, 3),
+                  full_image=list(display.GetPropertyValue("LastImageSize")),
+                  full_pending=display.GetPropertyValue("WorkPending"),
+                  steps_trained=nc.GetPropertyValue("TotalStepsTrained"))
+    t = time.time()
     nc.OutputMode = "Decoded, float32"
     nc.UpdatePipeline()
-    np.save(os.path.join(out, "restored.npy"), vtk_to_numpy(servermanager.Fetch(nc).GetPointData().GetArray("RTData")))
-    display = GetDisplayProperties(nc, view)
-    display.SMProxy.UpdatePropertyInformation()
-    print("RESULT {\"what\":\"paraview_state_restore\",\"network_restored_s\":%.3f,\"first_picture_s\":%.3f,"
-          "\"render_path\":%d,\"render_ms\":%.1f,\"steps_trained\":%d}"
-          % (restored_network, first_picture, display.GetPropertyValue("LastRenderPath"),
-             display.GetPropertyValue("LastRenderMilliseconds"), nc.GetPropertyValue("TotalStepsTrained")))
-    sys.exit(0)
+    array = servermanager.Fetch(nc).GetPointData().GetArray(nc.SelectInputScalars[1])
+    result["decoded_after_render_s"] = round(time.time() - t, 3)
+    np.save(npy, vtk_to_numpy(array))
+    print("RESULT " + json.dumps(result), flush=True)
+    sys.stdout.flush()
+    os._exit(0)  # no view teardown (GLX, see Testing/ParaView/nvtest.py)
 
-N = int(sys.argv[3]) if len(sys.argv) > 3 else 256
-steps = int(sys.argv[4]) if len(sys.argv) > 4 else 200
-os.makedirs(out, exist_ok=True)
-LoadPlugin(plugin, remote=False, ns=globals())
-src = Wavelet(WholeExtent=[0, N - 1] * 3)
-nc = NeuralCompress(registrationName="Restore", Input=src, SelectInputScalars=["POINTS", "RTData"],
-                    TrainingSteps=steps, TrainInBackground=0, BatchSize=16384)
-nc.UpdatePipeline()
-view = CreateRenderView()
-Show(nc, view)
-view.ResetCamera()
-Render(view)
-state = os.path.join(out, "restore.pvsm")
-SaveState(state)
-nc.OutputMode = "Decoded, float32"
-nc.UpdatePipeline()
-saved = vtk_to_numpy(servermanager.Fetch(nc).GetPointData().GetArray("RTData")).copy()
-data = servermanager.Fetch(nc)
-print("RESULT {\"what\":\"paraview_state_saved\",\"n\":%d,\"state_bytes\":%d,\"model_bytes\":%d,\"ratio\":%.2f}"
-      % (N, os.path.getsize(state), data.GetFieldData().GetArray("NeuralModelBytes").GetValue(0),
-         data.GetFieldData().GetArray("NeuralCompressionRatio").GetValue(0)))
-sys.stdout.flush()
-child = subprocess.run([sys.executable if "pvbatch" in sys.executable else "pvbatch", "--force-offscreen-rendering",
-                        os.path.abspath(__file__), plugin, out, "--load", state], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT)
-text = child.stdout.decode(errors="replace")
-print("\n".join(line for line in text.splitlines() if line.startswith("RESULT")))
-restored = np.load(os.path.join(out, "restored.npy"))
-print("RESULT {\"what\":\"paraview_state_bit_identical\",\"value\":%s}" % ("true" if np.array_equal(restored, saved)
-                                                                            else "false"))
+
+def save(plugin, out, source, n, steps):
+    os.makedirs(out, exist_ok=True)
+    LoadPlugin(plugin, remote=False, ns=globals())
+    if source == "file":
+        raw = os.path.join(out, "vol%d.raw" % n)
+        if not os.path.exists(raw):
+            z, y, x = np.meshgrid(*(np.linspace(-1, 1, n),) * 3, indexing="ij")
+            v = np.sin(6 * x) * np.cos(5 * y) * np.sin(4 * z) + np.exp(-(x * x + y * y + z * z) * 3)
+            v.astype(np.float32).tofile(raw)
+        header = os.path.join(out, "vol%d.nhdr" % n)
+        with open(header, "w") as f:
+            f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\nencoding: raw\nendian: little\n"
+                    "data file: %s\n" % (n, n, n, os.path.basename(raw)))
+        src, array = OpenDataFile(header), "ImageFile"
+    else:
+        src, array = Wavelet(WholeExtent=[0, n - 1] * 3), "RTData"
+    nc = NeuralCompress(registrationName="Restore", Input=src, SelectInputScalars=["POINTS", array],
+                        TrainingSteps=steps, TrainInBackground=0, BatchSize=16384, Device="CPU")
+    nc.UpdatePipeline()
+    view = CreateRenderView()
+    layout = CreateLayout("Restore")
+    AssignViewToLayout(view=view, layout=layout, hint=0)
+    view.ViewSize = VIEW_SIZE
+    Show(nc, view)
+    view.ResetCamera()
+    state = os.path.join(out, "restore_%s.pvsm" % source)
+    SaveState(state)
+    nc.OutputMode = "Decoded, float32"
+    nc.UpdatePipeline()
+    data = servermanager.Fetch(nc)
+    saved = vtk_to_numpy(data.GetPointData().GetArray(array)).copy()
+    print("RESULT " + json.dumps(dict(
+        what="paraview_state_saved", source=source, n=n, steps=steps, state_bytes=os.path.getsize(state),
+        model_bytes=int(data.GetFieldData().GetArray("NeuralModelBytes").GetValue(0)),
+        ratio=round(data.GetFieldData().GetArray("NeuralCompressionRatio").GetValue(0), 2))), flush=True)
+    return state, saved
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("plugin")
+    parser.add_argument("out")
+    parser.add_argument("--source", choices=["wavelet", "file"], default="file")
+    parser.add_argument("--n", type=int, default=256)
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--load", help=argparse.SUPPRESS)
+    parser.add_argument("--npy", help=argparse.SUPPRESS)
+    a = parser.parse_args()
+    if a.load:
+        load(a.plugin, a.load, a.npy)
+    state, saved = save(a.plugin, a.out, a.source, a.n, a.steps)
+    runs = []
+    for k in range(a.repeat):
+        npy = os.path.join(a.out, "restored_%d.npy" % k)
+        child = subprocess.run(["pvbatch", "--force-offscreen-rendering", os.path.abspath(__file__), a.plugin, a.out,
+                                "--load", state, "--npy", npy], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        lines = [l for l in child.stdout.decode(errors="replace").splitlines() if l.startswith("RESULT ")]
+        if not lines:
+            print(child.stdout.decode(errors="replace")[-3000:])
+            continue
+        r = json.loads(lines[-1][7:])
+        r["bit_identical"] = bool(os.path.exists(npy) and np.array_equal(np.load(npy), saved))
+        print("RESULT " + json.dumps(r), flush=True)
+        runs.append(r)
+    keys = ["loadstate_s", "source_s", "filter_s", "network_restored_s", "first_picture_s", "full_picture_s",
+            "decoded_after_render_s"]
+    summary = {k: [min(r[k] for r in runs), max(r[k] for r in runs)] for k in keys if runs}
+    summary.update(what="paraview_state_restore_summary", source=a.source, runs=len(runs),
+                   steps_trained=sorted({r["steps_trained"] for r in runs}),
+                   bit_identical=all(r["bit_identical"] for r in runs) and bool(runs))
+    print("RESULT " + json.dumps(summary), flush=True)
+    os._exit(0)
+
+
+main()

@@ -463,6 +463,25 @@ NV_TEST(progressive_decode)
   }
   EXPECT_TRUE(res.rgba == expect.rgba);
 
+  // A caller that waits for the final picture (waitForDecode): the full grid at once, and a background decode already
+  // under way is finished with the caller's threads -- the same picture, bit for bit, as the synchronous decode.
+  {
+    RenderRequest big = q;
+    big.decodeResolution[0] = big.decodeResolution[1] = big.decodeResolution[2] = 120;
+    RenderResult expectBig;
+    reference.render(scene().model, 11, big, expectBig);
+    CpuRenderer helped(pool(), o), direct(pool(), o);
+    helped.render(scene().model, 11, big, res); // coarse; the full grid decodes in the background
+    EXPECT_TRUE(res.stats.decodePending && helped.workPending());
+    big.waitForDecode = true;
+    helped.render(scene().model, 11, big, res);
+    EXPECT_TRUE(!res.stats.decodePending && !helped.workPending());
+    EXPECT_TRUE(res.rgba == expectBig.rgba);
+    direct.render(scene().model, 11, big, res); // no job: decoded now, never a coarse grid
+    EXPECT_TRUE(!res.stats.decodePending && !direct.workPending());
+    EXPECT_TRUE(res.rgba == expectBig.rgba);
+  }
+
   // Destroyed in the middle of a (large) background decode: cancelled and joined promptly.
   const auto t0 = std::chrono::steady_clock::now();
   {
