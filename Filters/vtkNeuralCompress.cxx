@@ -33,6 +33,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 
@@ -311,7 +312,9 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
 
   try
   {
-    const nvi::Settings settings = this->CurrentSettings();
+    nvi::Settings settings = this->CurrentSettings();
+    if (!outside)
+      settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
     const std::string canonical = settings.Canonical();
     if (in.Current && in.KeyArray == array && in.KeyArrayMTime == array->GetMTime() &&
       in.KeySettings == canonical && in.Current->Time == time)
@@ -367,6 +370,34 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
       vtkErrorMacro("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
                                             << "' are NaN or Inf; nothing to train on.");
       return false;
+    }
+    if (outside && this->Sampling == SAMPLING_PROBE)
+    {
+      // Probe sampling: the training targets are a bank of points probed inside the source's cells (once per
+      // input), normalised like the field; the range covers both.
+      const int64_t count = this->ProbePoints > 0 ? this->ProbePoints : int64_t(1) << 20;
+      std::shared_ptr<const nvi::ProbedBank> bank =
+        in.Resampler.Probe(count, uint64_t(this->Seed), this->VectorMode, this->VectorComponent, problem);
+      if (!bank)
+      {
+        vtkErrorMacro("Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
+                                                           << ". The output is empty.");
+        return false;
+      }
+      for (double v : bank->Values)
+      {
+        field.Stats.min = std::min(field.Stats.min, v);
+        field.Stats.max = std::max(field.Stats.max, v);
+      }
+      const double lo = field.Stats.min, range = field.Stats.max - field.Stats.min;
+      data->BankXyz = bank->Xyz;
+      data->BankValues.resize(bank->Values.size());
+      for (size_t i = 0; i < bank->Values.size(); ++i)
+        data->BankValues[i] = range > 0.0 ? static_cast<float>((bank->Values[i] - lo) / range) : 0.0f;
+      std::ostringstream d;
+      d << "; Probe: " << bank->Values.size() << " of " << bank->Probed << " random points inside the domain ("
+        << std::fixed << std::setprecision(2) << bank->Seconds << " s)";
+      field.Description += d.str();
     }
     data->Field.View.valueMin = field.Stats.min;
     data->Field.View.valueMax = field.Stats.max;

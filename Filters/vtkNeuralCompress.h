@@ -206,6 +206,25 @@ public:
   vtkGetVector3Macro(SamplingDimensions, int);
   ///@}
 
+  enum SamplingModes
+  {
+    SAMPLING_RESAMPLE = 0, ///< training targets interpolated in the resampled image
+    SAMPLING_PROBE = 1     ///< training targets probed inside the source cells at random points (a bank, once)
+  };
+  ///@{
+  /// Inputs that are not images: where the training targets come from. Resample (default): trilinear
+  /// interpolation of the image the input is resampled onto (fast; its resolution bounds the accuracy at the
+  /// source). Probe: a bank of ProbePoints random points of the input's bounds, each probed inside the source's
+  /// cells by VTK (vtkProbeFilter with a vtkStaticCellLocator) once per input; each training step draws its batch
+  /// from the bank. Ignored for image inputs.
+  vtkSetClampMacro(Sampling, int, SAMPLING_RESAMPLE, SAMPLING_PROBE);
+  vtkGetMacro(Sampling, int);
+  /// Probe sampling: random points probed for the bank (0 = automatic: 2^20); points outside the domain are
+  /// dropped. At most 2^26.
+  vtkSetClampMacro(ProbePoints, int, 0, 1 << 26);
+  vtkGetMacro(ProbePoints, int);
+  ///@}
+
   ///@{
   /// Steps between two PSNR estimates in the training log (0 = only at the end).
   vtkSetClampMacro(PSNRInterval, int, 0, VTK_INT_MAX);
@@ -335,6 +354,8 @@ protected:
   int TrainingStrategy = STRATEGY_AUTO;
   int OutputResolution[3] = { 0, 0, 0 };
   int SamplingDimensions[3] = { 0, 0, 0 };
+  int Sampling = SAMPLING_RESAMPLE;
+  int ProbePoints = 0;
   int PSNRInterval = 100;
   double TargetPSNR = 0.0;
   int OutputMode = OUTPUT_NETWORK_ONLY;

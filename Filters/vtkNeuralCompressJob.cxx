@@ -106,6 +106,8 @@ std::string Settings::Canonical() const
     << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << OutputResolution[0] << ' '
     << OutputResolution[1] << ' ' << OutputResolution[2] << ' ' << PsnrInterval << ' ' << Deterministic << ' '
     << WarmStart;
+  if (Sampling != 0)
+    s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
   return s.str();
 }
 

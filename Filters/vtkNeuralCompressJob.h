@@ -34,6 +34,7 @@ struct Settings
   int OutputResolution[3] = { 0, 0, 0 };
   int PsnrInterval = 0;
   bool Deterministic = false, WarmStart = true;
+  int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
   /// Every field, for the training key.
   std::string Canonical() const;
 };

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 class vtkDataArray;
 class vtkDataObject;
@@ -20,6 +21,16 @@ class vtkImageData;
 namespace vtkNeuralCompressInternals
 {
 struct SourceSamples;
+
+/// Probe sampling's bank: random points of the resampled image's box that lie inside the source's cells, with the
+/// scalar the network learns there.
+struct ProbedBank
+{
+  std::vector<float> Xyz;     ///< interleaved, normalised to the image's box ([0,1]; 0.5 on a flat axis)
+  std::vector<double> Values; ///< source units (magnitude or component as the VectorMode says)
+  int64_t Probed = 0;         ///< points probed (inside and outside the domain)
+  double Seconds = 0.0;       ///< time the probing took
+};
 
 /// Samples per axis for resampling an input of `bounds` with `sourceSamples` points or cells (finestSpacing > 0:
 /// composites of images such as AMR: their finest spacing): about 27 image points per source sample (or that spacing),
@@ -48,6 +59,12 @@ public:
   /// network learns from them (vectorMode 0: magnitude, 1: `component`), for measuring the PSNR at the source.
   std::shared_ptr<const SourceSamples> Samples(int vectorMode, int component);
 
+  /// Probe sampling: `count` random points (seeded) of the last resampled image's box probed inside the source's cells
+  /// (vtkCompositeDataProbeFilter with a vtkStaticCellLocator); those inside the domain form the bank. Cached while the
+  /// input, array, count, seed and vector mode stay the same. Null with `problem` set when no point is inside.
+  std::shared_ptr<const ProbedBank> Probe(int64_t count, uint64_t seed, int vectorMode, int component,
+    std::string& problem);
+
   /// A one-line description of the last resampled input ("vtkUnstructuredGrid, 7472 cells -> 64 x 64 x 113").
   const std::string& Description() const { return this->Text; }
 
@@ -61,6 +78,10 @@ private:
   int64_t Outside = 0;
   int SamplesMode = -1, SamplesComponent = -1;
   std::shared_ptr<const SourceSamples> Cached;
+  std::shared_ptr<const ProbedBank> Bank;
+  int64_t BankCount = 0;
+  uint64_t BankSeed = 0;
+  int BankMode = -1, BankComponent = -1;
   std::string Text;
 };
 

@@ -42,6 +42,8 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.PsnrInterval = this->PSNRInterval;
   s.Deterministic = this->Deterministic;
   s.WarmStart = this->WarmStart;
+  s.Sampling = this->Sampling;
+  s.ProbePoints = this->ProbePoints;
   return s;
 }
 

@@ -74,12 +74,24 @@ TrainingRun::~TrainingRun()
   }
 }
 
+std::unique_ptr<nv::Trainer> TrainingRun::CreateTrainer()
+{
+  const TrainingData& d = *this->DataPtr;
+  if (d.BankValues.empty())
+    return this->SessionPtr->createTrainer(d.Field.View, this->Config);
+  nv::TrainingPoints bank;
+  bank.xyz = d.BankXyz.data();
+  bank.values = d.BankValues.data();
+  bank.count = static_cast<int64_t>(d.BankValues.size());
+  return this->SessionPtr->createTrainer(bank, this->Config);
+}
+
 void TrainingRun::RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress)
 {
   this->Background = false;
   try
   {
-    this->Trainer = this->SessionPtr->createTrainer(this->DataPtr->Field.View, this->Config);
+    this->Trainer = this->CreateTrainer();
     std::lock_guard<std::mutex> lock(this->Mutex);
     this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
     this->Current.State = RunState::Running;
@@ -102,7 +114,7 @@ void TrainingRun::Worker()
 {
   try
   {
-    auto trainer = this->SessionPtr->createTrainer(this->DataPtr->Field.View, this->Config);
+    auto trainer = this->CreateTrainer();
     std::lock_guard<std::mutex> lock(this->Mutex);
     this->Trainer = std::move(trainer);
     this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();

@@ -30,6 +30,9 @@ namespace vtkNeuralCompressInternals
 struct TrainingData
 {
   SourceField Field;
+  /// Probe sampling: a bank of training points (xyz in [0,1]^3 of the field, normalised values) that the trainer
+  /// draws its batches from instead of interpolating Field; empty otherwise.
+  std::vector<float> BankXyz, BankValues;
   std::shared_ptr<void> Owner;      ///< keeps the array that Field may view in place alive
   std::unique_ptr<PsnrProbe> Probe; ///< null: no intermediate PSNR
 };
@@ -109,6 +112,8 @@ public:
   bool InBackground() const { return this->Background; }
 
 private:
+  /// A trainer on the field, or on the bank of points when the data has one.
+  std::unique_ptr<nv::Trainer> CreateTrainer();
   void Worker();
   void RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
   void EndPhase(const std::string& reason);

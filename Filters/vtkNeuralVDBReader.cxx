@@ -1,14 +1,22 @@
 #include "vtkNeuralVDBReader.h"
 
+#include "vtkCellArray.h"
 #include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
 #include "vtkFloatArray.h"
+#include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkIntArray.h"
 #include "vtkMatrix3x3.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkPolyData.h"
+#include "vtkSmartPointer.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkStringArray.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -16,6 +24,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -63,6 +72,47 @@ void CopyDense(const openvdb::GridBase& base, const openvdb::CoordBBox& box, Arr
   openvdb::tools::Dense<typename GridT::ValueType, openvdb::tools::LayoutXYZ> dense(box, out->GetPointer(0));
   openvdb::tools::copyToDense(grid, dense);
 }
+
+/// One point (the voxel centre through the affine map `m`, OpenVDB's row-vector convention), value and index
+/// coordinate per active voxel, in OpenVDB's iteration order; active tiles are expanded to their voxels.
+template <typename GridT, typename ArrayT>
+void CopyActive(const openvdb::GridBase& base, const openvdb::math::Mat4d& m, vtkIdType n, double* points,
+  ArrayT* out, int* coords)
+{
+  const GridT& grid = static_cast<const GridT&>(base);
+  auto* values = out->GetPointer(0);
+  vtkIdType id = 0;
+  auto put = [&](const openvdb::Coord& c, const typename GridT::ValueType& value) {
+    if (id >= n)
+      throw std::runtime_error("the grid has more active voxels than it counts");
+    const double i = c.x(), j = c.y(), k = c.z();
+    for (int r = 0; r < 3; ++r)
+      points[3 * id + r] = i * m(0, r) + j * m(1, r) + k * m(2, r) + m(3, r);
+    values[id] = value;
+    coords[3 * id] = c.x();
+    coords[3 * id + 1] = c.y();
+    coords[3 * id + 2] = c.z();
+    ++id;
+  };
+  for (typename GridT::ValueOnCIter it = grid.cbeginValueOn(); it; ++it)
+  {
+    if (it.isVoxelValue())
+    {
+      put(it.getCoord(), *it);
+      continue;
+    }
+    openvdb::CoordBBox tile;
+    it.getBoundingBox(tile);
+    const typename GridT::ValueType value = *it;
+    openvdb::Coord c;
+    for (c[0] = tile.min().x(); c[0] <= tile.max().x(); ++c[0])
+      for (c[1] = tile.min().y(); c[1] <= tile.max().y(); ++c[1])
+        for (c[2] = tile.min().z(); c[2] <= tile.max().z(); ++c[2])
+          put(c, value);
+  }
+  if (id != n)
+    throw std::runtime_error("the grid has fewer active voxels than it counts");
+}
 } // namespace
 
 vtkStandardNewMacro(vtkNeuralVDBReader);
@@ -88,6 +138,29 @@ int vtkNeuralVDBReader::CanReadFile(const char* name)
   return f.gcount() == 4 && magic[0] == 0x20 && magic[1] == 0x42 && magic[2] == 0x44 && magic[3] == 0x56 ? 1 : 0;
 }
 
+int vtkNeuralVDBReader::FillOutputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkDataObject"); // vtkImageData or vtkPolyData: RequestDataObject
+  return 1;
+}
+
+int vtkNeuralVDBReader::RequestDataObject(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkDataObject* output = vtkDataObject::GetData(outInfo);
+  const int type = this->OutputType == ACTIVE_VOXELS ? VTK_POLY_DATA : VTK_IMAGE_DATA;
+  if (!output || output->GetDataObjectType() != type)
+  {
+    vtkSmartPointer<vtkDataObject> created;
+    if (type == VTK_POLY_DATA)
+      created = vtkSmartPointer<vtkPolyData>::New();
+    else
+      created = vtkSmartPointer<vtkImageData>::New();
+    outInfo->Set(vtkDataObject::DATA_OBJECT(), created);
+  }
+  return 1;
+}
+
 int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
@@ -102,7 +175,7 @@ int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector
     if (box.empty())
       throw std::runtime_error("grid '" + grid->getName() + "' has no active voxels");
     const openvdb::Coord d = box.dim();
-    if (double(d.x()) * d.y() * d.z() > double(1 << 30))
+    if (this->OutputType != ACTIVE_VOXELS && double(d.x()) * d.y() * d.z() > double(1 << 30))
       throw std::runtime_error("the active bounding box " + std::to_string(d.x()) + " x " + std::to_string(d.y()) + " x " +
         std::to_string(d.z()) + " exceeds 2^30 voxels");
     this->Internals->Grid = grid;
@@ -114,6 +187,8 @@ int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector
                                       << ". The output is empty.");
     return 1;
   }
+  if (this->OutputType == ACTIVE_VOXELS)
+    return 1; // not structured: no extent
   const openvdb::Coord d = this->Internals->Box.dim();
   const int ext[6] = { 0, d.x() - 1, 0, d.y() - 1, 0, d.z() - 1 };
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext, 6);
@@ -122,7 +197,14 @@ int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector
 
 int vtkNeuralVDBReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
+  if (this->OutputType == ACTIVE_VOXELS)
+    return this->RequestActiveVoxels(vtkPolyData::GetData(outputVector, 0));
   vtkImageData* output = vtkImageData::GetData(outputVector, 0);
+  if (!output)
+  {
+    vtkErrorMacro("OpenVDB reader: the output is not an image.");
+    return 0;
+  }
   output->Initialize();
   openvdb::GridBase::Ptr grid = this->Internals->Grid;
   if (!grid)
@@ -174,9 +256,111 @@ int vtkNeuralVDBReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
   return 1;
 }
 
+int vtkNeuralVDBReader::RequestActiveVoxels(vtkPolyData* output)
+{
+  if (!output)
+  {
+    vtkErrorMacro("OpenVDB reader: the output is not a polydata.");
+    return 0;
+  }
+  output->Initialize();
+  openvdb::GridBase::Ptr grid = this->Internals->Grid;
+  if (!grid)
+    return 1; // reported by RequestInformation
+  const openvdb::CoordBBox& box = this->Internals->Box;
+  try
+  {
+    const openvdb::math::Mat4d m = grid->transform().baseMap()->getAffineMap()->getMat4();
+    const openvdb::Index64 count = grid->activeVoxelCount();
+    if (count > openvdb::Index64(std::numeric_limits<vtkIdType>::max() / 3))
+      throw std::runtime_error("too many active voxels (" + std::to_string(count) + ")");
+    const vtkIdType n = static_cast<vtkIdType>(count);
+    const std::string name = grid->getName().empty() ? "density" : grid->getName();
+
+    vtkNew<vtkDoubleArray> xyz;
+    xyz->SetNumberOfComponents(3);
+    xyz->SetNumberOfTuples(n);
+    vtkNew<vtkIntArray> ijk;
+    ijk->SetName("VDBCoordinate");
+    ijk->SetNumberOfComponents(3);
+    ijk->SetNumberOfTuples(n);
+    vtkSmartPointer<vtkDataArray> values;
+    double background;
+    if (grid->isType<openvdb::DoubleGrid>())
+    {
+      vtkNew<vtkDoubleArray> a;
+      a->SetNumberOfTuples(n);
+      CopyActive<openvdb::DoubleGrid>(*grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
+      background = static_cast<const openvdb::DoubleGrid&>(*grid).background();
+      values = a;
+    }
+    else
+    {
+      vtkNew<vtkFloatArray> a;
+      a->SetNumberOfTuples(n);
+      CopyActive<openvdb::FloatGrid>(*grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
+      background = static_cast<const openvdb::FloatGrid&>(*grid).background();
+      values = a;
+    }
+    values->SetName(name.c_str());
+
+    vtkNew<vtkIdTypeArray> offsets, connectivity;
+    offsets->SetNumberOfTuples(n + 1);
+    connectivity->SetNumberOfTuples(n);
+    for (vtkIdType i = 0; i < n; ++i)
+    {
+      offsets->SetValue(i, i);
+      connectivity->SetValue(i, i);
+    }
+    offsets->SetValue(n, n);
+    vtkNew<vtkCellArray> verts;
+    verts->SetData(offsets, connectivity);
+
+    vtkNew<vtkDoubleArray> bg;
+    bg->SetName("VDBBackground");
+    bg->InsertNextValue(background);
+    vtkNew<vtkIntArray> indexBox;
+    indexBox->SetName("VDBIndexBox");
+    for (int a = 0; a < 3; ++a)
+    {
+      indexBox->InsertNextValue(box.min()[a]);
+      indexBox->InsertNextValue(box.max()[a]);
+    }
+    vtkNew<vtkDoubleArray> indexToWorld;
+    indexToWorld->SetName("VDBIndexToWorld");
+    indexToWorld->SetNumberOfTuples(16);
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) // world = M^T (i, j, k, 1): OpenVDB's matrices act on row vectors
+        indexToWorld->SetValue(4 * r + c, r < 3 ? m(c, r) : (c == 3 ? 1.0 : 0.0));
+    vtkNew<vtkStringArray> gridName;
+    gridName->SetName("VDBGridName");
+    gridName->InsertNextValue(grid->getName());
+
+    vtkNew<vtkPoints> points;
+    points->SetData(xyz);
+    output->SetPoints(points);
+    output->SetVerts(verts);
+    output->GetPointData()->SetScalars(values);
+    output->GetPointData()->AddArray(ijk);
+    output->GetFieldData()->AddArray(bg);
+    output->GetFieldData()->AddArray(indexBox);
+    output->GetFieldData()->AddArray(indexToWorld);
+    output->GetFieldData()->AddArray(gridName);
+  }
+  catch (const std::exception& e)
+  {
+    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << e.what() << ". The output is empty.");
+    output->Initialize();
+    return 1;
+  }
+  this->ActiveVoxels = static_cast<vtkIdType>(grid->activeVoxelCount());
+  return 1;
+}
+
 void vtkNeuralVDBReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n"
-     << indent << "GridName: " << (this->GridName ? this->GridName : "(first scalar grid)") << "\n";
+     << indent << "GridName: " << (this->GridName ? this->GridName : "(first scalar grid)") << "\n"
+     << indent << "OutputType: " << (this->OutputType == ACTIVE_VOXELS ? "active voxels" : "image") << "\n";
 }

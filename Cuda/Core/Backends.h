@@ -14,6 +14,8 @@ namespace nv
 /// The checked training configuration of a session's trainer: `config` validated, a non-empty volume, and the
 /// session's thread count where the configuration leaves it to the session (0).
 TrainConfig trainerConfig(const VolumeView& volume, const TrainConfig& config, const SessionOptions& options);
+/// The same for a bank of training points: a non-empty bank with positions and values.
+TrainConfig trainerConfig(const TrainingPoints& points, const TrainConfig& config, const SessionOptions& options);
 
 std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options);
 

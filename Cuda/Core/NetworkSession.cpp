@@ -29,6 +29,17 @@ TrainConfig trainerConfig(const VolumeView& volume, const TrainConfig& config, c
   return c;
 }
 
+TrainConfig trainerConfig(const TrainingPoints& points, const TrainConfig& config, const SessionOptions& options)
+{
+  validate(config);
+  NV_CHECK(points.count > 0 && points.xyz != nullptr && points.values != nullptr, "empty bank of training points");
+  NV_CHECK(points.count <= (int64_t(1) << 31), "a bank of training points holds at most 2^31 points");
+  TrainConfig c = config;
+  if (c.threads == 0)
+    c.threads = options.threads;
+  return c;
+}
+
 namespace
 {
 template <typename T>

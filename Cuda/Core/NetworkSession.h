@@ -15,6 +15,7 @@
 #include "Engine.h"
 #include "Model.h"
 #include "Render.h"
+#include "TrainingPoints.h"
 #include "Volume.h"
 
 #include <cstdint>
@@ -72,6 +73,9 @@ public:
   /// A trainer of this session's network on `volume` (which must outlive it). Its publish() makes the current
   /// parameters the session's, in place.
   virtual std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) = 0;
+  /// A trainer on a bank of points (TrainingPoints.h; must outlive it): each step draws its batch from the bank. The
+  /// CUDA backend keeps the bank in GPU memory (TrainConfig::strategy is ignored).
+  virtual std::unique_ptr<Trainer> createTrainer(const TrainingPoints& points, const TrainConfig& config) = 0;
 
   /// Network output (normalised units) at n points (xyz interleaved, each in [0,1]); xyz and out in `where`.
   virtual void inferPoints(const float* xyz, int64_t n, float* out, Memory where = Memory::Host) = 0;

@@ -52,18 +52,30 @@ const CpuInference& CpuSession::evaluator()
   return *Eval;
 }
 
-std::unique_ptr<Trainer> CpuSession::createTrainer(const VolumeView& volume, const TrainConfig& config)
+CpuTrainer::PublishFn CpuSession::publisher()
 {
-  const TrainConfig c = trainerConfig(volume, config, Options);
-  std::lock_guard<std::mutex> lock(Mutex);
   // The trainer must not outlive the session (documented in NetworkSession::createTrainer).
-  return std::unique_ptr<Trainer>(new CpuTrainer(M, volume, c, [this](const std::vector<float>& p) {
+  return [this](const std::vector<float>& p) {
     std::lock_guard<std::mutex> guard(Mutex);
     NV_CHECK(p.size() == M.params().size(), "publish: the trainer's network has a different configuration");
     M.params() = p;
     Eval.reset();
     ++Version;
-  }));
+  };
+}
+
+std::unique_ptr<Trainer> CpuSession::createTrainer(const VolumeView& volume, const TrainConfig& config)
+{
+  const TrainConfig c = trainerConfig(volume, config, Options);
+  std::lock_guard<std::mutex> lock(Mutex);
+  return std::unique_ptr<Trainer>(new CpuTrainer(M, volume, TrainingPoints(), c, publisher()));
+}
+
+std::unique_ptr<Trainer> CpuSession::createTrainer(const TrainingPoints& points, const TrainConfig& config)
+{
+  const TrainConfig c = trainerConfig(points, config, Options);
+  std::lock_guard<std::mutex> lock(Mutex);
+  return std::unique_ptr<Trainer>(new CpuTrainer(M, VolumeView(), points, c, publisher()));
 }
 
 void CpuSession::inferPoints(const float* xyz, int64_t n, float* out, Memory where)

@@ -4,6 +4,7 @@
 #include "Core/NetworkSession.h"
 #include "CpuInference.h"
 #include "CpuRenderer.h"
+#include "CpuTrainer.h"
 #include "ThreadPool.h"
 
 #include <memory>
@@ -25,6 +26,7 @@ public:
   void syncModel() override {}
   Model currentModel() override;
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override;
+  std::unique_ptr<Trainer> createTrainer(const TrainingPoints& points, const TrainConfig& config) override;
   void inferPoints(const float* xyz, int64_t n, float* out, Memory where) override;
   void decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where) override;
   void render(const RenderRequest& request, RenderResult& result, Memory where) override;
@@ -32,6 +34,8 @@ public:
   int64_t deviceMemoryBytes() const override { return 0; }
 
 private:
+  /// Makes a trainer's parameters the session's.
+  CpuTrainer::PublishFn publisher();
   /// The evaluator of the current parameters (rebuilt after a change). Call with Mutex held.
   const CpuInference& evaluator();
 

@@ -10,12 +10,14 @@
 namespace nv
 {
 
-CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, PublishFn publish)
+CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points,
+  const TrainConfig& config, PublishFn publish)
   : Config(model.config())
   , Layout(model.layout())
   , Mlp(model)
   , Train(config)
   , Volume(volume)
+  , Points(points)
   , Pool(config.threads)
   , Params(model.params())
   , Grad(model.paramCount(), 0.0f)
@@ -132,6 +134,23 @@ float CpuTrainer::step()
   const int64_t B = Train.batchSize;
   std::vector<int64_t> counts(Pool.size(), 0);
   Pool.parallelFor(B, [&](int64_t b, int64_t e, int w) {
+    if (Points.count > 0)
+    {
+      // A bank of points: the batch is drawn from it (the same indices as the CUDA trainer's gather).
+      int64_t valid = 0;
+      for (int64_t i = b; i < e; ++i)
+      {
+        const int64_t k = randomBankIndex(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(i), Points.count);
+        std::copy(Points.xyz + 3 * k, Points.xyz + 3 * k + 3, &Xyz[3 * i]);
+        const float t = Points.values[k];
+        const bool ok = std::isfinite(t);
+        Targets[i] = ok ? t : 0.0f;
+        Valid[i] = ok ? 1 : 0;
+        valid += ok ? 1 : 0;
+      }
+      counts[w] = valid;
+      return;
+    }
     for (int64_t i = b; i < e; ++i)
     {
       randomPoint(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(i), &Xyz[3 * i]);

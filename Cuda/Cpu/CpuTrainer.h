@@ -4,6 +4,7 @@
 #include "Core/Engine.h"
 #include "CpuAdam.h"
 #include "CpuMlp.h"
+#include "Core/TrainingPoints.h"
 #include "ThreadPool.h"
 
 #include <functional>
@@ -18,7 +19,10 @@ public:
   /// Receives the parameters on publish() (the session that created the trainer).
   using PublishFn = std::function<void(const std::vector<float>& params)>;
 
-  CpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, PublishFn publish);
+  /// Trains on `volume` (targets interpolated at random points), or on `points` when it holds any (each step draws
+  /// its batch from the bank); either must outlive the trainer.
+  CpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
+    PublishFn publish);
 
   float step() override;
   int64_t stepsDone() const override { return Steps; }
@@ -41,6 +45,7 @@ private:
   CpuMlp Mlp;
   TrainConfig Train;
   VolumeView Volume;
+  TrainingPoints Points;
   ThreadPool Pool;
   std::vector<float> Params;
   std::vector<float> Grad;

@@ -22,6 +22,9 @@ using PublishFn = std::function<void(const float* deviceParams, void* stream)>;
 
 std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config,
   const KernelOptions& options, PublishFn publish);
+/// A trainer on a bank of points, uploaded once (GPU-resident).
+std::unique_ptr<Trainer> createTrainer(const Model& model, const TrainingPoints& points, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish);
 
 } // namespace gpu
 } // namespace nv

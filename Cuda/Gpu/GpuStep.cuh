@@ -3,6 +3,7 @@
 // unpadded parameters from the padded gradient).
 #pragma once
 
+#include "Core/TrainingPoints.h"
 #include "Cpu/CpuSampler.h"
 #include "GpuNetwork.cuh"
 
@@ -39,6 +40,15 @@ __device__ __forceinline__ float lossGradScale(const Counters* prev, int l1)
   return exp2f(fminf(12.0f, fmaxf(0.0f, floorf(log2f(k)))));
 }
 
+/// Adds a thread's count of valid targets to the step's counter (one atomic per warp).
+__device__ __forceinline__ void addValid(int local, Counters* counters)
+{
+  for (int o = 16; o > 0; o >>= 1)
+    local += __shfl_xor_sync(0xffffffffu, local, o);
+  if ((threadIdx.x & 31) == 0 && local)
+    atomicAdd(&counters->nValid, local);
+}
+
 template <typename T>
 __global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, double lo, double inv,
   uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters)
@@ -55,10 +65,27 @@ __global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, 
     targets[i] = ok ? t : __int_as_float(0x7fc00000);
     local += ok ? 1 : 0;
   }
-  for (int o = 16; o > 0; o >>= 1)
-    local += __shfl_xor_sync(0xffffffffu, local, o);
-  if ((threadIdx.x & 31) == 0 && local)
-    atomicAdd(&counters->nValid, local);
+  addValid(local, counters);
+}
+
+/// A bank of training points: sample i of the step is bank point randomBankIndex(...) (the CPU trainer's draw);
+/// positions into xyz, values into targets (NaN stays NaN: not trained on).
+__global__ void gatherKernel(const float* __restrict__ bankXyz, const float* __restrict__ bankValues, int64_t count,
+  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ xyz, float* __restrict__ targets, Counters* counters)
+{
+  int local = 0;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+  {
+    const int64_t k = randomBankIndex(seed, step, static_cast<uint64_t>(i), count);
+    xyz[3 * i] = bankXyz[3 * k];
+    xyz[3 * i + 1] = bankXyz[3 * k + 1];
+    xyz[3 * i + 2] = bankXyz[3 * k + 2];
+    const float t = bankValues[k];
+    const bool ok = finiteValue(t);
+    targets[i] = ok ? t : __int_as_float(0x7fc00000);
+    local += ok ? 1 : 0;
+  }
+  addValid(local, counters);
 }
 
 struct AdamArgs

@@ -79,11 +79,12 @@ int gridFor(int64_t n, int threads = 256)
 class GpuTrainer final : public Trainer
 {
 public:
-  GpuTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config, const KernelOptions& options,
-    PublishFn publish, bool forTest)
+  GpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
+    const KernelOptions& options, PublishFn publish, bool forTest)
     : Config(model.config())
     , Train(config)
     , Volume(volume)
+    , Points(points)
     , Options(options)
     , Publish(std::move(publish))
   {
@@ -133,6 +134,18 @@ public:
     if (forTest)
     {
       Strategy = TrainingStrategy::GpuResident;
+      return;
+    }
+    if (points.count > 0)
+    {
+      // A bank of points: uploaded once; each step gathers its batch on the GPU.
+      Strategy = TrainingStrategy::GpuResident;
+      BankXyz.allocate(size_t(3 * points.count), "bank of training points (positions)");
+      BankValues.allocate(size_t(points.count), "bank of training points (values)");
+      Xyz.allocate(size_t(3 * B), "training batch positions");
+      NV_CUDA(cudaMemcpyAsync(BankXyz.get(), points.xyz, BankXyz.bytes(), cudaMemcpyHostToDevice, St.get()));
+      NV_CUDA(cudaMemcpyAsync(BankValues.get(), points.values, BankValues.bytes(), cudaMemcpyHostToDevice, St.get()));
+      St.sync();
       return;
     }
     Strategy = config.strategy;
@@ -196,7 +209,11 @@ public:
       forSlots(s0, m, [&](Counters* d, Counters*, size_t k) { NV_CUDA(cudaMemsetAsync(d, 0, k * sizeof(Counters), st)); });
       for (int64_t s = s0; s < s0 + m; ++s)
       {
-        if (Strategy == TrainingStrategy::GpuResident)
+        if (Points.count > 0)
+        {
+          launchGather(s);
+        }
+        else if (Strategy == TrainingStrategy::GpuResident)
         {
           launchSample(s);
         }
@@ -208,7 +225,7 @@ public:
           NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
           Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
         }
-        launchTrain(nullptr, B, s);
+        launchTrain(Points.count > 0 ? Xyz.get() : nullptr, B, s);
         launchAdam(s);
       }
       forSlots(s0, m, [&](Counters* d, Counters* h, size_t k) {
@@ -247,7 +264,7 @@ public:
   int64_t deviceMemoryBytes() const override
   {
     return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
-      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes() +
+      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes() +
       GFix.bytes() + MFix.bytes());
   }
 
@@ -322,6 +339,14 @@ private:
     for (int64_t c : counts)
       total += c;
     return total;
+  }
+
+  void launchGather(int64_t s)
+  {
+    const int64_t B = Train.batchSize;
+    gatherKernel<<<gridFor(B), 256, 0, St.get()>>>(BankXyz.get(), BankValues.get(), Points.count, Train.seed,
+      static_cast<uint64_t>(s), B, Xyz.get(), Targets.get(), slot(s));
+    NV_CUDA_LAUNCH();
   }
 
   void launchSample(int64_t s)
@@ -541,13 +566,14 @@ private:
   ModelConfig Config;
   TrainConfig Train;
   VolumeView Volume;
+  TrainingPoints Points;
   KernelOptions Options;
   PublishFn Publish;
   TrainingStrategy Strategy = TrainingStrategy::GpuResident;
   size_t NEnc = 0, NMlp = 0;
   mutable Stream St;
   DeviceModel Dm;
-  DeviceBuffer<float> P, M, V, GradPad, Slots, Targets, Xyz, DEncG;
+  DeviceBuffer<float> P, M, V, GradPad, Slots, Targets, Xyz, DEncG, BankXyz, BankValues;
   DeviceBuffer<__half> G, EncG;
   DeviceBuffer<uint32_t> MV;
   DeviceBuffer<Fixed> GFix, MFix; ///< deterministic mode only (GpuFixedPoint.cuh)
@@ -570,7 +596,15 @@ private:
 std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& volume, const TrainConfig& config,
   const KernelOptions& options, PublishFn publish)
 {
-  return std::unique_ptr<Trainer>(new GpuTrainer(model, volume, config, options, std::move(publish), false));
+  return std::unique_ptr<Trainer>(
+    new GpuTrainer(model, volume, TrainingPoints(), config, options, std::move(publish), false));
+}
+
+std::unique_ptr<Trainer> createTrainer(const Model& model, const TrainingPoints& points, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish)
+{
+  return std::unique_ptr<Trainer>(
+    new GpuTrainer(model, VolumeView(), points, config, options, std::move(publish), false));
 }
 
 float testLossAndGradient(const Model& model, const TrainConfig& config, const float* xyz, const float* targets,
@@ -582,7 +616,7 @@ float testLossAndGradient(const Model& model, const TrainConfig& config, const f
   v.dims[0] = v.dims[1] = v.dims[2] = 2;
   TrainConfig c = config;
   c.batchSize = static_cast<int>(std::max<int64_t>(n, 1));
-  GpuTrainer t(model, v, c, kernels, nullptr, true);
+  GpuTrainer t(model, v, TrainingPoints(), c, kernels, nullptr, true);
   return t.lossAndGradient(xyz, targets, valid, n, grad);
 }
 

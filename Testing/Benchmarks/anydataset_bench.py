@@ -1,6 +1,9 @@
 """Any-dataset benchmark, CPU side (pvbatch on the 2-core machine): for each real dataset that is not an image,
   - the sampling throughput of VTK on the CPU: Resample (vtkResampleToImage onto the automatic image and onto 128^3)
-    and Probe (vtkProbeFilter at 10^6 random points of the bounding box), in targets per second;
+    and Probe (vtkProbeFilter at 10^6 random points of the bounding box, with the default locator and with the
+    vtkStaticCellLocator that Neural Compress's Sampling Probe uses), in targets per second;
+  - the filter with Sampling Probe (its bank of 2^20 probed points) at the same steps, and the bank itself exported
+    for the GPU run (nvBench curve --bank): <name>.bank.f32 (x y z in network coordinates, value; float32);
   - the Neural Compress filter on the CPU engine (Resample, automatic dimensions, 2^14 table, batch 16384,
     Deterministic, 2 threads): PSNR at the source's own points / cells after 1000 steps, and the time;
   - exports for the GPU run (nvBench curve --points): the resampled fields (NaN outside the domain) as .nhdr + raw
@@ -64,7 +67,7 @@ def resample_rate(obj, assoc, name, dims):
     return r.GetOutput(), s, dims[0] * dims[1] * dims[2] / s
 
 
-def probe_rate(obj, n=1000000):
+def probe_rate(obj, n=1000000, static=False):
     b = [0.0] * 6
     if obj.IsA("vtkDataSet"):
         b = obj.GetBounds()
@@ -78,6 +81,9 @@ def probe_rate(obj, n=1000000):
     pd = vtkPolyData()
     pd.SetPoints(pts)
     p = vtkCompositeDataProbeFilter() if not obj.IsA("vtkDataSet") else vtkProbeFilter()
+    if static:
+        from vtkmodules.vtkCommonDataModel import vtkStaticCellLocator
+        p.SetCellLocatorPrototype(vtkStaticCellLocator())
     p.SetInputData(pd)
     p.SetSourceData(obj)
     t0 = time.time()
@@ -117,6 +123,16 @@ for name, proxy, (assoc, array), t in cases():
     img, rs, rrate = resample_rate(obj, assoc, array, list(dims))
     _, rs128, rrate128 = resample_rate(obj, assoc, array, [128, 128, 128])
     ps, prate, pvalid = probe_rate(obj)
+    pss, psrate, _ = probe_rate(obj, static=True)
+    # Sampling Probe: the same filter settings with the bank; the bank exported the way the filter builds it.
+    t0 = time.time()
+    ncp = NeuralCompress(Input=proxy, SelectInputScalars=[assoc, array], TrainingSteps=steps, BatchSize=16384,
+                         Sampling="Probe", Device="CPU", Threads=2, Deterministic=1, Log2TableSize=14,
+                         TrainInBackground=0, PSNRInterval=0)
+    ncp.UpdatePipeline(t) if t is not None else ncp.UpdatePipeline()
+    probe_wall = time.time() - t0
+    probe_psnr = servermanager.Fetch(ncp).GetFieldData().GetArray("NeuralPSNR").GetValue(0)
+    Delete(ncp)
     # Exports for the GPU run: the resampled field (NaN outside) and the source samples in network coordinates.
     values = vtk_to_numpy(img.GetPointData().GetArray(array)).astype(np.float32).copy()
     mask = vtk_to_numpy(img.GetPointData().GetArray("vtkValidPointMask"))
@@ -171,10 +187,36 @@ for name, proxy, (assoc, array), t in cases():
     u = np.stack([(xyz[:, k] - ib[2 * k]) / max(ib[2 * k + 1] - ib[2 * k], 1e-30) for k in range(3)], axis=1)
     np.clip(u, 0, 1).astype(np.float32).tofile(os.path.join(out, name + ".points.f32"))
     val.tofile(os.path.join(out, name + ".values.f64"))
+    # The bank: 2^20 uniform random points of the image's box probed inside the source's cells (static locator).
+    rng = np.random.default_rng(1)
+    nb = 1 << 20
+    ub = rng.random((nb, 3))
+    wb = np.stack([ib[2 * k] + ub[:, k] * (ib[2 * k + 1] - ib[2 * k]) for k in range(3)], axis=1)
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkStaticCellLocator
+    bp = vtkPoints()
+    bp.SetData(numpy_to_vtk(wb, deep=True))
+    bpd = vtkPolyData()
+    bpd.SetPoints(bp)
+    sel = vtkPassSelectedArrays()
+    sel.SetInputDataObject(obj)
+    sel.GetArraySelection(0 if assoc == "POINTS" else 1).EnableArray(array)
+    prb = vtkCompositeDataProbeFilter()
+    prb.SetInputData(bpd)
+    prb.SetSourceConnection(sel.GetOutputPort())
+    prb.SetCellLocatorPrototype(vtkStaticCellLocator())
+    prb.Update()
+    bv = vtk_to_numpy(prb.GetOutput().GetPointData().GetArray(array))
+    bv = bv if bv.ndim == 1 else np.linalg.norm(bv, axis=1)
+    bm = vtk_to_numpy(prb.GetOutput().GetPointData().GetArray(prb.GetValidPointMaskArrayName())) != 0
+    bm &= np.isfinite(bv)
+    np.concatenate([ub[bm], bv[bm, None]], axis=1).astype(np.float32).tofile(os.path.join(out, name + ".bank.f32"))
     print("RESULT " + json.dumps(dict(
         what="anydataset", name=name, input=obj.GetClassName(), source_samples=n_src, exported_samples=int(len(val)),
         dims=list(dims), outside_fraction=float((mask == 0).mean()), cpu_steps=steps, cpu_train_s=round(secs, 2),
         cpu_filter_wall_s=round(wall, 2), psnr_source=round(psnr, 2), psnr_resampled=round(grid_psnr, 2),
         resample_s=round(rs, 3), resample_targets_per_s=int(rrate), resample128_s=round(rs128, 3),
         resample128_targets_per_s=int(rrate128), probe_s=round(ps, 3), probe_targets_per_s=int(prate),
-        probe_valid_fraction=round(float(pvalid), 3))), flush=True)
+        probe_valid_fraction=round(float(pvalid), 3), probe_static_s=round(pss, 3),
+        probe_static_targets_per_s=int(psrate), cpu_probe_psnr_source=round(probe_psnr, 2),
+        cpu_probe_filter_wall_s=round(probe_wall, 2), bank_points=int(bm.sum()))), flush=True)

@@ -7,8 +7,9 @@
 //   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
 // DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h; --deterministic: TrainConfig::deterministic (step,
 // budget, curve); --points=PREFIX (curve): also the PSNR at the points of PREFIX.points.f32 (network coordinates,
-// float32 x 3) against PREFIX.values.f64 (a resampled source's own samples, anydataset_bench.py). Prints lines
-// "RESULT {json}".
+// float32 x 3) against PREFIX.values.f64 (a resampled source's own samples, anydataset_bench.py); --bank=PREFIX
+// (curve): train from the bank of probed points PREFIX.bank.f32 (x y z in network coordinates and the value in
+// source units, float32 x 4; Neural Compress's Sampling Probe) instead of the volume. Prints lines "RESULT {json}".
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "KernelFlags.h"
@@ -67,13 +68,15 @@ int main(int argc, char** argv)
   SessionOptions options;
   options.kernels = nvbench::parseKernelFlags(argc, argv);
   bool deterministic = false;
-  std::string pointsPrefix;
+  std::string pointsPrefix, bankPrefix;
   {
     int out = 1;
     for (int i = 1; i < argc; ++i)
     {
       if (std::string(argv[i]).rfind("--points=", 0) == 0)
         pointsPrefix = std::string(argv[i]).substr(9);
+      else if (std::string(argv[i]).rfind("--bank=", 0) == 0)
+        bankPrefix = std::string(argv[i]).substr(7);
       else if (std::string(argv[i]) == "--deterministic")
         deterministic = true;
       else
@@ -202,23 +205,43 @@ int main(int argc, char** argv)
       tc.batchSize = argc > 6 ? std::atoi(argv[6]) : 65536;
       tc.deterministic = deterministic;
       const auto session = NetworkSession::create(dev, m, options);
-      auto tr = session->createTrainer(raw.view, tc);
+      auto slurp = [](const std::string& path) {
+        FILE* f = std::fopen(path.c_str(), "rb");
+        if (!f)
+          throw std::runtime_error("cannot open " + path);
+        std::vector<char> b;
+        char buf[65536];
+        size_t k;
+        while ((k = std::fread(buf, 1, sizeof buf, f)) > 0)
+          b.insert(b.end(), buf, buf + k);
+        std::fclose(f);
+        return b;
+      };
+      std::vector<float> bankXyz, bankValues;
+      std::unique_ptr<Trainer> tr;
+      if (!bankPrefix.empty())
+      {
+        const std::vector<char> a = slurp(bankPrefix + ".bank.f32");
+        const size_t n = a.size() / 16;
+        const float* f = reinterpret_cast<const float*>(a.data());
+        const double lo = raw.view.valueMin, range = raw.view.valueMax > lo ? raw.view.valueMax - lo : 1.0;
+        for (size_t i = 0; i < n; ++i)
+        {
+          bankXyz.insert(bankXyz.end(), f + 4 * i, f + 4 * i + 3);
+          bankValues.push_back(static_cast<float>((double(f[4 * i + 3]) - lo) / range));
+        }
+        TrainingPoints bank;
+        bank.xyz = bankXyz.data();
+        bank.values = bankValues.data();
+        bank.count = int64_t(n);
+        tr = session->createTrainer(bank, tc);
+      }
+      else
+        tr = session->createTrainer(raw.view, tc);
       std::vector<float> pts;
       std::vector<double> vals;
       if (!pointsPrefix.empty())
       {
-        auto slurp = [](const std::string& path) {
-          FILE* f = std::fopen(path.c_str(), "rb");
-          if (!f)
-            throw std::runtime_error("cannot open " + path);
-          std::vector<char> b;
-          char buf[65536];
-          size_t k;
-          while ((k = std::fread(buf, 1, sizeof buf, f)) > 0)
-            b.insert(b.end(), buf, buf + k);
-          std::fclose(f);
-          return b;
-        };
         const std::vector<char> a = slurp(pointsPrefix + ".points.f32"), b = slurp(pointsPrefix + ".values.f64");
         pts.resize(a.size() / 4);
         vals.resize(b.size() / 8);
@@ -243,8 +266,8 @@ int main(int argc, char** argv)
       };
       double trainTime = 0;
       std::printf("RESULT {\"what\":\"curve\",\"device\":\"%s\",\"name\":\"%s\",\"log2T\":%d,\"finest\":%d,"
-                  "\"batch\":%d,\"deterministic\":%d,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T,
-        c.encoding.finestResolution, tc.batchSize, int(deterministic));
+                  "\"batch\":%d,\"deterministic\":%d,\"bank\":%lld,\"curve\":[", deviceName(dev), raw.name.c_str(), log2T,
+        c.encoding.finestResolution, tc.batchSize, int(deterministic), (long long)bankValues.size());
       int done = 0;
       for (size_t k = 0; k < marks.size(); ++k)
       {

@@ -5,7 +5,7 @@
 # .nhdr + .raw, as in ../shared/data; timeseries/ from export_timeseries.py); ref/: the PyTorch reference scripts). Usage:
 # run_gpu_bench.sh SECTION... with SECTION in
 #   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
-#   online | deterministic | anydataset | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
+#   online | deterministic | anydataset | probe | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
 B=.devcarry/bin
@@ -115,6 +115,15 @@ for s in "$@"; do
       for n in disk_out_ref mug_t10 enzo_amr cth_amr; do for t in 14 19; do
         $B/nvBench --points=$D/anydataset/$n curve cuda $D/anydataset/$n.nhdr $t 1000,4000 65536 1; done; done 2>&1 | tee "$O/anydataset_curves.log"
       for t in 14 19; do $B/nvBench curve cuda $STENT $t 1000,4000 65536 1; done 2>&1 | tee -a "$O/anydataset_curves.log" ;;
+    probe)
+      # Sampling Probe's bank (anydataset_bench.py exports <name>.bank.f32: 2^20 points probed inside the source's
+      # cells) trained GPU-resident, next to training from the resampled image: PSNR on the image and at the
+      # source's own samples after 1000 / 4000 steps, and the step rate of each.
+      nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
+      for n in disk_out_ref mug_t10; do for t in 14 19; do
+        $B/nvBench --points=$D/anydataset/$n curve cuda $D/anydataset/$n.nhdr $t 1000,4000 65536 1
+        $B/nvBench --points=$D/anydataset/$n --bank=$D/anydataset/$n curve cuda $D/anydataset/$n.nhdr $t 1000,4000 65536 1
+      done; done 2>&1 | tee "$O/probe_curves.log" ;;
     rendertrain)
       $B/nvBenchRender cuda $STENT 14 2250 1920 1080 train 2 2>&1 | tee "$O/render_train.log" ;;
     renderlarge)

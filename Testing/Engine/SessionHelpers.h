@@ -73,4 +73,13 @@ inline SessionTrainer createTrainer(nv::Device d, const nv::Model& m, const nv::
   return st;
 }
 
+inline SessionTrainer createTrainer(nv::Device d, const nv::Model& m, const nv::TrainingPoints& p,
+  const nv::TrainConfig& c)
+{
+  SessionTrainer st;
+  st.s = session(m, d, c.threads);
+  st.t = st.s->createTrainer(p, c);
+  return st;
+}
+
 } // namespace nvtest

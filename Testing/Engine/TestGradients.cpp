@@ -59,7 +59,7 @@ void checkGradients(int F, int width, int hidden, LossType loss, uint64_t seed)
   tc.batchSize = n;
   tc.loss = loss;
   tc.threads = 2;
-  CpuTrainer tr(m, vol, tc, [&m](const std::vector<float>& p) { m.params() = p; });
+  CpuTrainer tr(m, vol, TrainingPoints(), tc, [&m](const std::vector<float>& p) { m.params() = p; });
   std::vector<float> grad;
   const float lossEngine = tr.lossAndGradient(xyz.data(), y.data(), valid.data(), n, grad);
   std::vector<double> p(m.params().begin(), m.params().end());

@@ -1,10 +1,12 @@
 """OpenVDB in and out (built with OpenVDB): the two VDB files of the data folder open as images over their active
 voxels with the grid's transform (half and double grids), survive a write -> read round trip exactly (the sparse
 writer prunes only the background), train with Neural Compress, and the decoded field goes back out as a sparse
-.vdb (background pruned with a tolerance) that reads back within that tolerance. Bad files and grid names give clear
-errors. Registered only for builds with OpenVDB; skips without the data."""
+.vdb (background pruned with a tolerance) that reads back within that tolerance. The sparse output ("Active voxels")
+holds exactly the dense image's active voxels: values, positions, index coordinates and the grid's metadata. Bad
+files and grid names give clear errors. Registered only for builds with OpenVDB; skips without the data."""
 import os
 import sys
+import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import nvtest  # noqa: E402
@@ -51,6 +53,142 @@ def write(proxy, path, **props):
     return messages[0]
 
 
+SPARSE, DENSE_TYPE = "Active voxels (sparse)", "Image (dense)"
+
+
+def load_sparse(path, **props):
+    """The reader's own output in sparse mode (pvbatch runs built-in: the client-side object is the reader);
+    also the seconds from creating the proxy (which reads the grid) to the end of RequestData."""
+    with nvtest.captured_messages() as messages:
+        t0 = time.time()
+        reader = OpenVDBReader(FileName=[path], OutputType=SPARSE, **props)
+        reader.UpdatePipeline()
+        seconds = time.time() - t0
+    return reader, reader.GetClientSideObject().GetOutputDataObject(0), messages[0], seconds
+
+
+def dense_seconds(path):
+    t0 = time.time()
+    reader = OpenVDBReader(FileName=[path])
+    reader.UpdatePipeline()
+    seconds = time.time() - t0
+    Delete(reader)
+    return seconds
+
+
+def check_sparse(label, path, dense_reader, image):
+    """The sparse output of `path` against its dense image: the same voxels, values, positions and transform."""
+    dense_time = dense_seconds(path)
+    reader, poly, text, sparse_time = load_sparse(path)
+    log("%s sparse: read in %.3f s (dense %.3f s), %s points" % (label, sparse_time, dense_time,
+        poly.GetNumberOfPoints() if poly else None))
+    check("ERROR" not in text, "%s sparse: reads without an error (%s)" % (label, text.strip()[-200:]))
+    if not check(poly is not None and poly.IsA("vtkPolyData"), "%s sparse: a polydata (%s)"
+                 % (label, poly.GetClassName() if poly else None)):
+        return
+    n = poly.GetNumberOfPoints()
+    check(n == active(reader) == active(dense_reader) and n > 0, "%s sparse: one point per active voxel (%d, %d, %d)"
+          % (label, n, active(reader), active(dense_reader)))
+    verts = poly.GetVerts()
+    check(poly.GetNumberOfCells() == n and verts.GetNumberOfCells() == n
+          and np.array_equal(vtk_to_numpy(verts.GetOffsetsArray()), np.arange(n + 1))
+          and np.array_equal(vtk_to_numpy(verts.GetConnectivityArray()), np.arange(n))
+          and poly.GetCellType(0) == 1 and poly.GetCellType(n - 1) == 1,
+          "%s sparse: one vertex cell per point, nothing else" % label)
+    V, dense_array = poly.GetPointData().GetScalars(), image.GetPointData().GetScalars()
+    C = poly.GetPointData().GetArray("VDBCoordinate")
+    if not check(V is not None and V.GetName() == dense_array.GetName() and V.GetDataType() == dense_array.GetDataType()
+                 and V.GetNumberOfTuples() == n and V.GetNumberOfComponents() == 1,
+                 "%s sparse: the active scalars are the dense array's name and type (%s %s)"
+                 % (label, V.GetName() if V else None, V.GetDataTypeAsString() if V else None)):
+        return
+    if not check(C is not None and C.GetDataTypeAsString() == "int" and C.GetNumberOfComponents() == 3
+                 and C.GetNumberOfTuples() == n, "%s sparse: an int 3-component 'VDBCoordinate' array" % label):
+        return
+    fd = poly.GetFieldData()
+    for name, cls, size in (("VDBBackground", "vtkDoubleArray", 1), ("VDBIndexBox", "vtkIntArray", 6),
+                            ("VDBIndexToWorld", "vtkDoubleArray", 16), ("VDBGridName", "vtkStringArray", 1)):
+        a = fd.GetAbstractArray(name)
+        if not check(a is not None and a.GetClassName() == cls and a.GetNumberOfValues() == size,
+                     "%s sparse: field data '%s' is a %s of %d values (%s)" % (label, name, cls, size,
+                     (a.GetClassName(), a.GetNumberOfValues()) if a is not None else None)):
+            return
+    check(fd.GetAbstractArray("VDBGridName").GetValue(0) == dense_array.GetName(),
+          "%s sparse: VDBGridName '%s'" % (label, fd.GetAbstractArray("VDBGridName").GetValue(0)))
+
+    # The index box: the dense image's extent, and the active voxels' bounding box.
+    box = [fd.GetAbstractArray("VDBIndexBox").GetValue(i) for i in range(6)]
+    lo, hi = np.array(box[0::2]), np.array(box[1::2])
+    ext, dims = image.GetExtent(), image.GetDimensions()
+    check(list(ext[0::2]) == [0, 0, 0] and list(hi - lo) == [ext[1], ext[3], ext[5]],
+          "%s sparse: VDBIndexBox %s matches the dense extent %s" % (label, box, ext))
+    ijk = vtk_to_numpy(C).astype(np.int64)
+    check(np.array_equal(ijk.min(0), lo) and np.array_equal(ijk.max(0), hi),
+          "%s sparse: VDBIndexBox is the active voxels' bounding box (%s %s)" % (label, ijk.min(0), ijk.max(0)))
+    rel = ijk - lo
+    flat = rel[:, 0] + dims[0] * (rel[:, 1] + dims[1] * rel[:, 2])
+    check(len(np.unique(flat)) == n, "%s sparse: every voxel once" % label)
+
+    # The values: exactly the dense image's at the same voxels.
+    A, _ = values(image)
+    S = vtk_to_numpy(V)
+    check(np.array_equal(A[rel[:, 2], rel[:, 1], rel[:, 0]], S), "%s sparse: the values equal the dense image's exactly"
+          % label)
+
+    # The positions: the dense image's points (origin + direction * spacing * ijk; a sample through VTK itself).
+    P = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
+    Dm = image.GetDirectionMatrix()
+    D = np.array([[Dm.GetElement(r, c) for c in range(3)] for r in range(3)])
+    W = np.asarray(image.GetOrigin()) + (rel * np.asarray(image.GetSpacing())) @ D.T
+    b = image.GetBounds()
+    size = float(np.linalg.norm([b[1] - b[0], b[3] - b[2], b[5] - b[4]]))
+    err = float(np.abs(W - P).max())
+    sample = np.linspace(0, n - 1, 257).astype(np.int64)
+    err_vtk = max(float(np.abs(np.asarray(image.GetPoint(int(flat[s]))) - P[s]).max()) for s in sample)
+    check(err <= 1e-6 * size and err_vtk <= 1e-6 * size, "%s sparse: the points are the dense image's points "
+          "(max error %.3g, through vtkImageData::GetPoint %.3g; size %.4g)" % (label, err, err_vtk, size))
+
+    # VDBIndexToWorld: (i, j, k, 1) -> the sparse points; the box's minimum -> the dense origin.
+    M = np.array([fd.GetAbstractArray("VDBIndexToWorld").GetValue(i) for i in range(16)]).reshape(4, 4)
+    H = np.c_[ijk, np.ones(n)] @ M.T
+    o = M @ np.r_[lo, 1.0]
+    check(np.array_equal(M[3], [0.0, 0.0, 0.0, 1.0]) and float(np.abs(H[:, :3] - P).max()) <= 1e-9 * size
+          and float(np.abs(o[:3] - np.asarray(image.GetOrigin())).max()) <= 1e-9 * size,
+          "%s sparse: VDBIndexToWorld maps the coordinates to the points and the box minimum to the origin (%s)"
+          % (label, M.tolist()))
+
+    # The background: what the dense image holds at the voxels that are not active.
+    bg = fd.GetAbstractArray("VDBBackground").GetValue(0)
+    on = np.zeros(A.shape, bool)
+    on[rel[:, 2], rel[:, 1], rel[:, 0]] = True
+    off = np.argwhere(~on)
+    if len(off):
+        k, j, i = off[0]
+        check(float(A[k, j, i]) == bg and bool(np.all(A[~on] == bg)), "%s sparse: VDBBackground %r is the dense value "
+              "at the inactive voxel %s (and at all %d inactive ones)" % (label, bg, (i, j, k), len(off)))
+    else:
+        log("%s sparse: every voxel of the box is active; VDBBackground %r" % (label, bg))
+        check(n == A.size and np.isfinite(bg), "%s sparse: no inactive voxel in the box, so all %d are points"
+              % (label, A.size))
+
+    # Deterministic order; switching the output type back and forth on one proxy.
+    again, poly2, _, _ = load_sparse(path)
+    check(poly2.GetNumberOfPoints() == n and np.array_equal(
+          vtk_to_numpy(poly2.GetPointData().GetArray("VDBCoordinate")), vtk_to_numpy(C)),
+          "%s sparse: the same order on a second read" % label)
+    Delete(again)
+    reader.OutputType = DENSE_TYPE
+    reader.UpdatePipeline()
+    img = reader.GetClientSideObject().GetOutputDataObject(0)
+    check(img.IsA("vtkImageData") and img.GetDimensions() == dims and active(reader) == n,
+          "%s: switched to the dense output (%s)" % (label, img.GetClassName()))
+    reader.OutputType = SPARSE
+    reader.UpdatePipeline()
+    poly3 = reader.GetClientSideObject().GetOutputDataObject(0)
+    check(poly3.IsA("vtkPolyData") and poly3.GetNumberOfPoints() == n, "%s: and back to the sparse one" % label)
+    Delete(reader)
+
+
 # 1. The half-float smoke: 111 x 222 x 112 active bounding box from index (1, 2, 1), voxel size 0.47619.
 smoke, image, text = load(SMOKE)
 A, array = values(image)
@@ -61,6 +199,7 @@ check(image.GetDimensions() == (111, 222, 112), "smoke1: the active bounding box
 check(all(abs(s - 0.47619) < 1e-4 for s in image.GetSpacing()), "smoke1: the voxel size as spacing")
 check(active(smoke) == 1049275, "smoke1: 1,049,275 active voxels (%s)" % active(smoke))
 check(array.GetDataTypeAsString() == "float" and array.GetName() == "density", "smoke1: a float 'density' array")
+check_sparse("smoke1", SMOKE, smoke, image)
 
 # 2. Write -> read: the same values where the re-read box lies, background outside it.
 path = os.path.join(out_dir, "smoke_roundtrip.vdb")
@@ -85,6 +224,7 @@ dense, dimage, text = load(DENSE)
 check(dimage.GetDimensions() == (128, 64, 64) and active(dense) == 524288, "dense double: 128 x 64 x 64 active "
       "(%s, %s)" % (dimage.GetDimensions(), active(dense)))
 check(dimage.GetPointData().GetScalars().GetDataTypeAsString() == "double", "dense double: a double array")
+check_sparse("dense double", DENSE, dense, dimage)
 nc = NeuralCompress(Input=dense, SelectInputScalars=["POINTS", "density"], TrainingSteps=300, BatchSize=16384,
                     Log2TableSize=14, Device="CPU", Threads=2, Deterministic=1, TrainInBackground=0,
                     OutputMode="Decoded, float32")
@@ -120,5 +260,20 @@ check("OpenVDB reader" in text and "ERROR" in text and img.GetNumberOfPoints() =
 r, img, text = load(SMOKE, GridName="temperature")
 check("no grid 'temperature'" in text and "density" in text and img.GetNumberOfPoints() == 0,
       "unknown grid: the error lists the grids (%s)" % text.strip()[-160:])
+r, poly, text, _ = load_sparse(bad)
+check("OpenVDB reader" in text and "ERROR" in text and poly.GetNumberOfPoints() == 0, "not a VDB, sparse: a clear error "
+      "(%s)" % text.strip()[-160:])
+r, poly, text, _ = load_sparse(SMOKE, GridName="temperature")
+check("no grid 'temperature'" in text and poly.IsA("vtkPolyData") and poly.GetNumberOfPoints() == 0,
+      "unknown grid, sparse: the same error, an empty polydata (%s)" % text.strip()[-160:])
+
+# 5. Neural Compress on the sparse output: a clear error that names the reader's dense output (no crash, empty output).
+sparse = OpenVDBReader(FileName=[DENSE], OutputType=SPARSE)
+with nvtest.captured_messages() as messages:
+    ncs = NeuralCompress(Input=sparse, SelectInputScalars=["POINTS", "density"], TrainingSteps=10)
+    ncs.UpdatePipeline()
+    empty = servermanager.Fetch(ncs)
+check("Active voxels (sparse)" in messages[0] and "Image (dense)" in messages[0] and empty.GetNumberOfPoints() == 0,
+      "Neural Compress on the sparse output: a clear error (%s)" % messages[0].strip()[-200:])
 
 nvtest.finish()
