@@ -5,6 +5,7 @@
 #include "vtkNeuralCompressState.h"
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressResample.h"
+#include "vtkNeuralCompressSparse.h"
 #include "vtkNeuralNetworkArray.h"
 
 #include "Core/Error.h"
@@ -116,6 +117,24 @@ int vtkNeuralCompress::RequestInformation(
     {
       producer->Update(this->GetInputConnection(0, 0)->GetIndex());
       input = inInfo->Get(vtkDataObject::DATA_OBJECT());
+    }
+    if (nvi::IsSparseVoxels(input))
+    {
+      // A sparse OpenVDB grid: the output covers its index box.
+      nvi::SparseVoxels voxels;
+      std::string problem;
+      if (nvi::ReadSparseVoxels(input, nvi::SparseScalarsName(input), voxels, problem))
+      {
+        const int ext[6] = { 0, voxels.Dims[0] - 1, 0, voxels.Dims[1] - 1, 0, voxels.Dims[2] - 1 };
+        const nvi::OutputGeometry g =
+          nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution);
+        outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
+      }
+      else
+      {
+        outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+      }
+      return 1;
     }
     vtkInformation* ai = this->GetInputArrayInformation(0);
     const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
@@ -241,6 +260,10 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
   vtkDataArray* array = nullptr;
   std::shared_ptr<std::vector<uint8_t>> outside;
   vtkSmartPointer<vtkImageData> resampled;
+  if (!input && nvi::IsSparseVoxels(inputObject))
+  {
+    return this->ExecuteSparse(inputObject, output, log, metrics, time);
+  }
   if (!input)
   {
     // Not an image: resampled onto one (vtkNeuralCompressResample.h), cached across re-executions.

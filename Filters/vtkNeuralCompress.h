@@ -373,6 +373,10 @@ private:
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
     vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
 
+  /// The OpenVDB reader's sparse output (vtkNeuralCompressSparse.h): trained from its active voxels and background
+  /// samples without a dense grid; false after reporting an error.
+  bool ExecuteSparse(vtkDataObject* inputObject, vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
+
   vtkNeuralCompressInternals::Settings CurrentSettings() const;
   /// A job for a new input or settings: a cached or restored network, or a training run.
   void StartJob(const vtkNeuralCompressInternals::FieldInfo& field,

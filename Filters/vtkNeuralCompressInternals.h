@@ -62,6 +62,9 @@ class PsnrProbe
 {
 public:
   PsnrProbe(const nv::VolumeView& view, uint64_t seed, int64_t maxSamples);
+  /// On a bank of training points (xyz in [0,1]^3, normalised values; non-finite ones skipped): every
+  /// max(1, count / maxSamples)-th point.
+  PsnrProbe(const std::vector<float>& xyz, const std::vector<float>& values, int64_t maxSamples);
   /// Estimate from the session's current (published) network.
   double Estimate(nv::NetworkSession& session) const;
 

@@ -342,7 +342,11 @@ void Job::Finalize(const RunStatus& status)
   vtkSmartPointer<vtkDataArray> decoded = DecodeOutput(*this->Session, this->Field, mode);
   const nv::VolumeView& view = this->Data->Field.View;
   nv::ErrorStats error;
-  if (decoded && this->Field.Geometry.OnSourceGrid && vtkFloatArray::SafeDownCast(decoded))
+  if (!view.data)
+  {
+    // A sparse input (vtkNeuralCompressSparse.h) has no dense field: it is measured at its samples below.
+  }
+  else if (decoded && this->Field.Geometry.OnSourceGrid && vtkFloatArray::SafeDownCast(decoded))
   {
     error = nv::compareDecoded(vtkFloatArray::SafeDownCast(decoded)->GetPointer(0), view, this->Field.Stats.min,
       this->Field.Stats.max, this->S.Threads);
@@ -356,7 +360,7 @@ void Job::Finalize(const RunStatus& status)
   if (this->Field.Samples)
   {
     // A resampled input: the error that counts is the one at the source's own samples.
-    resampledPsnr = error.psnr;
+    resampledPsnr = view.data ? error.psnr : std::numeric_limits<double>::quiet_NaN();
     error = SourceError(*this->Session, model, *this->Field.Samples, this->Field.Stats.min, this->Field.Stats.max);
     sourceSamples = error.count;
   }

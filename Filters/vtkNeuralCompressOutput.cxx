@@ -15,6 +15,7 @@
 #include "vtkTypeInt64Array.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cinttypes>
 #include <cstdio>
 #include <sstream>
@@ -194,8 +195,11 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
   }
   s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError;
   if (m.SourceSamples > 0)
-    s << " at " << m.SourceSamples << " source samples ("
-      << m.ResampledPsnr << " dB on the resampled image)";
+  {
+    s << " at " << m.SourceSamples << " source samples";
+    if (std::isfinite(m.ResampledPsnr))
+      s << " (" << m.ResampledPsnr << " dB on the resampled image)";
+  }
   s << "; model "
     << FormatBytes(static_cast<double>(m.ModelBytes)) << " (2^" << config.encoding.log2TableSize << " table, "
     << (job.Storage == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << m.Ratio << ":1";

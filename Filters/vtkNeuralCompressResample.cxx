@@ -13,7 +13,6 @@
 #include "vtkDataObject.h"
 #include "vtkDataSet.h"
 #include "vtkDoubleArray.h"
-#include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkImageData.h"
 #include "vtkNew.h"
@@ -143,12 +142,6 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
   {
     problem = "no block of the input has a " +
       std::string(association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? "cell" : "point") + " array '" + name + "'";
-    return false;
-  }
-  if (flat3d && input->GetFieldData() && input->GetFieldData()->GetAbstractArray("VDBIndexBox"))
-  {
-    problem = "this is the OpenVDB reader's 'Active voxels (sparse)' output; Neural Compress trains from its "
-              "'Image (dense)' output (set the reader's Output Type to Image)";
     return false;
   }
   if (flat3d)

@@ -246,7 +246,10 @@ void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, in
 {
   if (limits.PsnrInterval > 0 && !job.Data->Probe)
   {
-    job.Data->Probe.reset(new nvi::PsnrProbe(job.Data->Field.View, job.Train.seed, 65536));
+    // A sparse input has no dense field: its estimates come from its bank.
+    job.Data->Probe.reset(job.Data->Field.View.data
+        ? new nvi::PsnrProbe(job.Data->Field.View, job.Train.seed, 65536)
+        : new nvi::PsnrProbe(job.Data->BankXyz, job.Data->BankValues, 65536));
   }
   nvi::Job* jobPtr = &job;
   job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, job.Train, limits,

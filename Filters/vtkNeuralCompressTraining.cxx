@@ -56,6 +56,19 @@ PsnrProbe::PsnrProbe(const nv::VolumeView& view, uint64_t seed, int64_t maxSampl
   }
 }
 
+PsnrProbe::PsnrProbe(const std::vector<float>& xyz, const std::vector<float>& values, int64_t maxSamples)
+{
+  const int64_t n = static_cast<int64_t>(values.size());
+  const int64_t stride = std::max<int64_t>(1, (n + maxSamples - 1) / std::max<int64_t>(maxSamples, 1));
+  for (int64_t i = 0; i < n; i += stride)
+  {
+    if (!std::isfinite(values[size_t(i)]))
+      continue;
+    Coords.insert(Coords.end(), xyz.begin() + 3 * i, xyz.begin() + 3 * i + 3);
+    Expected.push_back(values[size_t(i)]);
+  }
+}
+
 double PsnrProbe::Estimate(nv::NetworkSession& session) const
 {
   const int64_t n = static_cast<int64_t>(Expected.size());
