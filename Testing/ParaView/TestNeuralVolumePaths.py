@@ -95,12 +95,14 @@ for mode in MODES:
                                                                   TARGET_SAMPLES))
         else:
             check(stats["LastSamplesPlain"] > 0, "%s: plain-marcher samples reported" % label)
-        nvtest.baseline(png, "TestNeuralVolumePaths_%s_%s" % (tag(path), tag(mode)), BASELINE_DB, label)
+        # Plain path tracing finds the 5-degree sun by chance: which pixels hold a firefly is a lottery that the last
+        # bits of the CPU's float rounding decide (another processor: 6 of 16384 pixels differ, 37.8 dB per pixel,
+        # 49.8 dB on 4x4-pixel means). Its baseline is compared on PT_BLOCK-pixel means, as the paths are below.
+        block = PT_BLOCK if mode == "Path Tracing" else 1
+        nvtest.baseline(png, "TestNeuralVolumePaths_%s_%s" % (tag(path), tag(mode)), BASELINE_DB, label, block)
 
 # --- the paths agree, and the network paths are not the Decode path ------------------------------
-def block_means(pixels, k):
-    rows, cols = pixels.shape[0] // k * k, pixels.shape[1] // k * k
-    return pixels[:rows, :cols].reshape(rows // k, k, cols // k, k, 3).mean(axis=(1, 3))
+block_means = nvtest.block_means
 
 
 for mode in MODES:

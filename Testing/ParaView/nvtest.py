@@ -188,12 +188,20 @@ def image_psnr(a, b):
     return math.inf if mse == 0 else 10.0 * math.log10(255.0 ** 2 / mse)
 
 
-def compare_images(test_png, reference_png, threshold_db, label):
-    """Check image PSNR >= threshold_db; writes an amplified difference image on failure."""
+def block_means(pixels, k):
+    """Means of k x k pixel blocks (Monte Carlo images: compares the picture, not where its fireflies fell)."""
+    rows, cols = pixels.shape[0] // k * k, pixels.shape[1] // k * k
+    return pixels[:rows, :cols].reshape(rows // k, k, cols // k, k, pixels.shape[2]).mean(axis=(1, 3))
+
+
+def compare_images(test_png, reference_png, threshold_db, label, block=1):
+    """Check image PSNR >= threshold_db (on block x block means when block > 1); writes an amplified difference
+    image on failure."""
     import numpy as np
     a = read_png(test_png)
     b = read_png(reference_png)
-    psnr = image_psnr(a, b)
+    psnr = image_psnr(block_means(a, block), block_means(b, block)) if block > 1 and a.shape == b.shape \
+        else image_psnr(a, b)
     log("%s: image PSNR %.2f dB (threshold %.1f)" % (label, psnr, threshold_db))
     if not check(psnr >= threshold_db, "%s: image PSNR %.2f dB < %.1f dB (%s vs %s)"
                  % (label, psnr, threshold_db, test_png, reference_png)):
@@ -288,8 +296,9 @@ def is_uniform(pixels, tolerance=1.0):
     return float((pixels.max(axis=(0, 1)) - pixels.min(axis=(0, 1))).max()) <= tolerance
 
 
-def baseline(test_png, name, threshold_db, label):
-    """Compare with Baseline/<name>.png, or write it when NV_GENERATE_BASELINE is set. A missing baseline fails."""
+def baseline(test_png, name, threshold_db, label, block=1):
+    """Compare with Baseline/<name>.png (compare_images), or write it when NV_GENERATE_BASELINE is set. A missing
+    baseline fails."""
     import shutil
     directory = os.environ.get("NV_BASELINE_DIR", os.path.join(os.path.dirname(__file__), "Baseline"))
     reference = os.path.join(directory, name + ".png")
@@ -300,4 +309,4 @@ def baseline(test_png, name, threshold_db, label):
         return math.inf
     if not check(os.path.exists(reference), "%s: baseline %s exists" % (label, reference)):
         return -math.inf
-    return compare_images(test_png, reference, threshold_db, label)
+    return compare_images(test_png, reference, threshold_db, label, block)
