@@ -106,6 +106,13 @@ int vtkNeuralCompress::RequestInformation(
   std::fill(this->Internals->AnnouncedDims, this->Internals->AnnouncedDims + 3, 0);
   if (input && !vtkImageData::SafeDownCast(input))
   {
+    if (nvi::DistributedController())
+    {
+      // MPI: the extent follows from the whole input, gathered to rank 0 (vtkNeuralCompressDistributed.h).
+      this->Internals->Distributed.Announce(
+        this, inInfo, outInfo, this->SamplingDimensions, this->OutputResolution, this->Internals->AnnouncedDims);
+      return 1;
+    }
     // A resampled input: its image's extent follows from the sampling dimensions, which (when automatic) come
     // from the input data; RequestData then resamples at these (see Execute()). ParaView's representations need
     // the extent now, so an input that has not executed yet is brought up to date first.
@@ -196,6 +203,7 @@ int vtkNeuralCompress::RequestUpdateExtent(
     inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
     inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
   }
+  nvi::RequestLocalPiece(inInfo); // MPI: this rank's piece of it, gathered to rank 0 in RequestData
   return 1;
 }
 
@@ -223,7 +231,22 @@ int vtkNeuralCompress::RequestData(
     time = inputObject->GetInformation()->Get(vtkDataObject::DATA_TIME_STEP());
   }
 
-  if (!this->Execute(inputObject, inputVector, output, log, metrics, time))
+  // MPI: rank 0 trains on the whole input gathered from every rank; the others output an empty image.
+  const nvi::DistributedRole role =
+    this->Internals->Distributed.Gather(this, inputObject, inputVector[0]->GetInformationObject(0));
+  if (role == nvi::DistributedRole::Satellite)
+  {
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
+    return 1;
+  }
+  if (role == nvi::DistributedRole::Root)
+  {
+    inputObject = this->Internals->Distributed.Whole();
+    inputVector = this->Internals->Distributed.WholeVector();
+  }
+  const nvi::RootOnlyScope rootOnly(role == nvi::DistributedRole::Root); // VTK's filters on rank 0 alone
+  if (role == nvi::DistributedRole::Failed ||
+    !this->Execute(inputObject, inputVector, output, log, metrics, time))
   {
     // A defined result: no arrays, no network. For an image input the output keeps the promised
     // (input) geometry, so the pipeline does not execute again (and repeat the error) on every

@@ -3,6 +3,7 @@
 #define vtkNeuralCompressState_h
 
 #include "vtkNeuralCompress.h"
+#include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressResample.h"
 
@@ -23,12 +24,14 @@ struct vtkNeuralCompress::vtkInternals
   nvi::NetworkCache Cache;
   nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
+  nvi::DistributedInput Distributed; ///< MPI: the input gathered to rank 0 (vtkNeuralCompressDistributed.h)
   std::map<uint64_t, std::vector<uint8_t>> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;
   std::string StatusText;
   bool DecodeRequested = false;
   bool SummaryPrinted = false;
+  size_t NotesPrinted = 0; ///< notes of the current run printed as warnings
   vtkIdType StepsOfEndedJobs = 0;
 
   // The key of the last input seen (recomputed when the array, its content or the settings change).

@@ -6,6 +6,7 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkMultiProcessController.h"
 #include "vtkObjectFactory.h"
 
 #include <algorithm>
@@ -137,12 +138,17 @@ int vtkNeuralVolumeRepresentation::RequestData(
   if (inputVector[0]->GetNumberOfInformationObjects() == 1)
   {
     vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
+    // Under MPI, Neural Compress gives its whole output (and the network) to rank 0 and an empty image to the
+    // other ranks: an empty piece has nothing to draw and is no error.
+    vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
+    const bool emptyPiece = image && image->GetNumberOfPoints() == 0 && controller &&
+      controller->GetNumberOfProcesses() > 1;
     if (image && vtkNeuralNetworkArray::Find(image->GetFieldData()))
     {
       this->HasNetwork = 1;
       this->ReportedMissing = false;
     }
-    else if (!this->ReportedMissing)
+    else if (!this->ReportedMissing && !emptyPiece)
     {
       vtkErrorMacro("Neural Volume: the input has no '"
         << vtkNeuralNetworkArray::GetArrayName()

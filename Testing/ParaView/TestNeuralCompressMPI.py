@@ -1,0 +1,300 @@
+"""Neural Compress under MPI (`mpiexec -n 2 pvbatch`): every rank holds a piece of the input; the network is trained
+once, on rank 0, over the whole input gathered from both ranks, and rank 1 outputs an empty image.
+
+Run by ctest as `mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch --force-offscreen-rendering <this>`. Rank 0
+first runs the same pipelines in a serial pvbatch (this script with --serial-reference <folder>, a subprocess) and
+compares:
+- a Wavelet [0,47]^3 split between the ranks: the output has the whole extent exactly once (data information, the
+  appended fetch, rank 0's and rank 1's outputs), exactly one network, a PSNR within 0.5 dB of the serial run, the
+  decoded field matches the Wavelet within that PSNR; ghost layers on the pieces (GhostCellsGenerator) and background
+  training (TrainInBackground, WaitForTraining: executions of rank 0 alone) give the same network;
+- no hang, an error and an empty output when the array is missing on rank 1's piece or rank 1 has no points;
+- a Neural Volume render of the distributed network matches the serial picture (drawn once, by rank 0);
+- disk_out_ref (NV_DATA_DIR) redistributed over the ranks (RedistributeDataSet): one network, PSNR at its 8499
+  points within 0.5 dB of the serial run and above 27 dB (TestNeuralCompressAnyDataset's threshold).
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import nvtest  # noqa: E402
+
+import numpy as np  # noqa: E402
+from paraview.simple import *  # noqa: E402,F401,F403
+from paraview import servermanager  # noqa: E402
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
+
+
+SERIAL = "--serial-reference" in sys.argv
+WHOLE = [0, 47, 0, 47, 0, 47]
+POINTS = 48 ** 3
+# CPU engine, fixed seed, deterministic sums, blocking training, a few hundred steps: the serial and the MPI run train
+# the same network from the same whole field.
+WAVELET = dict(SelectInputScalars=["POINTS", "RTData"], Device="CPU", Seed=7, Deterministic=1, TrainingSteps=300,
+               BatchSize=16384, Levels=8, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Loss="L2",
+               Log2TableSize=12, Threads=2, PSNRInterval=0, TrainInBackground=0, OutputMode="Decoded, float32")
+DISK = dict(SelectInputScalars=["POINTS", "Temp"], Device="CPU", Seed=1, Deterministic=1, TrainingSteps=300,
+            BatchSize=16384, Threads=2, Log2TableSize=14, TrainInBackground=0)
+PSNR_TOLERANCE = 0.5   # dB, MPI vs serial
+# Image PSNR of the MPI picture against the serial one (same network, same Decode path; only the compositing differs):
+# measured inf (identical pixels) on Mesa llvmpipe under Xvfb.
+PICTURE_DB = 40.0
+SIZE = [300, 300]
+BACKGROUND = [0.32, 0.34, 0.43]
+
+nvtest.load_plugin(globals(), scripted=False)
+out_dir = nvtest.output_dir()
+data_dir = os.environ.get("NV_DATA_DIR", "")
+disk_file = os.path.join(data_dir, "disk_out_ref", "disk_out_ref.ex2") if data_dir else ""
+have_disk = bool(disk_file) and os.path.exists(disk_file)
+
+
+def fd(data, name):
+    return nvtest.field_value(data, name)
+
+
+def network_count(data):
+    """Field-data arrays named NeuralNetwork (the filter writes exactly one)."""
+    f = data.GetFieldData()
+    return len([i for i in range(f.GetNumberOfArrays()) if f.GetArrayName(i) == "NeuralNetwork"])
+
+
+def wavelet_values():
+    """RTData of the whole Wavelet in image order, computed here by VTK (no pipeline of the session)."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    src = vtkRTAnalyticSource()
+    src.SetWholeExtent(*WHOLE)
+    src.Update()
+    return vtk_to_numpy(src.GetOutput().GetPointData().GetArray("RTData")).astype(np.float64)
+
+
+def render_picture(nc, path):
+    view = nvtest.render_view(SIZE, BACKGROUND)
+    display = Show(nc, view)
+    display.SetRepresentationType("Neural Volume")
+    ColorBy(display, ("POINTS", "RTData"))
+    display.SetScalarBarVisibility(view, False)
+    lut = GetColorTransferFunction("RTData")
+    pwf = GetOpacityTransferFunction("RTData")
+    lut.ApplyPreset("Cool to Warm", True)
+    lut.AutomaticRescaleRangeMode = "Never"
+    values = wavelet_values()
+    lut.RescaleTransferFunction(values.min(), values.max())
+    pwf.RescaleTransferFunction(values.min(), values.max())
+    nvtest.set_camera(view, [23.5 + 110.0, 23.5 - 80.0, 23.5 + 150.0], focal=(23.5, 23.5, 23.5))
+    view.ResetCamera()  # the whole volume in the picture (the bounds of both ranks' outputs)
+    Render(view)
+    nvtest.shot(view, path, SIZE)
+    return view, display
+
+
+def serial_reference(folder):
+    """The serial run: figures to <folder>/serial.json, the picture to <folder>/serial.png."""
+    result = {}
+    wavelet = Wavelet(WholeExtent=WHOLE)
+    nc = NeuralCompress(Input=wavelet, **WAVELET)
+    nc.UpdatePipeline()
+    data = servermanager.Fetch(nc)
+    result["wavelet_psnr"] = fd(data, "NeuralPSNR")
+    result["wavelet_max_error"] = fd(data, "NeuralMaxError")
+    render_picture(nc, os.path.join(folder, "serial.png"))
+    if have_disk:
+        disk = ExodusIIReader(FileName=disk_file, PointVariables=["Temp"])
+        nd = NeuralCompress(Input=disk, **DISK)
+        nd.UpdatePipeline()
+        d = servermanager.Fetch(nd)
+        result["disk_psnr"] = fd(d, "NeuralPSNR")
+        result["disk_samples"] = fd(d, "NeuralSourceSamples")
+    with open(os.path.join(folder, "serial.json"), "w") as f:
+        json.dump(result, f)
+    nvtest.log("serial reference: %s" % result)
+
+
+def programmable(source, script):
+    """A filter that runs `script` on every rank (`rank`: this one; `out`: a shallow copy of the input)."""
+    p = ProgrammableFilter(Input=source)
+    p.OutputDataSetType = "Same as Input"
+    p.Script = ("from vtkmodules.vtkParallelCore import vtkMultiProcessController\n"
+                "rank = vtkMultiProcessController.GetGlobalController().GetLocalProcessId()\n"
+                "out = self.GetOutput()\nout.ShallowCopy(self.GetInput())\n" + script)
+    return p
+
+
+def mpi_run():
+    """Rank 0 runs this (rank 1 serves the pipeline)."""
+    # Local names: LoadPlugin(ns=globals()) and paraview.simple's names may rebind module globals such as `log`.
+    check, log = nvtest.check, nvtest.log
+    controller = vtkMultiProcessController.GetGlobalController()
+    ranks = controller.GetNumberOfProcesses() if controller else 1
+    if ranks != 2:
+        nvtest.skip("this test runs under `mpiexec -n 2 pvbatch` (here %d process%s: no mpiexec at configure "
+                    "time, or a pvbatch without MPI)" % (ranks, "" if ranks == 1 else "es"))
+    nvtest.require_display()
+
+    # 0. The serial reference, in a serial pvbatch (the MPI launcher's variables removed from its environment).
+    pvbatch = os.environ.get("NV_PVBATCH", "pvbatch")
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
+    started = time.time()
+    serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__),
+                             "--serial-reference", out_dir],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=400)
+    log("serial reference pvbatch: exit %d in %.1f s\n%s"
+        % (serial.returncode, time.time() - started, serial.stdout.decode(errors="replace")[-3000:]))
+    if not check(serial.returncode == 0 and os.path.exists(os.path.join(out_dir, "serial.json")),
+                 "the serial reference run succeeded"):
+        return
+    with open(os.path.join(out_dir, "serial.json")) as f:
+        reference = json.load(f)
+
+    # 1. The Wavelet, split between the ranks.
+    wavelet = Wavelet(WholeExtent=WHOLE)
+    started = time.time()
+    nc = NeuralCompress(Input=wavelet, **WAVELET)
+    with nvtest.captured_messages() as messages:
+        nc.UpdatePipeline()
+    log("MPI Wavelet: UpdatePipeline %.1f s" % (time.time() - started))
+    check("ERROR" not in messages[0] and "Warning" not in messages[0], "no error or warning: %r" % messages[0])
+    piece1 = servermanager.Fetch(wavelet, 1)
+    check(0 < piece1.GetNumberOfPoints() < POINTS,
+          "the input is distributed: rank 1 holds %d of the %d points" % (piece1.GetNumberOfPoints(), POINTS))
+    info = nc.GetDataInformation()
+    check(info.GetNumberOfPoints() == POINTS and list(info.GetExtent()) == WHOLE,
+          "data information: the whole extent once (%d points, extent %s)"
+          % (info.GetNumberOfPoints(), str(info.GetExtent())))
+    root = servermanager.Fetch(nc, 0)
+    check(root.IsA("vtkImageData") and list(root.GetExtent()) == WHOLE, "rank 0 holds the whole image (%s)"
+          % str(root.GetExtent() if root.IsA("vtkImageData") else root.GetClassName()))
+    check(network_count(root) == 1, "rank 0's output carries exactly one network")
+    satellite = servermanager.Fetch(nc, 1)
+    check(satellite.GetNumberOfPoints() == 0 and network_count(satellite) == 0,
+          "rank 1's output is empty (%d points, %d networks)"
+          % (satellite.GetNumberOfPoints(), network_count(satellite)))
+    appended = servermanager.Fetch(nc)
+    check(appended.GetNumberOfPoints() == POINTS and network_count(appended) == 1,
+          "both ranks' outputs together: the whole extent exactly once (%d points), one network (%d)"
+          % (appended.GetNumberOfPoints(), network_count(appended)))
+    psnr = fd(root, "NeuralPSNR")
+    log("Wavelet PSNR: MPI %.3f dB, serial %.3f dB" % (psnr, reference["wavelet_psnr"]))
+    check(abs(psnr - reference["wavelet_psnr"]) <= PSNR_TOLERANCE,
+          "Wavelet PSNR %.3f dB within %.1f dB of the serial run's %.3f dB"
+          % (psnr, PSNR_TOLERANCE, reference["wavelet_psnr"]))
+    check(fd(root, "NeuralSteps") == WAVELET["TrainingSteps"], "trained %s steps" % fd(root, "NeuralSteps"))
+    log_table = servermanager.Fetch(nc, idx=1)
+    check(log_table.GetNumberOfRows() == WAVELET["TrainingSteps"],
+          "the training log has one row per step (one training, not one per rank): %d rows"
+          % log_table.GetNumberOfRows())
+    # The decoded field against the Wavelet itself.
+    original = wavelet_values()
+    decoded_array = root.GetPointData().GetArray("RTData")
+    if check(decoded_array is not None and decoded_array.GetNumberOfTuples() == POINTS,
+             "the decoded output covers the whole extent"):
+        decoded = vtk_to_numpy(decoded_array).astype(np.float64)
+        span = original.max() - original.min()
+        mse = float(np.mean(((decoded - original) / span) ** 2))
+        decoded_psnr = 10.0 * math.log10(1.0 / mse)
+        max_error = float(np.abs(decoded - original).max())
+        log("decoded vs Wavelet: PSNR %.3f dB, max error %.3f (filter: %.3f dB, %.3f)"
+            % (decoded_psnr, max_error, psnr, fd(root, "NeuralMaxError")))
+        check(abs(decoded_psnr - psnr) <= 0.1,
+              "the decoded field matches the Wavelet within the network's PSNR (%.3f vs %.3f dB)"
+              % (decoded_psnr, psnr))
+        check(max_error <= fd(root, "NeuralMaxError") * 1.001 + 1e-6,
+              "decoded max error %.3f within NeuralMaxError" % max_error)
+
+    # 1b. Ghost layers on the pieces: the stitching leaves them out (the same field, the same network).
+    ghosts = GhostCellsGenerator(Input=wavelet)
+    ghosts.BuildIfRequired = 0
+    ng = NeuralCompress(Input=ghosts, **WAVELET)
+    ng.UpdatePipeline()
+    ghost_piece = servermanager.Fetch(ghosts, 1)
+    check(ghost_piece.GetPointData().GetArray("vtkGhostType") is not None,
+          "GhostCellsGenerator: rank 1's piece (%d points) has ghost points" % ghost_piece.GetNumberOfPoints())
+    g = servermanager.Fetch(ng, 0)
+    check(list(g.GetExtent()) == WHOLE and fd(g, "NeuralPSNR") == psnr,
+          "ghost layers on the pieces: the same whole image and network (%s dB)" % fd(g, "NeuralPSNR"))
+    Delete(ng)
+    Delete(ghosts)
+
+    # 1c. Background training: rank 0 trains in its thread; WaitForTraining and the refresh execute on rank 0 alone.
+    nb = NeuralCompress(Input=wavelet, **dict(WAVELET, TrainInBackground=1))
+    nb.UpdatePipeline()
+    nb.WaitForTraining()
+    nb.UpdatePipeline()
+    b = servermanager.Fetch(nb, 0)
+    check(fd(b, "NeuralTrainingState") == "Finished" and fd(b, "NeuralPSNR") == psnr,
+          "background training under MPI: state %s, PSNR %s dB (blocking: %s)"
+          % (fd(b, "NeuralTrainingState"), fd(b, "NeuralPSNR"), psnr))
+    check(nb.GetDataInformation().GetNumberOfPoints() == POINTS, "background training: the whole extent once")
+    Delete(nb)
+
+    # 2. Errors: no hang, an error on rank 0 and no network.
+    for label, script, expected in (
+            ("array missing on rank 1", "if rank == 1: out.GetPointData().RemoveArray('RTData')\n",
+             "missing on the piece of rank 1"),
+            ("no points on rank 1", "if rank == 1: out.Initialize()\n", "cover 55296 of the 110592 points")):
+        p = programmable(wavelet, script)
+        bad = NeuralCompress(Input=p, **WAVELET)
+        with nvtest.captured_messages() as messages:
+            bad.UpdatePipeline()
+        text = messages[0]
+        out = servermanager.Fetch(bad, 0)
+        check("ERROR" in text and expected in text, "%s: an error naming it (%r)" % (label, text[-400:]))
+        check(network_count(out) == 0, "%s: no network" % label)
+        Delete(bad)
+        Delete(p)
+
+    # 3. The Neural Volume of the distributed network: the serial picture (drawn once, by rank 0).
+    mpi_png = os.path.join(out_dir, "mpi.png")
+    view, display = render_picture(nc, mpi_png)
+    pixels = nvtest.read_png(mpi_png)
+    covered = float(np.mean(np.abs(pixels - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0))
+    check(covered > 0.05, "the MPI picture shows the volume (%.1f%% of the pixels differ from the background)"
+          % (100.0 * covered))
+    nvtest.compare_images(mpi_png, os.path.join(out_dir, "serial.png"), PICTURE_DB, "MPI picture vs serial picture")
+    Delete(display)
+    Delete(view)
+
+    # 4. disk_out_ref, redistributed over the ranks.
+    if not have_disk:
+        log("SKIP (part): no disk_out_ref under NV_DATA_DIR=%r" % data_dir)
+        return
+    disk = ExodusIIReader(FileName=disk_file, PointVariables=["Temp"])
+    redistributed = RedistributeDataSet(Input=disk)
+    redistributed.UpdatePipeline()
+    rank1 = servermanager.Fetch(redistributed, 1)
+    check(rank1.GetNumberOfPoints() > 0, "disk_out_ref is distributed: rank 1 holds %d of its points"
+          % rank1.GetNumberOfPoints())
+    started = time.time()
+    nd = NeuralCompress(Input=redistributed, **DISK)
+    nd.UpdatePipeline()
+    d = servermanager.Fetch(nd, 0)
+    disk_psnr, samples = fd(d, "NeuralPSNR"), fd(d, "NeuralSourceSamples")
+    log("disk_out_ref: MPI %.3f dB at %s points in %.1f s; serial %.3f dB at %s points"
+        % (disk_psnr, samples, time.time() - started, reference["disk_psnr"], reference["disk_samples"]))
+    check(network_count(d) == 1 and servermanager.Fetch(nd, 1).GetNumberOfPoints() == 0,
+          "disk_out_ref: one network, on rank 0")
+    check(samples == 8499 and disk_psnr > 27.0,
+          "disk_out_ref: PSNR at its 8499 points > 27 dB (%s, %s)" % (samples, disk_psnr))
+    check(abs(disk_psnr - reference["disk_psnr"]) <= PSNR_TOLERANCE,
+          "disk_out_ref PSNR %.3f dB within %.1f dB of the serial run's %.3f dB"
+          % (disk_psnr, PSNR_TOLERANCE, reference["disk_psnr"]))
+    # Not redistributed: the reader gives rank 1 nothing; rank 0's piece is the whole data set.
+    nu = NeuralCompress(Input=disk, **dict(DISK, TrainingSteps=30))
+    nu.UpdatePipeline()
+    u = servermanager.Fetch(nu, 0)
+    check(fd(u, "NeuralSourceSamples") == 8499 and network_count(u) == 1,
+          "disk_out_ref with an empty rank 1: one network over the 8499 points (%s)" % fd(u, "NeuralSourceSamples"))
+
+
+if SERIAL:
+    serial_reference(sys.argv[sys.argv.index("--serial-reference") + 1])
+else:
+    mpi_run()
+# The end of the script: pvbatch ends every rank (an early exit of rank 0 would leave rank 1 waiting).
+nvtest.finish()
