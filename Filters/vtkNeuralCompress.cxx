@@ -494,6 +494,10 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     status = job.Run->Status();
     job.EmittedSerial = status.Serial;
+    for (; in.NotesPrinted < status.Notes.size(); ++in.NotesPrinted)
+    {
+      vtkWarningMacro("Neural Compress: " << status.Notes[in.NotesPrinted] << ".");
+    }
     if (status.State == nvi::RunState::Failed)
     {
       vtkErrorMacro("Neural Compress: training failed: " << status.Error);
@@ -559,6 +563,11 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
     {
       in.SummaryPrinted = true;
+      if (std::isinf(record.M.MaxError))
+      {
+        vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
+                      "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
+      }
       if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
         record.M.Ratio < this->TargetCompressionRatio)
       {

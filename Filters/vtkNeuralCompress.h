@@ -270,6 +270,14 @@ public:
   ///@}
 
   ///@{
+  /// At the end of training, the network of the best PSNR estimate replaces the last one when it was better by more
+  /// than 0.1 dB (training that collapsed late; needs PSNRInterval > 0). Default on.
+  vtkSetMacro(KeepBestNetwork, bool);
+  vtkGetMacro(KeepBestNetwork, bool);
+  vtkBooleanMacro(KeepBestNetwork, bool);
+  ///@}
+
+  ///@{
   /// Start training a time step from the network of the nearest time step trained before.
   vtkSetMacro(WarmStart, bool);
   vtkGetMacro(WarmStart, bool);
@@ -361,6 +369,7 @@ protected:
   int OutputMode = OUTPUT_NETWORK_ONLY;
   bool TrainInBackground = true;
   bool Deterministic = false;
+  bool KeepBestNetwork = true;
   int NetworkCacheMiB = 256;
   bool WarmStart = true;
   int ContinueSteps = 1000;

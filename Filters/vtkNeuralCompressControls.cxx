@@ -46,6 +46,7 @@ void vtkNeuralCompress::ExtendTraining(int64_t steps, bool fastForward)
   {
     // A cached or restored network: one run that trains `steps` more from it, its step count going on.
     nvi::RunLimits limits;
+    limits.KeepBest = this->KeepBestNetwork;
     limits.PsnrInterval = this->PSNRInterval;
     if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
     {

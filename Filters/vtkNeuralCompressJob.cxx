@@ -108,6 +108,8 @@ std::string Settings::Canonical() const
     << WarmStart;
   if (Sampling != 0)
     s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
+  if (!KeepBest)
+    s << " last"; // the default keeps the v1 string too
   return s.str();
 }
 
@@ -214,10 +216,21 @@ static nv::ErrorStats SourceError(
     if (!std::isfinite(src))
       continue; // NaN / Inf source samples are not trained on (counted as invalid elsewhere)
     const double v = model.denormalize(static_cast<double>(out[i]));
-    const double d = std::isfinite(v) ? v - src : std::numeric_limits<double>::infinity();
+    ++e.count;
+    if (!std::isfinite(v))
+    {
+      ++e.nonFinite; // a diverged network: never a score (see nv::ErrorStats)
+      continue;
+    }
+    const double d = v - src;
     se += (d / range) * (d / range);
     e.maxAbsError = std::max(e.maxAbsError, std::fabs(d));
-    ++e.count;
+  }
+  if (e.nonFinite > 0)
+  {
+    e.mse = e.psnr = std::numeric_limits<double>::quiet_NaN();
+    e.maxAbsError = std::numeric_limits<double>::infinity();
+    return e;
   }
   e.mse = e.count > 0 ? se / double(e.count) : 0.0;
   e.psnr = e.count == 0 ? std::numeric_limits<double>::quiet_NaN()

@@ -35,6 +35,7 @@ struct Settings
   int PsnrInterval = 0;
   bool Deterministic = false, WarmStart = true;
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
+  bool KeepBest = true;
   /// Every field, for the training key.
   std::string Canonical() const;
 };

@@ -43,6 +43,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.Deterministic = this->Deterministic;
   s.WarmStart = this->WarmStart;
   s.Sampling = this->Sampling;
+  s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
   return s;
 }
@@ -61,6 +62,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->OutputMode = this->OutputMode;
   job->Storage = this->StoragePrecision == FLOAT16 ? nv::Precision::Float16 : nv::Precision::Float32;
   in.SummaryPrinted = false;
+  in.NotesPrinted = 0;
   in.DecodeRequested = false;
   const nv::VolumeView& view = data->Field.View;
   const int64_t* dims = view.dims;
@@ -234,6 +236,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     return;
   }
   nvi::RunLimits limits;
+  limits.KeepBest = this->KeepBestNetwork;
   limits.MaxSteps = this->TrainingSteps;
   limits.TimeBudget = this->Deterministic ? 0.0 : this->TimeBudget;
   limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;

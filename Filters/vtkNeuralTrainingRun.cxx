@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 namespace vtkNeuralCompressInternals
 {
@@ -58,6 +59,7 @@ TrainingRun::TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::share
   this->Current.TargetSteps = std::max<int64_t>(limits.MaxSteps, this->Current.Steps);
   this->PhaseBudget = limits.TimeBudget;
   this->PhaseTargetPsnr = limits.TargetPsnr;
+  this->ScheduleStart = this->Current.Steps;
 }
 
 TrainingRun::~TrainingRun()
@@ -218,9 +220,33 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         fast = this->FastForward;
       }
 
+      if (this->GoodStep < 0)
+      {
+        this->Snapshot(std::numeric_limits<double>::quiet_NaN()); // the starting network: the first rollback point
+      }
       const auto before = Clock::now();
       this->Trainer->steps(count, losses.data());
       const double took = SecondsSince(before);
+      // Diverged: a loss that is not finite, or above kDivergedLoss (the targets are normalised to [0, 1]: such a
+      // loss means outputs tens of ranges away, a network blowing up on its way to Inf).
+      int64_t bad = -1;
+      for (int64_t k = 0; k < count && bad < 0; ++k)
+      {
+        const float l = losses[static_cast<size_t>(k)];
+        bad = std::isfinite(l) && l <= kDivergedLoss ? -1 : k;
+      }
+      if (bad >= 0)
+      {
+        if (!this->RollBack(step + bad, losses[static_cast<size_t>(bad)]))
+        {
+          std::ostringstream s;
+          s << "training diverged (loss " << losses[static_cast<size_t>(bad)] << " at step " << step + bad << ") " << this->Rollbacks
+            << " times; the learning rate is now " << this->Config.optimizer.learningRate
+            << ". Check the input's range or lower LearningRate.";
+          throw nv::Error(s.str());
+        }
+        continue;
+      }
 
       bool probeNow = false;
       {
@@ -235,7 +261,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         {
           LogRow row;
           row.Step = step + k;
-          row.LearningRate = this->Config.optimizer.learningRateAt(row.Step - this->Limits.FirstStep);
+          row.LearningRate = this->Config.optimizer.learningRateAt(row.Step - this->ScheduleStart);
           row.Loss = losses[static_cast<size_t>(k)];
           row.ElapsedSeconds = start + took * static_cast<double>(k + 1) / static_cast<double>(count);
           row.PSNR = std::numeric_limits<double>::quiet_NaN();
@@ -255,6 +281,10 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         this->Publish();
         lastPublish = Clock::now();
         const double psnr = this->DataPtr->Probe->Estimate(*this->SessionPtr);
+        if (this->SnapshotDue(true, this->Limits.KeepBest && std::isfinite(psnr) && psnr > this->BestPsnr))
+        {
+          this->Snapshot(psnr);
+        }
         std::lock_guard<std::mutex> lock(this->Mutex);
         this->Rows.back().PSNR = psnr;
         this->Current.Psnr = psnr;
@@ -263,6 +293,10 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           reason = "target PSNR";
           break;
         }
+      }
+      else if (!(this->DataPtr->Probe && this->Limits.PsnrInterval > 0) && this->SnapshotDue(false, false))
+      {
+        this->Snapshot(std::numeric_limits<double>::quiet_NaN());
       }
       else if (this->Background && !fast && SecondsSince(lastPublish) >= this->Limits.PublishSeconds)
       {
@@ -292,6 +326,8 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
     if (reason != "stopped" || !this->Background)
     {
       this->Publish();
+      if (reason != "stopped")
+        this->KeepBestNetwork();
     }
     this->EndPhase(reason);
   }
@@ -299,6 +335,76 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
   {
     this->Fail(e.what());
   }
+}
+
+bool TrainingRun::SnapshotDue(bool probe, bool improved) const
+{
+  if (this->Config.deterministic)
+    return probe || this->Current.Steps - this->GoodStep >= kSnapshotSteps;
+  const double since = SecondsSince(this->LastSnapshot);
+  return since >= 20.0 * this->SnapshotCost && (improved || since >= kSnapshotSeconds);
+}
+
+void TrainingRun::Snapshot(double probePsnr)
+{
+  const auto t0 = Clock::now();
+  nv::Model m = this->GoodStep >= 0 ? this->Good : this->SessionPtr->currentModel();
+  this->Trainer->syncTo(m);
+  this->LastSnapshot = Clock::now();
+  this->SnapshotCost = SecondsSince(t0);
+  for (float p : m.params())
+    if (!std::isfinite(p))
+      return; // a network on its way to diverging: not a rollback point
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->GoodStep = this->Current.Steps;
+  this->GoodRows = this->Rows.size();
+  if (this->Limits.KeepBest && std::isfinite(probePsnr) && probePsnr > this->BestPsnr)
+  {
+    this->Best = m;
+    this->BestPsnr = probePsnr;
+    this->BestStep = this->Current.Steps;
+  }
+  this->Good = std::move(m);
+}
+
+bool TrainingRun::RollBack(int64_t failedStep, double loss)
+{
+  if (this->Rollbacks >= kMaxRollbacks || this->GoodStep < 0)
+    return false;
+  ++this->Rollbacks;
+  this->Config.optimizer.learningRate *= 0.1;
+  this->SessionPtr->setModel(this->Good);
+  auto trainer = this->CreateTrainer(); // from the session's network, with a fresh optimizer state
+  std::ostringstream s;
+  s << "training diverged at step " << failedStep << " (loss " << loss << "): rolled back to the network of step "
+    << this->GoodStep << " and lowered the learning rate to " << this->Config.optimizer.learningRate;
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->Trainer = std::move(trainer);
+  this->Rows.resize(this->GoodRows);
+  this->Current.Steps = this->GoodStep;
+  this->ScheduleStart = this->GoodStep;
+  this->Current.Notes.push_back(s.str());
+  ++this->Current.Serial;
+  return true;
+}
+
+void TrainingRun::KeepBestNetwork()
+{
+  if (!this->Limits.KeepBest || !this->DataPtr->Probe || this->BestStep < 0)
+    return;
+  const double last = this->DataPtr->Probe->Estimate(*this->SessionPtr);
+  // 0.1 dB: the probes' own noise; a better last network (or a NaN one) is never replaced by a worse best.
+  if (std::isfinite(last) && !(this->BestPsnr > last + 0.1))
+    return;
+  this->SessionPtr->setModel(this->Best);
+  std::ostringstream s;
+  s.precision(4);
+  s << "kept the network of step " << this->BestStep << " (PSNR estimate " << this->BestPsnr
+    << " dB) over the last one (" << last << " dB)";
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->Current.Psnr = this->BestPsnr;
+  this->Current.Notes.push_back(s.str());
+  ++this->Current.Serial;
 }
 
 void TrainingRun::EndPhase(const std::string& reason)

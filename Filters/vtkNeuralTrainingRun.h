@@ -14,6 +14,7 @@
 
 #include "vtkNeuralCompressInternals.h"
 
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <limits>
@@ -45,6 +46,8 @@ struct RunLimits
   int PsnrInterval = 0;        ///< steps between probes (0 = none)
   double PublishSeconds = 0.1; ///< background runs: the session shows a new network at least this often
   int64_t FirstStep = 0;       ///< steps the network had before this run (a run continuing a cached network)
+  /// At the end of a phase, the network of the best probe replaces the last one when it was better (needs probes).
+  bool KeepBest = true;
 };
 
 enum class RunState : int
@@ -73,6 +76,9 @@ struct RunStatus
   std::string Error;        ///< Failed: the engine's message
   uint64_t Serial = 0;      ///< changes whenever anything here or the published network changes
   int64_t DeviceMemoryBytes = 0;
+  /// What the run did about the network on its own (a rollback after a divergence, the best network kept), one line
+  /// each, in order.
+  std::vector<std::string> Notes;
 };
 
 class TrainingRun
@@ -119,6 +125,33 @@ private:
   void EndPhase(const std::string& reason);
   void Fail(const std::string& message);
   void Publish();
+  /// After a chunk with a diverged loss (not finite or above kDivergedLoss): the network of the last good snapshot, a learning rate 10x lower and a
+  /// new trainer; false (the run fails) after kMaxRollbacks.
+  bool RollBack(int64_t failedStep, double loss);
+  /// Phase end: the best probe's network replaces the last one when it was better (Limits.KeepBest).
+  void KeepBestNetwork();
+  static constexpr int kMaxRollbacks = 10;
+  static constexpr double kDivergedLoss = 1e3; ///< a step loss above this (or not finite) is a divergence
+  /// Takes a snapshot of the trainer's network (a host copy of its parameters) when they are all finite: the rollback
+  /// point, and the best network when its probe PSNR is the best so far.
+  void Snapshot(double probePsnr);
+  /// Whether a snapshot is due now: Deterministic runs at every probe (or every kSnapshotSteps without probes), so the
+  /// network kept does not depend on timing; others when the probe improved or a second has passed, and never more
+  /// often than 20 copies' time (the copies cost at most 5% of training).
+  bool SnapshotDue(bool probe, bool improved) const;
+  static constexpr double kSnapshotSeconds = 1.0;
+  static constexpr int64_t kSnapshotSteps = 250;
+
+  nv::Model Good;              ///< the last snapshot whose steps all had finite losses
+  int64_t GoodStep = -1;       ///< its step (-1: none yet)
+  size_t GoodRows = 0;         ///< log rows up to it
+  int Rollbacks = 0;
+  int64_t ScheduleStart = 0;   ///< the step the current trainer started at (its learning-rate schedule restarts)
+  nv::Model Best;              ///< the network of the best probe so far
+  double BestPsnr = -std::numeric_limits<double>::infinity();
+  int64_t BestStep = -1;
+  std::chrono::steady_clock::time_point LastSnapshot;
+  double SnapshotCost = 0.0; ///< seconds the last snapshot took
 
   std::shared_ptr<nv::NetworkSession> SessionPtr;
   std::shared_ptr<TrainingData> DataPtr;

@@ -54,13 +54,19 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
   const double inv = range > 0.0 ? 1.0 / range : 0.0;
   ThreadPool pool(threads);
   std::vector<double> se(pool.size(), 0.0), mx(pool.size(), 0.0);
-  std::vector<int64_t> cnt(pool.size(), 0);
+  std::vector<int64_t> cnt(pool.size(), 0), bad(pool.size(), 0);
   pool.parallelFor(v.count(), [&](int64_t b, int64_t e, int w) {
     for (int64_t i = b; i < e; ++i)
     {
       const double x = v.at(i);
       if (!std::isfinite(x))
         continue;
+      if (!std::isfinite(static_cast<double>(decoded[i])))
+      {
+        ++bad[w];
+        ++cnt[w];
+        continue;
+      }
       // Difference in normalised units first: stays finite for huge ranges.
       const double dn = range > 0.0 ? (static_cast<double>(decoded[i]) - valueMin) * inv - (x - valueMin) * inv
                                     : static_cast<double>(decoded[i]) - x;
@@ -75,6 +81,13 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
     sum += se[w];
     r.maxAbsError = std::max(r.maxAbsError, mx[w]);
     r.count += cnt[w];
+    r.nonFinite += bad[w];
+  }
+  if (r.nonFinite > 0)
+  {
+    r.mse = r.psnr = std::numeric_limits<double>::quiet_NaN();
+    r.maxAbsError = std::numeric_limits<double>::infinity();
+    return r;
   }
   r.mse = r.count > 0 ? sum / static_cast<double>(r.count) : 0.0;
   r.psnr = r.mse > 0.0 ? 10.0 * std::log10(1.0 / r.mse) : std::numeric_limits<double>::infinity();

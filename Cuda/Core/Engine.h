@@ -65,6 +65,9 @@ struct ErrorStats
   double mse = 0.0;
   double maxAbsError = 0.0;
   int64_t count = 0;
+  /// Valid source samples where the network's value is NaN or Inf (a diverged network): then psnr and mse are NaN
+  /// and maxAbsError is +inf -- never a perfect score. count includes them.
+  int64_t nonFinite = 0;
 };
 /// Error of an already decoded grid of the source resolution (source units) against the source.
 ErrorStats compareDecoded(const float* decoded, const VolumeView& volume, double valueMin, double valueMax,

@@ -342,4 +342,25 @@ NV_TEST(trains_from_a_bank_of_points)
   EXPECT_TRUE(threw);
 }
 
+NV_TEST(a_non_finite_output_is_never_a_score)
+{
+  // A diverged network (NaN or Inf where the source is valid) gives a NaN PSNR and an infinite max error, never
+  // +inf and 0; an exact match is +inf, and NaN source samples do not count.
+  const int n = 8;
+  std::vector<float> src(size_t(n) * n * n), dec;
+  for (size_t i = 0; i < src.size(); ++i)
+    src[i] = float(i % 17);
+  src[3] = std::numeric_limits<float>::quiet_NaN();
+  VolumeView vol = view(src, n);
+  dec = src;
+  dec[3] = 5.0f; // under a NaN source sample: ignored
+  ErrorStats e = compareDecoded(dec.data(), vol, vol.valueMin, vol.valueMax, 2);
+  EXPECT_TRUE(std::isinf(e.psnr) && e.psnr > 0 && e.maxAbsError == 0.0 && e.nonFinite == 0);
+  EXPECT_TRUE(e.count == int64_t(src.size()) - 1);
+  dec[10] = std::numeric_limits<float>::quiet_NaN();
+  dec[20] = std::numeric_limits<float>::infinity();
+  e = compareDecoded(dec.data(), vol, vol.valueMin, vol.valueMax, 2);
+  EXPECT_TRUE(std::isnan(e.psnr) && std::isnan(e.mse) && std::isinf(e.maxAbsError) && e.nonFinite == 2);
+}
+
 NV_TEST_MAIN()

@@ -263,7 +263,9 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
   {
     auto d = data(values, k == 2);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 3), Device::Cpu, 2);
-    vi::TrainingRun run(s, d, trainConfig(), limits(120, k == 2 ? 20 : 0), nullptr);
+    vi::RunLimits l = limits(120, k == 2 ? 20 : 0);
+    l.KeepBest = false; // probes only watch here (KeepBestNetwork is tested below)
+    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
     if (k == 0)
       run.RunHere(nullptr, nullptr);
     else
@@ -309,6 +311,72 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
     warmPsnr, warmAtStart);
   EXPECT_TRUE(warmPsnr > coldPsnr + 2.0);
   EXPECT_TRUE(warmAtStart > coldPsnr - 10.0); // the previous network is already a fair picture of t+1
+}
+
+NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
+{
+  // Learning rate 1e6: the loss explodes at step 2. The run rolls back to its last good network, lowers the learning
+  // rate 10x each time (measured: 6 times, to 1) and goes on; it ends with a finite network, a finite (honest, here
+  // poor: 5.3 dB) PSNR and a log without a diverged loss, and says what it did.
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values, true);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 3), Device::Cpu, 2);
+  TrainConfig tc = trainConfig();
+  tc.optimizer.learningRate = 1e6;
+  vi::TrainingRun run(s, d, tc, limits(300, 20), nullptr);
+  run.RunHere(nullptr, nullptr);
+  const vi::RunStatus st = run.Status();
+  std::printf("  state %s, %lld steps, %zu notes%s%s\n", vi::RunStateName(st.State), (long long)st.Steps,
+    st.Notes.size(), st.Notes.empty() ? "" : "; last: ", st.Notes.empty() ? "" : st.Notes.back().c_str());
+  EXPECT_TRUE(st.State == vi::RunState::Finished);
+  EXPECT_TRUE(st.Steps == 300);
+  EXPECT_TRUE(!st.Notes.empty() && st.Notes.front().find("rolled back") != std::string::npos);
+  bool finite = true;
+  for (float p : s->currentModel().params())
+    finite = finite && std::isfinite(p);
+  EXPECT_TRUE(finite);
+  for (const vi::LogRow& r : run.Log())
+    EXPECT_TRUE(std::isfinite(r.Loss) && r.Loss <= 1e3);
+  EXPECT_TRUE(run.Log().size() == 300);
+  const double psnr = psnrOf(*s, d->Field.View);
+  std::printf("  final PSNR %.2f dB\n", psnr);
+  EXPECT_TRUE(std::isfinite(psnr) && psnr > 0.0);
+  EXPECT_TRUE(st.Notes.size() >= 2 && st.Notes.size() <= 10); // several 10x cuts, within the limit
+}
+
+NV_TEST(KeepsTheBestProbedNetwork)
+{
+  // L2 at a constant learning rate of 0.05 climbs and then wanders: the run keeps the network of its best probe
+  // (the phase's final PSNR estimate is never more than 0.1 dB below the best in its log), and without KeepBest the
+  // last network is returned as it is.
+  const std::vector<float> values = analyticVolume(0.0);
+  TrainConfig tc = trainConfig();
+  tc.loss = LossType::L2;
+  tc.optimizer.learningRate = 0.05;
+  tc.optimizer.stepDecay = false;
+  double finals[2] = { 0, 0 }, bestInLog[2] = { 0, 0 };
+  size_t notes[2] = { 0, 0 };
+  for (int keep = 0; keep < 2; ++keep)
+  {
+    auto d = data(values, true);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 5), Device::Cpu, 2);
+    vi::RunLimits l = limits(400, 10);
+    l.KeepBest = keep == 1;
+    vi::TrainingRun run(s, d, tc, l, nullptr);
+    run.RunHere(nullptr, nullptr);
+    bestInLog[keep] = -1e30;
+    for (const vi::LogRow& r : run.Log())
+      if (std::isfinite(r.PSNR))
+        bestInLog[keep] = std::max(bestInLog[keep], r.PSNR);
+    finals[keep] = d->Probe->Estimate(*s);
+    notes[keep] = run.Status().Notes.size();
+    std::printf("  KeepBest %d: best probe %.2f dB, final estimate %.2f dB, notes %zu%s%s\n", keep, bestInLog[keep],
+      finals[keep], notes[keep], notes[keep] ? ": " : "", notes[keep] ? run.Status().Notes.back().c_str() : "");
+  }
+  EXPECT_TRUE(finals[1] >= bestInLog[1] - 0.1);
+  EXPECT_TRUE(finals[1] >= finals[0] - 1e-9);
+  EXPECT_TRUE(notes[0] == 0);
+  EXPECT_TRUE((notes[1] == 1) == (finals[1] > finals[0] + 1e-9)); // a note exactly when the network was replaced
 }
 
 int main(int argc, char** argv)

@@ -168,6 +168,18 @@ else:
     check(nvtest.field_value(out, "NeuralGpuMemoryBytes") > 0, "GPU run reports its GPU memory")
 Delete(filt)
 
+# --- an absurd learning rate: the run rolls back and lowers it, says so, and reports honest figures -----------
+filt, out, table, text = run(image_source(smooth.ravel()), LearningRate=1e6, TrainingSteps=120, PSNRInterval=20)
+psnr, max_error = nvtest.field_value(out, "NeuralPSNR"), nvtest.field_value(out, "NeuralMaxError")
+log("LearningRate 1e6: PSNR %s, max error %s; %s" % (psnr, max_error, " | ".join(
+    l for l in text.splitlines() if "diverged" in l or "kept" in l)[:400]))
+check("training diverged at step" in text and "lowered the learning rate" in text,
+      "LearningRate 1e6: the rollback is reported as a warning")
+check(psnr is not None and math.isfinite(psnr) and max_error is not None and math.isfinite(max_error) and max_error > 0,
+      "LearningRate 1e6: finite, non-zero figures, never +inf dB (%s, %s)" % (psnr, max_error))
+check(nvtest.field_value(out, "NeuralSteps") == 120, "LearningRate 1e6: the run finishes its steps")
+Delete(filt)
+
 # --- the session is still usable after all that ------------------------------------------------
 filt, out, table, text = run(image_source(smooth.ravel()))
 check(out.GetNumberOfPoints() == 16 ** 3 and nvtest.field_value(out, "NeuralSteps") == 40,
