@@ -1,9 +1,9 @@
 """Neural Compress's Sampling = Probe on inputs that are not images: the training targets are a bank of random points
 probed inside the source's cells (VTK's probe with a static cell locator), not the trilinear interpolation of the
 resampled image, so a field whose detail is finer than the automatic image is learned closer to the source. Checks:
-a graded rectilinear grid with a sharp front where its cells are fine (generated, always runs) and disk_out_ref (real
-data, when NV_DATA_DIR has it) reach a higher PSNR at their own points with Probe than with Resample at the same
-steps; the bank is described (points inside the domain of those probed); the domain stays NaN outside; Sampling is
+a graded rectilinear grid with a sharp front where its cells are fine (generated, always runs) trains well with
+Probe; disk_out_ref (real data, when NV_DATA_DIR has it) reaches a higher PSNR at its own points with Probe than with
+Resample at the same steps; the bank is described (points inside the domain of those probed); the domain stays NaN outside; Sampling is
 part of the training (switching it trains, switching back reuses nothing stale) and does not apply to images (their
 network is the same bit for bit). Thresholds are the measured values on the CPU engine (Deterministic, 2 threads)
 minus a margin."""
@@ -44,9 +44,11 @@ def compress(name, src, array, **extra):
     return nc, out, text
 
 
-# 1. A rectilinear grid graded towards x = 0, where a tanh front 0.04 wide sits: its cells there are 5x finer than
-#    the automatic image's spacing, so the image blurs the front and Probe (exact values inside the cells) does not
-#    (measured: Resample 27.2 dB, Probe 32.5 dB at the grid's points).
+# 1. A rectilinear grid graded towards x = 0, where a tanh front 0.04 wide sits (its cells there are 5x finer than
+#    the automatic image's spacing). Measured at the grid's points after 300 CPU steps: Probe 32.5 dB; Resample 34.7 dB
+#    with KeepBestNetwork (its best probe, step 200; its last network, 27.3 dB, had wandered off). So no ranking is
+#    asserted on this case -- disk_out_ref below, and the GPU curves of results/probe_2026-11-24.md, are where Probe
+#    wins -- only that Probe trains it well, with its bank reported.
 xs = np.concatenate([np.linspace(-1.0, -0.11, 10), np.linspace(-0.1, 0.1, 30), np.linspace(0.11, 1.0, 10)])
 ys = np.linspace(-1.0, 1.0, 10)
 zs = np.linspace(-0.5, 0.5, 8)
@@ -71,8 +73,8 @@ pr, pr_out, pr_text = compress("graded front", src, "front", FinestResolution=25
 p_rs, p_pr = fd(rs_out, "NeuralPSNR"), fd(pr_out, "NeuralPSNR")
 check(fd(pr_out, "NeuralSourceSamples") == rect.GetNumberOfPoints(), "front: measured at all %d source points"
       % rect.GetNumberOfPoints())
-check(p_pr is not None and p_rs is not None and p_pr > 31.0 and p_pr > p_rs + 3.0,
-      "front: Probe > 31 dB and 3 dB above Resample at the source points (%s vs %s)" % (p_pr, p_rs))
+check(p_pr is not None and p_pr > 31.0 and p_rs is not None and p_rs > 31.0,
+      "front: Probe and Resample > 31 dB at the source points (%s, %s)" % (p_pr, p_rs))
 m = re.search(r"Probe: (\d+) of (\d+) random points inside the domain", pr_text)
 check(m is not None and int(m.group(2)) == 1 << 20 and int(m.group(1)) == 1 << 20,
       "front: the bank is reported, all 2^20 probed points inside the box-shaped domain (%s)"
@@ -102,7 +104,8 @@ Delete(a)
 Delete(b)
 
 # 3. disk_out_ref: the unstructured grid is refined near the disk, where the automatic 52 x 52 x 90 image is coarser
-#    than the cells (measured: Resample 34.7 dB, Probe 39.3 dB at its 8499 points after 300 steps).
+#    than the cells (measured: Resample 35.5 dB with KeepBestNetwork -- 34.7 dB without --, Probe 39.3 dB at its 8499
+#    points after 300 steps).
 data_dir = os.environ.get("NV_DATA_DIR", "")
 disk_file = os.path.join(data_dir, "disk_out_ref", "disk_out_ref.ex2")
 if os.path.exists(disk_file):
