@@ -417,6 +417,14 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
                                             << "' are NaN or Inf; nothing to train on.");
       return false;
     }
+    if (!std::isfinite(field.Stats.max - field.Stats.min))
+    {
+      vtkErrorMacro("Neural Compress: the values of '" << field.Name << "' span " << field.Stats.min << " to "
+                                                       << field.Stats.max
+                                                       << ": their range overflows double precision. Scale the field "
+                                                          "(e.g. with the Calculator) first. The output is empty.");
+      return false;
+    }
     if (outside && this->Sampling == SAMPLING_PROBE)
     {
       // Probe sampling: the training targets are a bank of points probed inside the source's cells (once per
@@ -563,6 +571,14 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
     {
       in.SummaryPrinted = true;
+      if (this->OutputMode == OUTPUT_FLOAT32 && !nvi::Float32Holds(job.Field.Stats.min, job.Field.Stats.max))
+      {
+        std::ostringstream range;
+        range << std::setprecision(12) << job.Field.Stats.min << " to " << job.Field.Stats.max << ", a range of "
+              << job.Field.Stats.max - job.Field.Stats.min;
+        vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
+          << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
+      }
       if (std::isinf(record.M.MaxError))
       {
         vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "

@@ -71,17 +71,20 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out)
 }
 
 /// Round and clamp into an integer (or keep a float) array of the input's type.
-template <typename Out>
-void StoreAs(const float* in, int64_t n, Out* out)
+template <typename In, typename Out>
+void StoreAs(const In* in, int64_t n, Out* out)
 {
   if (std::numeric_limits<Out>::is_integer)
   {
+    // The limits as doubles: 2^63 and 2^64 are one past the largest 64-bit values, so compare before converting.
     const double lo = static_cast<double>(std::numeric_limits<Out>::lowest());
     const double hi = static_cast<double>(std::numeric_limits<Out>::max());
     for (int64_t i = 0; i < n; ++i)
     {
-      const double v = std::nearbyint(static_cast<double>(in[i]));
-      out[i] = static_cast<Out>(std::min(hi, std::max(lo, std::isfinite(v) ? v : 0.0)));
+      const double v = std::isfinite(static_cast<double>(in[i])) ? std::nearbyint(static_cast<double>(in[i])) : 0.0;
+      out[i] = v >= hi ? std::numeric_limits<Out>::max()
+        : v <= lo      ? std::numeric_limits<Out>::lowest()
+                       : static_cast<Out>(v);
     }
   }
   else
@@ -93,6 +96,18 @@ void StoreAs(const float* in, int64_t n, Out* out)
   }
 }
 } // namespace
+
+bool Float32Holds(double lo, double hi)
+{
+  const double m = std::max(std::fabs(lo), std::fabs(hi)), range = hi - lo;
+  if (!(m <= double(std::numeric_limits<float>::max())))
+    return false;
+  if (m > 0.0 && m < double(std::numeric_limits<float>::min()))
+    return false; // subnormal or flushed to 0 in float32
+  // float32's spacing at the largest magnitude (2^-23 relative) within 1e-4 of the range: 80 dB of rounding noise,
+  // below any network's error.
+  return range <= 0.0 || m * std::ldexp(1.0, -23) <= 1e-4 * range;
+}
 
 std::string Settings::Canonical() const
 {
@@ -248,12 +263,33 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const Fi
   const OutputGeometry& g = f.Geometry;
   const int64_t count = int64_t(g.DecodedDims[0]) * g.DecodedDims[1] * g.DecodedDims[2];
   vtkSmartPointer<vtkDataArray> array;
-  if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType == VTK_DOUBLE)
+  // Decoded in double precision for float64 and 32/64-bit integer inputs, and for a float32 output that float32
+  // cannot hold (it is then float64; the filter warns).
+  const bool wideInput = f.VtkType == VTK_DOUBLE || f.VtkType == VTK_LONG_LONG || f.VtkType == VTK_UNSIGNED_LONG_LONG ||
+    f.VtkType == VTK_LONG || f.VtkType == VTK_UNSIGNED_LONG || f.VtkType == VTK_ID_TYPE || f.VtkType == VTK_INT ||
+    f.VtkType == VTK_UNSIGNED_INT;
+  if ((outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && wideInput) ||
+    (outputMode == vtkNeuralCompress::OUTPUT_FLOAT32 && !Float32Holds(f.Stats.min, f.Stats.max)))
   {
     auto d = vtkSmartPointer<vtkDoubleArray>::New();
     d->SetNumberOfTuples(count);
     DecodeValues(session, f, d->GetPointer(0));
     array = d;
+    if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType != VTK_DOUBLE &&
+      vtkDataArray::CreateDataArray(f.VtkType))
+    {
+      vtkSmartPointer<vtkDataArray> typed = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(f.VtkType));
+      typed->SetNumberOfTuples(count);
+      void* out = typed->GetVoidPointer(0);
+      const double* in = d->GetPointer(0);
+      switch (f.VtkType)
+      {
+        vtkTemplateMacro(StoreAs(in, count, static_cast<VTK_TT*>(out)));
+        default:
+          break;
+      }
+      array = typed;
+    }
   }
   else
   {

@@ -108,6 +108,10 @@ struct FieldInfo
   std::shared_ptr<const SourceSamples> Samples; ///< resampled inputs only
 };
 
+/// True when float32 holds values in [lo, hi] to well within a network's accuracy (no overflow, no underflow, its
+/// rounding at that magnitude below 1e-4 of the range); else "Decoded, float32" gives float64.
+bool Float32Holds(double lo, double hi);
+
 /// The decoded output field in the requested type (OutputMode), or null for OUTPUT_NETWORK_ONLY.
 vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& field, int outputMode);
 

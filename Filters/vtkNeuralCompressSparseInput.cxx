@@ -90,6 +90,13 @@ bool vtkNeuralCompress::ExecuteSparse(
       return false;
     }
     field.Stats = stats;
+    if (!std::isfinite(stats.max - stats.min))
+    {
+      vtkErrorMacro("Neural Compress: the values of '" << field.Name << "' span " << stats.min << " to " << stats.max
+                                                       << ": their range overflows double precision. Scale the field "
+                                                          "first. The output is empty.");
+      return false;
+    }
 
     auto data = std::make_shared<nvi::TrainingData>();
     // No dense field: the view only carries the box's dimensions and the value range (data stays null).

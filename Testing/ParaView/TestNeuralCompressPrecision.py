@@ -1,0 +1,91 @@
+"""Precision of Neural Compress's figures and decoded output, each PSNR measured independently with numpy: a float64
+field 1e-7 wide around 1e6 and one of magnitude 1e-300 are decoded in float64 (also when float32 output was asked
+for, with a warning, since float32 cannot hold them); an int64 field around 2^40 keeps its precision in its own type;
+a range that overflows double precision (+-1.2e308) is a clear error with an empty output, never NaN or +inf dB.
+Thresholds are the measured values on the CPU engine (2 threads, 200 steps) minus a margin."""
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import nvtest  # noqa: E402
+
+import numpy as np  # noqa: E402
+from paraview.simple import *  # noqa: E402,F401,F403
+from paraview import servermanager  # noqa: E402
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
+
+nvtest.load_plugin(globals())
+check, log = nvtest.check, nvtest.log
+N = 24
+Z, Y, X = np.meshgrid(*(np.linspace(-1, 1, N),) * 3, indexing="ij")
+BASE = np.sin(3 * X) * np.cos(2 * Y) + 0.5 * Z
+
+
+def source(values):
+    img = vtkImageData()
+    img.SetDimensions(N, N, N)
+    a = numpy_to_vtk(values.ravel(), deep=True)
+    a.SetName("f")
+    img.GetPointData().AddArray(a)
+    src = TrivialProducer()
+    src.GetClientSideObject().SetOutput(img)
+    return src
+
+
+def compress(values, mode):
+    with nvtest.captured_messages() as messages:
+        nc = NeuralCompress(Input=source(values), SelectInputScalars=["POINTS", "f"], TrainingSteps=200, Device="CPU",
+                            Threads=2, TrainInBackground=0, OutputMode=mode, Log2TableSize=14, BatchSize=16384,
+                            Deterministic=1)
+        nc.UpdatePipeline()
+        out = servermanager.Fetch(nc)
+    Delete(nc)
+    return out, messages[0]
+
+
+def numpy_psnr(decoded, values):
+    v = values.ravel().astype(np.float64)
+    d = decoded.astype(np.float64)
+    rng = v.max() - v.min()
+    mse = np.mean(((d - v) / rng) ** 2)
+    return 10 * math.log10(1.0 / mse) if mse > 0 else float("inf")
+
+
+for name, values in (("1e-7 wide around 1e6", 1e6 + 1e-7 * BASE), ("magnitude 1e-300", 1e-300 * BASE)):
+    for mode in ("Decoded, input type", "Decoded, float32"):
+        out, text = compress(values.astype(np.float64), mode)
+        arr = out.GetPointData().GetArray("f")
+        psnr = numpy_psnr(vtk_to_numpy(arr), values) if arr else float("nan")
+        reported = nvtest.field_value(out, "NeuralPSNR")
+        log("%s, %s: %s output, PSNR %.2f dB (numpy), %s dB (filter)" % (name, mode, arr.GetDataTypeAsString() if arr
+                                                                          else None, psnr, reported))
+        check(arr is not None and arr.GetDataType() == 11, "%s, %s: float64 output" % (name, mode))
+        check(psnr > 30.0 and abs(psnr - reported) < 0.05, "%s, %s: PSNR > 30 dB and as reported (%.2f, %s)"
+              % (name, mode, psnr, reported))
+        if mode == "Decoded, float32":
+            check("float32 cannot hold the values" in text, "%s: the float64 output is announced" % name)
+
+# int64 around 2^40 with a range of 2^20: float32 would keep 2^16 steps of it, the int64 output keeps it all.
+big = (2 ** 40 + np.round((2 ** 20) * (BASE + 1.5))).astype(np.int64)
+out, text = compress(big, "Decoded, input type")
+arr = out.GetPointData().GetArray("f")
+psnr = numpy_psnr(vtk_to_numpy(arr), big) if arr else float("nan")
+log("int64 around 2^40: %s output, PSNR %.2f dB (numpy), %s dB (filter)"
+    % (arr.GetDataTypeAsString() if arr else None, psnr, nvtest.field_value(out, "NeuralPSNR")))
+check(arr is not None and arr.GetDataTypeAsString() in ("long long", "long", "vtkIdType", "idtype")
+      and psnr > 30.0, "int64: its own type, PSNR > 30 dB (%.2f)" % psnr)
+check(abs(psnr - nvtest.field_value(out, "NeuralPSNR")) < 0.05, "int64: the reported PSNR is the measured one")
+
+# A range that overflows double precision: a clear error and an empty output.
+huge = 1.2e308 * BASE / np.abs(BASE).max()
+out, text = compress(huge, "Decoded, input type")
+check("range overflows double precision" in text and "ERROR" in text, "+-1.2e308: a clear error (%s)"
+      % text.strip()[-200:])
+# An image input keeps its geometry (as every error of the filter): no arrays, no network.
+check(out.GetPointData().GetNumberOfArrays() == 0 and out.GetFieldData().GetArray("NeuralNetwork") is None,
+      "+-1.2e308: an empty output (no arrays, no network)")
+check(nvtest.field_value(out, "NeuralPSNR") is None, "+-1.2e308: no PSNR reported")
+
+nvtest.finish()
