@@ -3,6 +3,7 @@
 #include "vtkNeuralCompress.h"
 
 #include "Core/Error.h"
+#include "Core/Macrocells.h"
 #include "Core/Serialization.h"
 
 #include "vtkDataArray.h"
@@ -201,6 +202,28 @@ static void MaskOutside(const FieldInfo& f, vtkDataArray* array)
       }
 }
 
+/// A sparse input: the decoded samples in its empty macrocells are its background exactly (as the renderers draw
+/// them; nv::SourceInfo::occupancy).
+static void SetEmptyCells(const FieldInfo& f, vtkDataArray* array)
+{
+  const OutputGeometry& g = f.Geometry;
+  const int64_t sdims[3] = { g.SourceDims[0], g.SourceDims[1], g.SourceDims[2] };
+  if (int64_t(f.Occupancy->size()) != nv::occupancyWords(sdims))
+    return;
+  const nv::MacrocellLayout cells = nv::macrocellLayout(sdims);
+  vtkIdType k = 0;
+  for (int z = 0; z < g.DecodedDims[2]; ++z)
+    for (int y = 0; y < g.DecodedDims[1]; ++y)
+      for (int x = 0; x < g.DecodedDims[0]; ++x, ++k)
+      {
+        // The network coordinate of the decoded sample (decodeGrid's convention).
+        auto u = [](int i, int n) { return n > 1 ? static_cast<float>(double(i) / double(n - 1)) : 0.5f; };
+        if (!nv::cellOccupied(f.Occupancy->data(), cells, u(x, g.DecodedDims[0]), u(y, g.DecodedDims[1]),
+              u(z, g.DecodedDims[2])))
+          array->SetComponent(k, 0, f.Background);
+      }
+}
+
 /// Error of the network at the source's own samples of a resampled input, values normalised by [lo, hi] as in
 /// training. A non-finite network value counts as an infinite error (the PSNR is then -inf, never a good number).
 static nv::ErrorStats SourceError(
@@ -317,6 +340,10 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const Fi
   if (f.Outside && (array->GetDataType() == VTK_FLOAT || array->GetDataType() == VTK_DOUBLE))
   {
     MaskOutside(f, array);
+  }
+  if (f.Occupancy)
+  {
+    SetEmptyCells(f, array);
   }
   array->SetName(f.Name.c_str());
   return array;

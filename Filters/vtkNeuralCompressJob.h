@@ -106,6 +106,10 @@ struct FieldInfo
   /// trained on); the decoded output is NaN at the decoded points nearest to them. Null for image inputs.
   std::shared_ptr<const std::vector<uint8_t>> Outside;
   std::shared_ptr<const SourceSamples> Samples; ///< resampled inputs only
+  /// Sparse inputs (vtkNeuralCompressSparse.h): the macrocells whose field may differ from Background (the others
+  /// are Background exactly; nv::SourceInfo::occupancy). Null otherwise.
+  std::shared_ptr<const std::vector<uint32_t>> Occupancy;
+  double Background = 0.0;
 };
 
 /// True when float32 holds values in [lo, hi] to well within a network's accuracy (no overflow, no underflow, its

@@ -2,6 +2,7 @@
 #include "vtkNeuralCompressJob.h"
 
 #include "Core/HashGridMath.h"
+#include "Core/Macrocells.h"
 
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
@@ -142,6 +143,28 @@ bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64
   }
   bank.Active = n;
   bank.Inactive = total - n;
+  // The occupancy of the macrocells (8 voxels a side, nv::macrocellLayout).
+  const int64_t boxDims[3] = { nx, ny, nz };
+  const nv::MacrocellLayout cells = nv::macrocellLayout(boxDims);
+  bank.Occupancy.assign(size_t((int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2] + 31) / 32), 0u);
+  for (int64_t p = 0; p < n; ++p)
+  {
+    int first[3], last[3];
+    for (int a = 0; a < 3; ++a)
+    {
+      const int64_t i = int64_t(ijk[3 * p + a]) - v.BoxMin[a];
+      const int c = static_cast<int>(i / nv::kCellVoxels);
+      first[a] = std::max(0, i % nv::kCellVoxels == 0 ? c - 1 : c);
+      last[a] = std::min(cells.dims[a] - 1, c);
+    }
+    for (int z = first[2]; z <= last[2]; ++z)
+      for (int y = first[1]; y <= last[1]; ++y)
+        for (int x = first[0]; x <= last[0]; ++x)
+        {
+          const int64_t c = (int64_t(z) * cells.dims[1] + y) * cells.dims[0] + x;
+          bank.Occupancy[size_t(c >> 5)] |= 1u << (c & 31);
+        }
+  }
   // Inactive voxels at the background value: distinct ones, drawn by rejection against the active set (bounded
   // attempts: a box that is nearly all active gives fewer).
   const int64_t want = std::min<int64_t>(bank.Inactive, std::max<int64_t>(n, int64_t(1) << 18));

@@ -52,6 +52,10 @@ struct SparseBank
   int64_t Background = 0;     ///< inactive voxels sampled at the background value
   int64_t Inactive = 0;       ///< inactive voxels of the box
   std::shared_ptr<SourceSamples> Samples; ///< the bank's points in the box frame, for the error
+  /// The network's occupancy mask (nv::SourceInfo::occupancy): the macrocells whose interpolated field may differ
+  /// from the background -- those holding an active voxel, and the one below along an axis where the voxel starts a
+  /// cell (queries there interpolate across the boundary). The others are background exactly.
+  std::vector<uint32_t> Occupancy;
 };
 
 /// Every active voxel (the scalar of its tuple: magnitude for vectorMode 0, else `component`) and

@@ -72,6 +72,8 @@ bool vtkNeuralCompress::ExecuteSparse(
       return false;
     }
     field.Samples = bank.Samples;
+    field.Occupancy = std::make_shared<const std::vector<uint32_t>>(std::move(bank.Occupancy));
+    field.Background = voxels.Background;
     nv::VolumeStats stats;
     stats.min = std::numeric_limits<double>::infinity();
     stats.max = -std::numeric_limits<double>::infinity();

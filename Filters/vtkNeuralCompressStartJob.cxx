@@ -125,6 +125,12 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   src.arrayName = field.Name;
   src.association = field.Cells ? 1 : 0;
   src.rawBytes = data->Field.RawBytes;
+  if (field.Occupancy && int64_t(field.Occupancy->size()) == nv::occupancyWords(dims))
+  {
+    // A sparse source: its empty macrocells are the background exactly (renderers use it and skip them).
+    src.occupancy = *field.Occupancy;
+    src.background = field.Background;
+  }
   if (field.Outside && int64_t(field.Outside->size()) == dims[0] * dims[1] * dims[2])
   {
     // A resampled input: the network keeps its domain, so renderers draw nothing outside it.

@@ -43,6 +43,27 @@ NV_HD MacrocellLayout macrocellLayout(const int64_t n[3])
   return m;
 }
 
+/// Bit of the cell holding normalised point u in an occupancy mask over layout m's cells (SourceInfo::occupancy).
+NV_HD bool cellOccupied(const uint32_t* bits, const MacrocellLayout& m, float u0, float u1, float u2)
+{
+  const float u[3] = { u0, u1, u2 };
+  int64_t idx = 0, stride = 1;
+  for (int a = 0; a < 3; ++a)
+  {
+    int c = static_cast<int>(u[a] * m.scale[a]);
+    c = c < 0 ? 0 : (c > m.dims[a] - 1 ? m.dims[a] - 1 : c);
+    idx += static_cast<int64_t>(c) * stride;
+    stride *= m.dims[a];
+  }
+  return ((bits[idx >> 5] >> (idx & 31)) & 1u) != 0u;
+}
+
+/// Cell c (x fastest) of an occupancy mask.
+NV_HD bool cellBit(const uint32_t* bits, int64_t c)
+{
+  return ((bits[c >> 5] >> (c & 31)) & 1u) != 0u;
+}
+
 /// Normalised value range [lo, hi] of cell (cx, cy, cz) from a lattice of L[a] samples per axis (x fastest), NaN
 /// samples ignored; lo > hi when every sample is NaN.
 NV_HD void cellRange(const MacrocellLayout& m, const float* lattice, const int64_t L[3], int cx, int cy, int cz,

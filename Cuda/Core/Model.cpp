@@ -1,6 +1,7 @@
 #include "Model.h"
 
 #include "DomainMask.h"
+#include "Macrocells.h"
 #include "Error.h"
 
 #include <cmath>
@@ -241,6 +242,12 @@ float halfToFloat(uint16_t h)
 
 namespace nv
 {
+int64_t occupancyWords(const int64_t dims[3])
+{
+  const MacrocellLayout m = macrocellLayout(dims);
+  return (int64_t(m.dims[0]) * m.dims[1] * m.dims[2] + 31) / 32;
+}
+
 bool inDomain(const SourceInfo& src, const float u[3])
 {
   const int64_t samples = src.dims[0] * src.dims[1] * src.dims[2];

@@ -26,7 +26,15 @@ struct SourceInfo
   /// The source's domain inside the box (inputs resampled onto an image): one bit per source sample, x fastest,
   /// 1 = inside. Empty: the whole box. Renderers draw nothing where the nearest source sample is outside.
   std::vector<uint32_t> domain;
+  /// A sparse source (an OpenVDB grid's active voxels): one bit per macrocell (macrocellLayout(dims), x fastest),
+  /// 1 = the cell's interpolated field may differ from `background`. Empty: every cell. In a cell without the bit the
+  /// field is `background` exactly: renderers use that value there (and skip the cell where it is transparent).
+  std::vector<uint32_t> occupancy;
+  double background = 0.0; ///< source units; used with `occupancy`
 };
+
+/// Number of 32-bit words of an occupancy mask for a source of `dims` samples (its macrocells).
+int64_t occupancyWords(const int64_t dims[3]);
 
 /// Whether the normalised point u (in [0,1]^3) lies in the domain of `src` (always true without a domain mask).
 bool inDomain(const SourceInfo& src, const float u[3]);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "DomainMask.h"
+#include "Macrocells.h"
 #include "HashGridMath.h"
 #include "HostDevice.h"
 
@@ -128,6 +129,10 @@ struct Params
   // null: the whole box. A query whose nearest source sample is outside has no value (NaN: transparent).
   const uint32_t* domain;
   int domainDims[3];
+  // A sparse source (SourceInfo::occupancy, in the renderer's memory): one bit per macrocell; a query in a cell
+  // without it takes `background` (normalised) exactly. Null: every cell occupied.
+  const uint32_t* occupancy;
+  float background;
 };
 
 /// True when the nearest source sample of network point q is inside the domain (or there is no domain mask).
@@ -136,14 +141,33 @@ NV_HD bool inDomain(const Params& P, const V3& q)
   return !P.domain || domainBit(P.domain, P.domainDims, q.x, q.y, q.z);
 }
 
-/// After the queries q[0..n) are evaluated into v: NaN (no value) for those outside the source's domain.
+/// True when the macrocell of network point q is occupied (or there is no occupancy mask).
+NV_HD bool inOccupiedCell(const Params& P, const V3& q)
+{
+  if (!P.occupancy)
+    return true;
+  MacrocellLayout m;
+  for (int a = 0; a < 3; ++a)
+  {
+    m.dims[a] = P.mc[a];
+    m.scale[a] = P.mcScale[a];
+  }
+  return cellOccupied(P.occupancy, m, q.x, q.y, q.z);
+}
+
+/// After the queries q[0..n) are evaluated into v: NaN (no value) for those outside the source's domain, the
+/// background for those in an empty cell of a sparse source.
 NV_HD void maskOutsideDomain(const Params& P, const V3* q, float* v, int n)
 {
-  if (!P.domain)
+  if (!P.domain && !P.occupancy)
     return;
   for (int i = 0; i < n; ++i)
+  {
     if (!inDomain(P, q[i]))
       v[i] = NAN;
+    else if (!inOccupiedCell(P, q[i]))
+      v[i] = P.background;
+  }
 }
 
 struct Ray

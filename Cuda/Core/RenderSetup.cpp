@@ -383,6 +383,11 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.domain = domain ? src.domain.data() : nullptr;
   for (int a = 0; a < 3; ++a)
     P.domainDims[a] = static_cast<int>(src.dims[a]);
+  // A sparse source's occupancy (host memory here; the GPU renderer points P.occupancy at its device copy).
+  const bool occupancy = !src.occupancy.empty() && int64_t(src.occupancy.size()) == occupancyWords(src.dims);
+  P.occupancy = occupancy ? src.occupancy.data() : nullptr;
+  const double valueRange = src.valueMax - src.valueMin;
+  P.background = static_cast<float>(valueRange > 0.0 ? (src.background - src.valueMin) / valueRange : 0.0);
 
   for (int a = 0; a < 3; ++a)
     s.gridDims[a] = q.decodeResolution[a] > 0 ? q.decodeResolution[a] : std::max<int64_t>(1, src.dims[a]);

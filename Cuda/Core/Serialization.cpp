@@ -1,6 +1,7 @@
 #include "Serialization.h"
 
 #include "Error.h"
+#include "Macrocells.h"
 
 #include <cmath>
 #include <cstring>
@@ -173,10 +174,10 @@ std::vector<uint8_t> serialize(const Model& model)
   h.put<int64_t>(t.invalidSamples);
   h.putString(t.device);
 
-  const bool mask = !s.domain.empty();
+  const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
   Writer w;
   w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.put<uint32_t>(mask ? kFormatVersion : kFormatVersionNoMask);
+  w.put<uint32_t>(occupancy ? kFormatVersion : mask ? kFormatVersionDomain : kFormatVersionNoMask);
   w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
   w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
   const std::vector<float>& p = model.params();
@@ -196,15 +197,13 @@ std::vector<uint8_t> serialize(const Model& model)
     const uint8_t* b = reinterpret_cast<const uint8_t*>(p.data());
     w.bytes.insert(w.bytes.end(), b, b + p.size() * sizeof(float));
   }
-  if (mask)
-  {
-    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
-    NV_CHECK(int64_t(s.domain.size()) == (samples + 31) / 32, "domain mask size does not match the source dims");
+  // A bit mask of `count` bits as alternating run lengths, starting with 0-bits.
+  auto putRuns = [&w](const std::vector<uint32_t>& bits, int64_t count) {
     std::vector<uint32_t> runs;
     uint32_t value = 0, length = 0;
-    for (int64_t i = 0; i < samples; ++i)
+    for (int64_t i = 0; i < count; ++i)
     {
-      const uint32_t bit = (s.domain[size_t(i >> 5)] >> (i & 31)) & 1u;
+      const uint32_t bit = (bits[size_t(i >> 5)] >> (i & 31)) & 1u;
       if (bit != value)
       {
         runs.push_back(length);
@@ -217,6 +216,22 @@ std::vector<uint8_t> serialize(const Model& model)
     w.put<uint64_t>(runs.size());
     for (uint32_t r : runs)
       w.put<uint32_t>(r);
+  };
+  if (occupancy)
+    w.put<uint32_t>((mask ? 1u : 0u) | 2u);
+  if (mask)
+  {
+    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
+    NV_CHECK(int64_t(s.domain.size()) == (samples + 31) / 32, "domain mask size does not match the source dims");
+    putRuns(s.domain, samples);
+  }
+  if (occupancy)
+  {
+    const MacrocellLayout cells = macrocellLayout(s.dims);
+    const int64_t count = int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2];
+    NV_CHECK(int64_t(s.occupancy.size()) == (count + 31) / 32, "occupancy mask size does not match the macrocells");
+    putRuns(s.occupancy, count);
+    w.put<double>(s.background);
   }
   w.put<uint32_t>(crc32(w.bytes.data(), w.bytes.size()));
   return std::move(w.bytes);
@@ -233,7 +248,7 @@ Model deserialize(const uint8_t* data, size_t size)
   Reader r(data, size);
   r.skip(8);
   const uint32_t version = r.get<uint32_t>("version");
-  if (version != kFormatVersion && version != kFormatVersionNoMask)
+  if (version != kFormatVersion && version != kFormatVersionDomain && version != kFormatVersionNoMask)
   {
     NV_THROW("unsupported NeuralVolume model version " + std::to_string(version) + " (this build reads version " +
       std::to_string(kFormatVersion) + ")");
@@ -315,27 +330,44 @@ Model deserialize(const uint8_t* data, size_t size)
     std::memcpy(p.data(), r.here(), n * 4);
     r.skip(n * 4);
   }
-  if (version >= 2)
+  // Version 2: a domain mask; version 3: flags saying which masks follow.
+  const uint32_t flags = version >= 3 ? r.get<uint32_t>("mask flags") : version == 2 ? 1u : 0u;
+  NV_CHECK(flags <= 3u && (version < 3 || (flags & 2u)), "corrupt model: mask flags " + std::to_string(flags));
+  auto getRuns = [&r](std::vector<uint32_t>& bits, int64_t samples, const char* what) {
+    const uint64_t count = r.get<uint64_t>(what);
+    NV_CHECK(count >= 1 && count <= uint64_t(samples) + 1,
+      std::string("corrupt model: ") + std::to_string(count) + " runs of the " + what);
+    r.need(count * 4, what);
+    bits.assign(size_t((samples + 31) / 32), 0u);
+    int64_t at = 0;
+    for (uint64_t k = 0; k < count; ++k)
+    {
+      const int64_t len = r.get<uint32_t>(what);
+      NV_CHECK(len <= samples - at, std::string("corrupt model: the runs of the ") + what + " exceed its samples");
+      if (k % 2 == 1)
+        for (int64_t i = at; i < at + len; ++i)
+          bits[size_t(i >> 5)] |= 1u << (i & 31);
+      at += len;
+    }
+    NV_CHECK(at == samples, std::string("corrupt model: the runs of the ") + what + " cover " + std::to_string(at) +
+        " of " + std::to_string(samples) + " samples");
+  };
+  if (flags & 1u)
   {
     const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
     NV_CHECK(s.dims[0] <= (1 << 20) && s.dims[1] <= (1 << 20) && s.dims[2] <= (1 << 20) && samples < (int64_t(1) << 32),
       "corrupt model: a domain mask over " + std::to_string(samples) + " samples");
-    const uint64_t count = r.get<uint64_t>("domain run count");
-    NV_CHECK(count >= 1 && count <= uint64_t(samples) + 1, "corrupt model: " + std::to_string(count) + " domain runs");
-    r.need(count * 4, "domain runs");
-    s.domain.assign(size_t((samples + 31) / 32), 0u);
-    int64_t at = 0;
-    for (uint64_t k = 0; k < count; ++k)
-    {
-      const int64_t len = r.get<uint32_t>("domain run");
-      NV_CHECK(len <= samples - at, "corrupt model: the domain runs exceed the source samples");
-      if (k % 2 == 1)
-        for (int64_t i = at; i < at + len; ++i)
-          s.domain[size_t(i >> 5)] |= 1u << (i & 31);
-      at += len;
-    }
-    NV_CHECK(at == samples, "corrupt model: the domain runs cover " + std::to_string(at) + " of " +
-        std::to_string(samples) + " samples");
+    getRuns(s.domain, samples, "domain mask");
+  }
+  if (flags & 2u)
+  {
+    NV_CHECK(s.dims[0] <= (1 << 20) && s.dims[1] <= (1 << 20) && s.dims[2] <= (1 << 20),
+      "corrupt model: an occupancy mask over " + std::to_string(s.dims[0]) + " x " + std::to_string(s.dims[1]) + " x " +
+        std::to_string(s.dims[2]) + " samples");
+    const MacrocellLayout cells = macrocellLayout(s.dims);
+    getRuns(s.occupancy, int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2], "occupancy mask");
+    s.background = r.get<double>("background");
+    NV_CHECK(std::isfinite(s.background), "corrupt model: a background that is not finite");
   }
   NV_CHECK(r.pos() + 4 == size, "corrupt model: " + std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
   return m;

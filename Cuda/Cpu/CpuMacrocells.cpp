@@ -87,6 +87,13 @@ bool CpuMacrocells::updateRanges(ThreadPool& pool, const MacrocellLayout& layout
   return true;
 }
 
+void CpuMacrocells::setEmptyCells(const uint32_t* occupancy, float background)
+{
+  for (size_t c = 0; c < Lo.size(); ++c)
+    if (!cellBit(occupancy, static_cast<int64_t>(c)))
+      Lo[c] = Hi[c] = background;
+}
+
 bool CpuMacrocells::updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift,
   uint64_t tableKey)
 {

@@ -33,6 +33,10 @@ public:
   static constexpr float kNetworkFloor = 2.0f / 1024.0f; ///< covers the fp16 rounding of the In-Shader numerics
 
   /// Majorants for a transfer-function table (entries r, g, b, extinction; entry coordinate y * scale + shift) whose
+  /// A sparse source: the cells without a bit in `occupancy` (SourceInfo::occupancy) hold `background` exactly (the
+  /// renderers give queries there that value), so their range is that value alone. Call after updateRanges().
+  void setEmptyCells(const uint32_t* occupancy, float background);
+
   /// RenderSetup::tableKey is `tableKey`. Returns true when they were recomputed (new ranges or a new table).
   bool updateMajorants(ThreadPool& pool, const float* tf, int size, float scale, float shift, uint64_t tableKey);
 

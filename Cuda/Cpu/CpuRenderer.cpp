@@ -155,6 +155,8 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     else
       Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, kNetworkRangeMargin);
   }
+  if (P.occupancy)
+    Cells.setEmptyCells(P.occupancy, P.background);
   Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift, setup.tableKey);
   P.tf = setup.table.data();
   P.majorant = Cells.majorants();

@@ -15,13 +15,19 @@ namespace gpu
 // ---------------------------------------------------------------------------------------------------------
 // Macrocells
 
+/// occupancy (a sparse source's, device memory; null: every cell): cells without the bit hold `background` exactly.
 __global__ void cellRangeKernel(MacrocellLayout m, const float* __restrict__ lattice, int64_t lx, int64_t ly,
-  int64_t lz, float margin, float2* __restrict__ range)
+  int64_t lz, float margin, const uint32_t* __restrict__ occupancy, float background, float2* __restrict__ range)
 {
   const int cells = m.dims[0] * m.dims[1] * m.dims[2];
   const int64_t L[3] = { lx, ly, lz };
   for (int c = blockIdx.x * blockDim.x + threadIdx.x; c < cells; c += gridDim.x * blockDim.x)
   {
+    if (occupancy && !cellBit(occupancy, c))
+    {
+      range[c] = make_float2(background, background);
+      continue;
+    }
     const int cx = c % m.dims[0], cy = (c / m.dims[0]) % m.dims[1], cz = c / (m.dims[0] * m.dims[1]);
     float lo, hi;
     cellRange(m, lattice, L, cx, cy, cz, margin, lo, hi);

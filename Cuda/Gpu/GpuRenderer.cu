@@ -148,7 +148,8 @@ void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
   GridSource = source;
 }
 
-void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s)
+void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+  const uint32_t* occupancy, float background)
 {
   RangeKey k;
   int64_t L[3];
@@ -185,7 +186,8 @@ void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     lattice = Lattice.get();
     margin = kNetworkRangeMargin;
   }
-  cellRangeKernel<<<gridFor(cells), 256, 0, St>>>(s.cells, lattice, L[0], L[1], L[2], margin, Range.get());
+  cellRangeKernel<<<gridFor(cells), 256, 0, St>>>(s.cells, lattice, L[0], L[1], L[2], margin, occupancy, background,
+    Range.get());
   NV_CUDA_LAUNCH();
   Ranges = k;
   ++RangeStamp;
@@ -312,7 +314,21 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     }
     if (q.path == RenderPath::Decode)
       prepareGrid(model, version, q, s);
-    prepareRanges(model, version, q, s);
+    if (P.occupancy)
+    {
+      // A sparse source's occupancy mask, uploaded once per network version (the ranges of its version use it).
+      const size_t words = model.source.occupancy.size();
+      if (OccupancyVersion != version || Occupancy.size() != words)
+      {
+        if (Occupancy.size() != words)
+          Occupancy.allocate(words, "occupancy mask");
+        NV_CUDA(cudaMemcpyAsync(Occupancy.get(), model.source.occupancy.data(), words * sizeof(uint32_t),
+          cudaMemcpyHostToDevice, St));
+        OccupancyVersion = version;
+      }
+      P.occupancy = Occupancy.get();
+    }
+    prepareRanges(model, version, q, s, P.occupancy, P.background);
     if (Tf.size() < s.table.size())
       Tf.allocate(s.table.size(), "transfer function");
     NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice, St));

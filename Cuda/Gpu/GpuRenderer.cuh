@@ -63,7 +63,9 @@ private:
   };
 
   void prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
-  void prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
+  /// occupancy: a sparse source's occupancy mask in device memory (null: none), background normalised.
+  void prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+    const uint32_t* occupancy, float background);
   void prepareMajorants(const RenderSetup& s, ray::Params& P);
   void renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum, RenderStats& st);
 
@@ -76,6 +78,8 @@ private:
   uint64_t GridVersion = 0;
   DeviceBuffer<uint32_t> Domain; ///< SourceInfo::domain on the device
   uint64_t DomainVersion = ~0ull;
+  DeviceBuffer<uint32_t> Occupancy; ///< SourceInfo::occupancy on the device
+  uint64_t OccupancyVersion = ~0ull;
   const void* GridSource = nullptr;
   RangeKey Ranges;
   uint64_t RangeStamp = 0;   ///< increments whenever Range changes

@@ -134,6 +134,22 @@ inline void keepHalfX(nv::Model& m)
       }
 }
 
+/// A sparse source's occupancy (SourceInfo::occupancy): the macrocells of the half x < 0.5 of the box occupied, the
+/// others the background `background` exactly.
+inline void occupyHalfX(nv::Model& m, double background)
+{
+  const nv::MacrocellLayout cells = nv::macrocellLayout(m.source.dims);
+  m.source.occupancy.assign(size_t(nv::occupancyWords(m.source.dims)), 0u);
+  for (int z = 0; z < cells.dims[2]; ++z)
+    for (int y = 0; y < cells.dims[1]; ++y)
+      for (int x = 0; x < cells.dims[0] / 2; ++x)
+      {
+        const int64_t c = (int64_t(z) * cells.dims[1] + y) * cells.dims[0] + x;
+        m.source.occupancy[size_t(c >> 5)] |= 1u << (c & 31);
+      }
+  m.source.background = background;
+}
+
 /// The tests' default view: perspective from an oblique direction, the box filling most of the frame.
 inline Mat4 defaultCamera(int w, int h)
 {

@@ -380,6 +380,54 @@ NV_TEST(nothing_is_drawn_outside_the_domain)
     }
 }
 
+NV_TEST(empty_cells_of_a_sparse_source_are_its_background)
+{
+  // A sparse source's occupancy (SourceInfo::occupancy): the macrocells of the half x >= 0.5 hold the background
+  // (the field's minimum, transparent here) exactly. Looking along -z with an orthographic camera: on every path the
+  // pixels over that half are empty where the plain network draws something, the pixels well inside the occupied
+  // half are bit for bit the plain picture, and skipping evaluates fewer samples than without the mask.
+  Model sparse = scene().model;
+  occupyHalfX(sparse, sparse.source.valueMin);
+  const MacrocellLayout cells = macrocellLayout(sparse.source.dims);
+  const double firstEmpty = double(cells.dims[0] / 2) / cells.scale[0]; // u of the first empty cell along x
+  const int w = 48, h = 40;
+  const Mat4 vp = orthoAlongZ();
+  for (int path = 0; path < 3; ++path)
+  {
+    CpuRenderer plainR(pool()), sparseR(pool());
+    RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode(0), w, h);
+    setCamera(q, vp);
+    RenderResult a, b;
+    plainR.render(scene().model, 1, q, a);
+    sparseR.render(sparse, 1, q, b);
+    int64_t emptyLit = 0, emptyLitPlain = 0, insideLit = 0, insideDiffer = 0;
+    for (int py = 0; py < h; ++py)
+      for (int px = 0; px < w; ++px)
+      {
+        const double ux = (-1.2 + 2.4 * (px + 0.5) / w + 1.0) / 2.0;
+        const size_t k = 4 * (size_t(py) * w + px);
+        if (ux > firstEmpty + 0.02 && ux < 1.0)
+        {
+          emptyLit += b.rgba[k + 3] != 0.0f ? 1 : 0;
+          emptyLitPlain += a.rgba[k + 3] > 0.01f ? 1 : 0;
+        }
+        else if (ux < firstEmpty - 0.05 && ux > 0.0)
+        {
+          insideLit += a.rgba[k + 3] > 0.01f ? 1 : 0;
+          for (int ch = 0; ch < 4; ++ch)
+            insideDiffer += a.rgba[k + ch] != b.rgba[k + ch] ? 1 : 0;
+        }
+      }
+    std::printf("  %-9s empty half: %lld pixels lit (plain: %lld); occupied half: %lld lit, %lld values differ; "
+                "samples %lld with the mask, %lld without\n", pathTag(path), (long long)emptyLit,
+      (long long)emptyLitPlain, (long long)insideLit, (long long)insideDiffer, (long long)b.stats.samplesEvaluated,
+      (long long)a.stats.samplesEvaluated);
+    EXPECT_TRUE(emptyLitPlain > 50 && emptyLit == 0);
+    EXPECT_TRUE(insideLit > 50 && insideDiffer == 0);
+    EXPECT_TRUE(b.stats.samplesEvaluated < a.stats.samplesEvaluated);
+  }
+}
+
 NV_TEST(skipping_does_not_change_the_picture)
 {
   // Ray-marching modes of every path with skipping on and off: the macrocell ranges are exact for the decoded grid

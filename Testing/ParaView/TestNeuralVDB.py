@@ -297,6 +297,33 @@ check(np.isfinite(psnr_all) and psnr_all > 39.0, "sparse smoke1: PSNR over every
 check(psnr_samples is not None and 38.0 < psnr_samples < psnr_all + 3.0,
       "sparse smoke1: the reported PSNR is measured, not flattering (%s vs %.2f over all voxels)"
       % (psnr_samples, psnr_all))
+# The VDB structure: macrocells (8 voxels a side) without an active voxel -- nor one starting the next cell -- are
+# the background exactly, in the decoded output as in every render path (nv::SourceInfo::occupancy).
+coords = vtk_to_numpy(servermanager.Fetch(sparse).GetPointData().GetArray("VDBCoordinate")).astype(np.int64)
+box = vtk_to_numpy(servermanager.Fetch(sparse).GetFieldData().GetArray("VDBIndexBox")).reshape(3, 2)
+dims = np.array(sout.GetDimensions())
+ncell = np.maximum(1, (dims - 1 + 7) // 8)
+occupied = np.zeros(ncell[::-1], bool)
+local = coords - box[:, 0]
+for dz in (0, 1):
+    for dy in (0, 1):
+        for dx in (0, 1):
+            shift = np.array([dx, dy, dz])
+            c = local // 8 - shift * (local % 8 == 0)
+            ok = (shift == 0) | (local % 8 == 0)
+            keep = ok.all(axis=1) & (c >= 0).all(axis=1)
+            c = np.minimum(c[keep], ncell - 1)
+            occupied[c[:, 2], c[:, 1], c[:, 0]] = True
+# The cell of each decoded voxel as the engine computes it (float32: u = i / (n - 1), cell = floor(u * (n - 1) / 8)).
+grid = [np.minimum((np.float32(np.arange(n) / max(n - 1, 1)) * np.float32((n - 1) / 8.0)).astype(np.int64), m - 1)
+        for n, m in zip(dims, ncell)]
+cz, cy, cx = np.meshgrid(grid[2], grid[1], grid[0], indexing="ij")
+empty = ~occupied[cz, cy, cx].ravel()
+background = servermanager.Fetch(sparse).GetFieldData().GetArray("VDBBackground").GetValue(0)
+log("sparse smoke1: %d of %d voxels in empty macrocells (%d of %d cells occupied)"
+    % (empty.sum(), empty.size, occupied.sum(), occupied.size))
+check(empty.sum() > 0 and (dec[empty] == background).all(),
+      "sparse smoke1: every decoded voxel of an empty macrocell is the background exactly (%d voxels)" % empty.sum())
 ncs.UpdatePropertyInformation()
 steps = ncs.GetPropertyValue("TotalStepsTrained")
 check(steps == 150, "sparse smoke1: 150 steps trained (%s)" % steps)
