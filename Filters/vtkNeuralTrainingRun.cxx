@@ -3,6 +3,7 @@
 #include "Core/Error.h"
 
 #include <algorithm>
+#include <utility>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -347,12 +348,13 @@ bool TrainingRun::SnapshotDue(bool probe, bool improved) const
 
 void TrainingRun::Snapshot(double probePsnr)
 {
+  if (this->Candidate.paramCount() == 0)
+    this->Candidate = this->SessionPtr->currentModel(); // once: the buffer the snapshots are copied into
   const auto t0 = Clock::now();
-  nv::Model m = this->GoodStep >= 0 ? this->Good : this->SessionPtr->currentModel();
-  this->Trainer->syncTo(m);
+  this->Trainer->syncTo(this->Candidate);
   this->LastSnapshot = Clock::now();
   this->SnapshotCost = SecondsSince(t0);
-  for (float p : m.params())
+  for (float p : this->Candidate.params())
     if (!std::isfinite(p))
       return; // a network on its way to diverging: not a rollback point
   std::lock_guard<std::mutex> lock(this->Mutex);
@@ -360,11 +362,11 @@ void TrainingRun::Snapshot(double probePsnr)
   this->GoodRows = this->Rows.size();
   if (this->Limits.KeepBest && std::isfinite(probePsnr) && probePsnr > this->BestPsnr)
   {
-    this->Best = m;
+    this->Best = this->Candidate;
     this->BestPsnr = probePsnr;
     this->BestStep = this->Current.Steps;
   }
-  this->Good = std::move(m);
+  std::swap(this->Good, this->Candidate); // the old rollback point's buffer takes the next snapshot
 }
 
 bool TrainingRun::RollBack(int64_t failedStep, double loss)

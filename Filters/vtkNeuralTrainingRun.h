@@ -143,6 +143,7 @@ private:
   static constexpr int64_t kSnapshotSteps = 250;
 
   nv::Model Good;              ///< the last snapshot whose steps all had finite losses
+  nv::Model Candidate;         ///< the buffer the next snapshot is copied into (swapped with Good)
   int64_t GoodStep = -1;       ///< its step (-1: none yet)
   size_t GoodRows = 0;         ///< log rows up to it
   int Rollbacks = 0;
