@@ -502,9 +502,14 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     status = job.Run->Status();
     job.EmittedSerial = status.Serial;
+    // A recovered divergence is a warning; keeping the best network is the normal course: text, as the summary.
+    for (; in.WarningsPrinted < status.Warnings.size(); ++in.WarningsPrinted)
+    {
+      vtkWarningMacro("Neural Compress: " << status.Warnings[in.WarningsPrinted] << ".");
+    }
     for (; in.NotesPrinted < status.Notes.size(); ++in.NotesPrinted)
     {
-      vtkWarningMacro("Neural Compress: " << status.Notes[in.NotesPrinted] << ".");
+      vtkOutputWindowDisplayText(("Neural Compress: " + status.Notes[in.NotesPrinted] + ".\n").c_str());
     }
     if (status.State == nvi::RunState::Failed)
     {

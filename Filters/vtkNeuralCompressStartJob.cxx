@@ -62,7 +62,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->OutputMode = this->OutputMode;
   job->Storage = this->StoragePrecision == FLOAT16 ? nv::Precision::Float16 : nv::Precision::Float32;
   in.SummaryPrinted = false;
-  in.NotesPrinted = 0;
+  in.NotesPrinted = in.WarningsPrinted = 0;
   in.DecodeRequested = false;
   const nv::VolumeView& view = data->Field.View;
   const int64_t* dims = view.dims;

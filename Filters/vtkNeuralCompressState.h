@@ -31,7 +31,8 @@ struct vtkNeuralCompress::vtkInternals
   std::string StatusText;
   bool DecodeRequested = false;
   bool SummaryPrinted = false;
-  size_t NotesPrinted = 0; ///< notes of the current run printed as warnings
+  size_t NotesPrinted = 0;    ///< notes of the current run printed (as text)
+  size_t WarningsPrinted = 0; ///< warnings of the current run printed
   vtkIdType StepsOfEndedJobs = 0;
 
   // The key of the last input seen (recomputed when the array, its content or the settings change).

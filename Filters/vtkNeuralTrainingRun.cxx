@@ -385,7 +385,7 @@ bool TrainingRun::RollBack(int64_t failedStep, double loss)
   this->Rows.resize(this->GoodRows);
   this->Current.Steps = this->GoodStep;
   this->ScheduleStart = this->GoodStep;
-  this->Current.Notes.push_back(s.str());
+  this->Current.Warnings.push_back(s.str());
   ++this->Current.Serial;
   return true;
 }

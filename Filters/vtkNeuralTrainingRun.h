@@ -76,9 +76,10 @@ struct RunStatus
   std::string Error;        ///< Failed: the engine's message
   uint64_t Serial = 0;      ///< changes whenever anything here or the published network changes
   int64_t DeviceMemoryBytes = 0;
-  /// What the run did about the network on its own (a rollback after a divergence, the best network kept), one line
-  /// each, in order.
+  /// What the run did about the network on its own in the normal course (the best network kept), one line each.
   std::vector<std::string> Notes;
+  /// What went wrong and was recovered from (a rollback after a divergence): the user should know; one line each.
+  std::vector<std::string> Warnings;
 };
 
 class TrainingRun

@@ -326,11 +326,11 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   vi::TrainingRun run(s, d, tc, limits(300, 20), nullptr);
   run.RunHere(nullptr, nullptr);
   const vi::RunStatus st = run.Status();
-  std::printf("  state %s, %lld steps, %zu notes%s%s\n", vi::RunStateName(st.State), (long long)st.Steps,
-    st.Notes.size(), st.Notes.empty() ? "" : "; last: ", st.Notes.empty() ? "" : st.Notes.back().c_str());
+  std::printf("  state %s, %lld steps, %zu warnings%s%s\n", vi::RunStateName(st.State), (long long)st.Steps,
+    st.Warnings.size(), st.Warnings.empty() ? "" : "; last: ", st.Warnings.empty() ? "" : st.Warnings.back().c_str());
   EXPECT_TRUE(st.State == vi::RunState::Finished);
   EXPECT_TRUE(st.Steps == 300);
-  EXPECT_TRUE(!st.Notes.empty() && st.Notes.front().find("rolled back") != std::string::npos);
+  EXPECT_TRUE(!st.Warnings.empty() && st.Warnings.front().find("rolled back") != std::string::npos);
   bool finite = true;
   for (float p : s->currentModel().params())
     finite = finite && std::isfinite(p);
@@ -341,7 +341,7 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   const double psnr = psnrOf(*s, d->Field.View);
   std::printf("  final PSNR %.2f dB\n", psnr);
   EXPECT_TRUE(std::isfinite(psnr) && psnr > 0.0);
-  EXPECT_TRUE(st.Notes.size() >= 2 && st.Notes.size() <= 10); // several 10x cuts, within the limit
+  EXPECT_TRUE(st.Warnings.size() >= 2 && st.Warnings.size() <= 10); // several 10x cuts, within the limit
 }
 
 NV_TEST(KeepsTheBestProbedNetwork)
@@ -370,6 +370,7 @@ NV_TEST(KeepsTheBestProbedNetwork)
         bestInLog[keep] = std::max(bestInLog[keep], r.PSNR);
     finals[keep] = d->Probe->Estimate(*s);
     notes[keep] = run.Status().Notes.size();
+    EXPECT_TRUE(run.Status().Warnings.empty()); // keeping the best network is no warning
     std::printf("  KeepBest %d: best probe %.2f dB, final estimate %.2f dB, notes %zu%s%s\n", keep, bestInLog[keep],
       finals[keep], notes[keep], notes[keep] ? ": " : "", notes[keep] ? run.Status().Notes.back().c_str() : "");
   }
