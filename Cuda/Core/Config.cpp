@@ -2,6 +2,7 @@
 
 #include "Error.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace nv
@@ -22,11 +23,13 @@ double EncodingConfig::effectivePerLevelScale() const
 
 double OptimizerConfig::learningRateAt(int64_t step) const
 {
+  const double warm =
+    warmupSteps > 0 && step < warmupSteps ? static_cast<double>(std::max<int64_t>(step, 1)) / warmupSteps : 1.0;
   if (!stepDecay || decayInterval <= 0 || step <= 0)
   {
-    return learningRate;
+    return learningRate * warm;
   }
-  return learningRate * std::pow(decayFactor, static_cast<double>((step - 1) / decayInterval));
+  return learningRate * warm * std::pow(decayFactor, static_cast<double>((step - 1) / decayInterval));
 }
 
 const char* deviceName(Device d)
@@ -75,6 +78,7 @@ void validate(const TrainConfig& c)
   NV_CHECK(c.optimizer.beta1 >= 0.0 && c.optimizer.beta1 < 1.0, "beta1 must be in [0,1)");
   NV_CHECK(c.optimizer.beta2 >= 0.0 && c.optimizer.beta2 < 1.0, "beta2 must be in [0,1)");
   NV_CHECK(c.optimizer.epsilon >= 0.0, "epsilon must be >= 0");
+  NV_CHECK(c.optimizer.warmupSteps >= 0, "warm-up steps must be >= 0");
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
 }
 

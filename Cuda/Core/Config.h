@@ -53,6 +53,9 @@ struct OptimizerConfig
   bool stepDecay = true;     ///< false: constant learning rate
   int decayInterval = 1000;  ///< steps
   double decayFactor = 0.8;
+  /// Linear warm-up: the rate grows from learningRate / warmupSteps to learningRate over the first warmupSteps
+  /// steps (0: none).
+  int warmupSteps = 0;
 
   /// Learning rate used by (1-based) step `step`.
   double learningRateAt(int64_t step) const;

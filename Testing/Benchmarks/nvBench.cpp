@@ -5,11 +5,13 @@
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
 //   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
+//   nvBench tradeoff DEVICE file.nhdr LOG2T STEPS[,..] [options] -> time vs error of a stored network (TradeoffBench.cpp)
 // DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h; --deterministic: TrainConfig::deterministic (step,
 // budget, curve); --points=PREFIX (curve): also the PSNR at the points of PREFIX.points.f32 (network coordinates,
 // float32 x 3) against PREFIX.values.f64 (a resampled source's own samples, anydataset_bench.py); --bank=PREFIX
 // (curve): train from the bank of probed points PREFIX.bank.f32 (x y z in network coordinates and the value in
-// source units, float32 x 4; Neural Compress's Sampling Probe) instead of the volume. Prints lines "RESULT {json}".
+// source units, float32 x 4; Neural Compress's Sampling Probe) instead of the volume; --threads=N: CPU worker threads
+// (SessionOptions::threads, 0 = all cores). Prints lines "RESULT {json}".
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "KernelFlags.h"
@@ -50,14 +52,15 @@ static std::vector<float> analytic(int n)
 }
 
 int renderBenchmark(int argc, char** argv);
+int tradeoffBenchmark(int argc, char** argv);
 
 int main(int argc, char** argv)
 {
-  if (argc > 1 && std::string(argv[1]) == "render")
+  if (argc > 1 && (std::string(argv[1]) == "render" || std::string(argv[1]) == "tradeoff"))
   {
     try
     {
-      return renderBenchmark(argc, argv);
+      return std::string(argv[1]) == "render" ? renderBenchmark(argc, argv) : tradeoffBenchmark(argc, argv);
     }
     catch (const std::exception& e)
     {
@@ -79,6 +82,8 @@ int main(int argc, char** argv)
         bankPrefix = std::string(argv[i]).substr(7);
       else if (std::string(argv[i]) == "--deterministic")
         deterministic = true;
+      else if (std::string(argv[i]).rfind("--threads=", 0) == 0)
+        options.threads = std::atoi(argv[i] + 10);
       else
         argv[out++] = argv[i];
     }

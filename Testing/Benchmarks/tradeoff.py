@@ -1,0 +1,290 @@
+#!/usr/bin/env python3
+"""Run time against error: the neural representation (GPU and CPU engines) against ZFP and SZ3, and the paper's
+method in PyTorch. One command runs the whole sweep and writes CSV + plots:
+
+  tradeoff.py run --nvbench BUILD/Testing/Benchmarks/nvBench --out DIR [--device cuda,cpu] [--volumes a.nhdr ..]
+                  [--tables 12,14,16,18,20] [--steps 250,500,1000,2000,4000,8000] [--cpu-tables 14,18]
+                  [--cpu-steps 250,500,1000] [--torch REFERENCE_DIR] [--tiny]
+
+Without --volumes: every regular-grid volume of ../shared/data (*.nhdr). --tiny: two synthetic 32^3 volumes, two
+table sizes, few steps (the CI run). Sub-commands used by `run`, also usable alone:
+  tradeoff.py neural ...  |  tradeoff.py compressors ...  |  tradeoff.py torch ...  |  tradeoff.py plot CSV.. --out DIR
+  tradeoff.py check CSV   (every column present, every metric finite)
+Rows: date, machine, gpu, commit, volume, dims, source_bytes, method, setting, steps, ratio, compress_s, decompress_s,
+psnr, max_error, ssim. compress_s is the training time for the neural rows (setup excluded), decompress_s the decode
+of the whole grid into host memory. Ratios are source bytes (the volume's own type) over stored bytes (fp16 network,
+ZFP/SZ3 stream)."""
+import argparse
+import csv
+import datetime
+import glob
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import tradeoff_metrics as tm  # noqa: E402
+
+COLUMNS = ["date", "machine", "gpu", "commit", "volume", "dims", "source_bytes", "method", "setting", "steps", "ratio",
+           "compress_s", "decompress_s", "psnr", "max_error", "ssim"]
+# Columns a method does not measure (the PyTorch reference prints PSNR and training time only).
+NOT_MEASURED = {"pytorch-ref": {"ratio", "decompress_s", "max_error", "ssim"}}
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+
+
+def context():
+    gpu = ""
+    try:
+        gpu = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True,
+                             text=True, timeout=20).stdout.strip().splitlines()[0]
+    except (OSError, IndexError, subprocess.SubprocessError):
+        gpu = "none"
+    commit = "unknown"
+    try:
+        commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                                timeout=20).stdout.strip() or commit
+    except (OSError, subprocess.SubprocessError):
+        pass
+    if os.path.exists(os.path.join(ROOT, "COMMIT")):
+        commit = open(os.path.join(ROOT, "COMMIT")).read().strip()
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"date": datetime.date.today().isoformat(), "machine": "%s, %d cores" % (cpu, os.cpu_count()),
+            "gpu": gpu, "commit": commit}
+
+
+def volume_row(ctx, path, original):
+    nz, ny, nx = original.shape
+    return dict(ctx, volume=os.path.basename(path).split("_")[0].replace(".nhdr", ""), dims="%dx%dx%d" % (nx, ny, nz),
+                source_bytes=original.nbytes)
+
+
+def fmt(v):
+    return "%.6g" % v if isinstance(v, float) else v
+
+
+class Writer:
+    def __init__(self, path):
+        self.path = path
+        new = not os.path.exists(path) or os.path.getsize(path) == 0
+        self.f = open(path, "a", newline="")
+        self.w = csv.DictWriter(self.f, COLUMNS)
+        if new:
+            self.w.writeheader()
+
+    def add(self, row):
+        self.w.writerow({k: fmt(row.get(k, "")) for k in COLUMNS})
+        self.f.flush()
+        print("  %-10s %-12s %-10s steps %-5s ratio %8s  psnr %6.2f  ssim %s  t %.3fs" % (
+            row["volume"], row["method"], row["setting"], row.get("steps", ""), fmt(row["ratio"]), row["psnr"],
+            "%.4f" % row["ssim"] if isinstance(row.get("ssim"), float) else "-", row["compress_s"]), flush=True)
+
+
+def run_neural(args, ctx, writer, volumes, device, tables, steps):
+    tmp = tempfile.mkdtemp(prefix="nv_tradeoff_")
+    for path in volumes:
+        original = tm.load_nhdr(path)
+        metric = tm.ImageMetric(original)
+        for log2t in tables:
+            cmd = [args.nvbench, "tradeoff", device, path, str(log2t), ",".join(map(str, steps)), "--dump=" + tmp]
+            if args.threads:
+                cmd.append("--threads=%d" % args.threads)
+            if args.batch:
+                cmd.append("--batch=%d" % args.batch)
+            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+            for line in proc.stdout:
+                if not line.startswith("RESULT "):
+                    continue
+                r = json.loads(line[7:])
+                decoded = np.fromfile(r["dump"], np.float32).reshape(original.shape)
+                os.remove(r["dump"])
+                psnr, max_error = tm.errors(original, decoded)
+                row = volume_row(ctx, path, original)
+                row.update(method="neural-" + ("gpu" if device == "cuda" else "cpu"), setting="2^%d" % log2t,
+                           steps=r["steps"], ratio=r["ratio"], compress_s=r["train_s"], decompress_s=r["decode_s"],
+                           psnr=psnr, max_error=max_error, ssim=metric(decoded))
+                writer.add(row)
+            if proc.wait() != 0:
+                raise SystemExit("nvBench failed: " + " ".join(cmd))
+    os.rmdir(tmp)
+
+
+def run_compressors(args, ctx, writer, volumes):
+    import zfpy
+    from pysz import sz, szConfig, szErrorBoundMode
+    for path in volumes:
+        original = tm.load_nhdr(path)
+        metric = tm.ImageMetric(original)
+        values = original.astype(np.float32)
+        lo, hi = float(values.min()), float(values.max())
+        rng = hi - lo if hi > lo else 1.0
+        bits = original.dtype.itemsize * 8
+
+        def record(method, setting, stream_bytes, ct, dt, decoded):
+            psnr, max_error = tm.errors(original, decoded)
+            row = volume_row(ctx, path, original)
+            row.update(method=method, setting=setting, steps="", ratio=original.nbytes / stream_bytes, compress_s=ct,
+                       decompress_s=dt, psnr=psnr, max_error=max_error, ssim=metric(decoded))
+            writer.add(row)
+
+        for ratio in args.ratios:
+            rate = bits / ratio
+            if rate < 0.25:
+                # zfpy 1.0 overruns its buffer below about 9 bits per 4^3 block (a float block's header): skipped.
+                continue
+            t0 = time.perf_counter()
+            c = zfpy.compress_numpy(values, rate=rate)
+            t1 = time.perf_counter()
+            d = zfpy.decompress_numpy(c)
+            t2 = time.perf_counter()
+            record("zfp-rate", "%.4g bits" % rate, len(c), t1 - t0, t2 - t1, d)
+        for rel in args.bounds:
+            t0 = time.perf_counter()
+            c = zfpy.compress_numpy(values, tolerance=rel * rng)
+            t1 = time.perf_counter()
+            d = zfpy.decompress_numpy(c)
+            t2 = time.perf_counter()
+            record("zfp-accuracy", "%.0e" % rel, len(c), t1 - t0, t2 - t1, d)
+            conf = szConfig()
+            conf.errorBoundMode = szErrorBoundMode.ABS
+            conf.absErrorBound = rel * rng
+            t0 = time.perf_counter()
+            c, _ = sz.compress(values, conf)
+            t1 = time.perf_counter()
+            d, _ = sz.decompress(c, np.float32, values.shape)
+            t2 = time.perf_counter()
+            record("sz3-abs", "%.0e" % rel, c.nbytes, t1 - t0, t2 - t1, d.reshape(values.shape))
+
+
+def run_torch(args, ctx, writer, volumes, tables, steps):
+    """The paper's method in PyTorch (../shared/reference/quality_torch.py), run as it is."""
+    ref = os.path.abspath(args.torch)
+    for path in volumes:
+        original = tm.load_nhdr(path)
+        for log2t in tables:
+            out = subprocess.run([sys.executable, os.path.join(ref, "quality_torch.py"), os.path.join(ref, "bench_torch.py"),
+                                  str(max(steps)), str(log2t), path], capture_output=True, text=True)
+            lines = [l for l in out.stdout.splitlines() if l.startswith("RESULT ")]
+            if out.returncode != 0 or not lines:
+                raise SystemExit("quality_torch.py failed:\n" + out.stderr[-2000:])
+            r = json.loads(lines[-1][7:])
+            for s, t, p in r["curve"]:
+                row = volume_row(ctx, path, original)
+                # The same network as the engine's at this table size: the ratio is the engine's (stored fp16).
+                row.update(method="pytorch-ref", setting="2^%d" % log2t, steps=s, ratio="", compress_s=t,
+                           decompress_s="", psnr=p, max_error="", ssim="")
+                writer.add(row)
+
+
+def check(path):
+    """Every column present; every measured metric finite (NaN never passes)."""
+    rows = list(csv.DictReader(open(path)))
+    if not rows:
+        raise SystemExit("check: %s has no rows" % path)
+    missing = [c for c in COLUMNS if c not in rows[0]]
+    if missing:
+        raise SystemExit("check: missing columns " + ", ".join(missing))
+    bad = []
+    for i, r in enumerate(rows):
+        for c in ("ratio", "compress_s", "decompress_s", "psnr", "max_error", "ssim", "source_bytes"):
+            if c in NOT_MEASURED.get(r["method"], ()):
+                continue
+            try:
+                v = float(r[c])
+            except ValueError:
+                v = float("nan")
+            if not math.isfinite(v) or (c in ("ratio", "source_bytes", "compress_s") and v <= 0) or \
+                    (c == "ssim" and not -1.0 <= v <= 1.0):
+                bad.append("row %d (%s %s %s): %s = %r" % (i + 2, r["volume"], r["method"], r["setting"], c, r[c]))
+    if bad:
+        raise SystemExit("check: non-finite or impossible values:\n  " + "\n  ".join(bad[:20]))
+    methods = sorted({r["method"] for r in rows})
+    print("check: %d rows, %d volumes, methods %s: all columns present, all values finite" % (
+        len(rows), len({r["volume"] for r in rows}), ", ".join(methods)))
+    return rows
+
+
+def ints(s):
+    return [int(v) for v in s.split(",") if v]
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("command", choices=["run", "neural", "compressors", "torch", "plot", "check"])
+    p.add_argument("csv", nargs="*", help="CSV files (plot, check)")
+    p.add_argument("--nvbench", default=os.path.join(ROOT, "build", "Testing", "Benchmarks", "nvBench"))
+    p.add_argument("--out", default="tradeoff_out")
+    p.add_argument("--device", default="cuda,cpu")
+    p.add_argument("--volumes", nargs="*")
+    p.add_argument("--tables", default="12,14,16,18,20")
+    p.add_argument("--steps", default="250,500,1000,2000,4000,8000")
+    p.add_argument("--cpu-tables", default="14,18")
+    p.add_argument("--cpu-steps", default="250,500,1000")
+    p.add_argument("--threads", type=int, default=0)
+    p.add_argument("--batch", type=int, default=0, help="training batch (default: the engine's, 65536)")
+    p.add_argument("--ratios", default="2,4,8,16,32,64,128,256")
+    p.add_argument("--bounds", default="1e-1,3e-2,1e-2,3e-3,1e-3,3e-4,1e-4")
+    p.add_argument("--torch", help="folder of quality_torch.py and bench_torch.py (PyTorch with a GPU)")
+    p.add_argument("--torch-tables", default="14,18")
+    p.add_argument("--torch-steps", default="4000")
+    p.add_argument("--tiny", action="store_true",
+                   help="CI size: two synthetic 32^3 volumes, 2^10 and 2^12, 20 and 60 steps, batch 4096")
+    args = p.parse_args()
+    args.ratios = [float(v) for v in args.ratios.split(",")]
+    args.bounds = [float(v) for v in args.bounds.split(",")]
+
+    if args.command == "check":
+        for c in args.csv:
+            check(c)
+        return
+    if args.command == "plot":
+        import tradeoff_plot
+        tradeoff_plot.plot(args.csv, args.out)
+        return
+
+    os.makedirs(args.out, exist_ok=True)
+    if args.tiny:
+        volumes = tm.synthetic_volumes(os.path.join(args.out, "volumes"))
+        args.tables, args.steps, args.cpu_tables, args.cpu_steps = "10,12", "20,60", "10,12", "20,60"
+        args.ratios, args.bounds = [4.0, 16.0, 64.0], [1e-1, 1e-2, 1e-3]
+        args.batch = args.batch or 4096
+    elif args.volumes:
+        volumes = args.volumes
+    else:
+        volumes = sorted(glob.glob(os.path.join(ROOT, "..", "shared", "data", "*", "*.nhdr")))
+    if not volumes:
+        raise SystemExit("no volumes (../shared/data absent: pass --volumes or --tiny)")
+    ctx = context()
+    csv_path = os.path.join(args.out, "tradeoff.csv")
+    writer = Writer(csv_path)
+    devices = args.device.split(",") if args.device else []
+    if args.command in ("run", "neural"):
+        for dev in devices:
+            tables, steps = (args.tables, args.steps) if dev == "cuda" else (args.cpu_tables, args.cpu_steps)
+            run_neural(args, ctx, writer, volumes, dev, ints(tables), ints(steps))
+    if args.command in ("run", "compressors"):
+        run_compressors(args, ctx, writer, volumes)
+    if args.command in ("run", "torch") and args.torch:
+        run_torch(args, ctx, writer, volumes, ints(args.torch_tables), ints(args.torch_steps))
+    writer.f.close()
+    if args.command == "run":
+        check(csv_path)
+        import tradeoff_plot
+        tradeoff_plot.plot([csv_path], args.out)
+
+
+if __name__ == "__main__":
+    main()
