@@ -1,5 +1,6 @@
 #include "vtkNeuralCompress.h"
 
+#include "vtkNeuralCompressDecode.h"
 #include "vtkNeuralCompressInternals.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressState.h"
@@ -245,8 +246,17 @@ int vtkNeuralCompress::RequestData(
     inputVector = this->Internals->Distributed.WholeVector();
   }
   const nvi::RootOnlyScope rootOnly(role == nvi::DistributedRole::Root); // VTK's filters on rank 0 alone
-  if (role == nvi::DistributedRole::Failed ||
-    !this->Execute(inputObject, inputVector, output, log, metrics, time))
+  bool executed = false;
+  try
+  {
+    executed = role != nvi::DistributedRole::Failed && this->Execute(inputObject, inputVector, output, log, metrics, time);
+  }
+  catch (...)
+  {
+    // Execute reports the engine's and the standard library's errors itself; nothing else may leave the filter.
+    vtkErrorMacro("Neural Compress: unexpected failure. The output is empty.");
+  }
+  if (!executed)
   {
     // A defined result: no arrays, no network. For an image input the output keeps the promised
     // (input) geometry, so the pipeline does not execute again (and repeat the error) on every
@@ -385,6 +395,8 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
       outside ? std::count(outside->begin(), outside->end(), uint8_t(1)) : int64_t(0);
     const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
       field.Geometry.SourceDims[2] };
+    // A decoded output the machine cannot hold is refused before any training (the estimate and the limit).
+    nvi::CheckDecodedOutputMemory(field, this->OutputMode);
     if (dims[0] * dims[1] * dims[2] <= 0)
     {
       vtkErrorMacro("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
@@ -481,6 +493,11 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
   {
     vtkErrorMacro("Neural Compress: " << e.what());
   }
+  catch (const std::bad_alloc&)
+  {
+    vtkErrorMacro("Neural Compress: out of memory. Lower Log2TableSize, BatchSize or OutputResolution. The output is "
+                  "empty.");
+  }
   catch (const std::exception& e)
   {
     vtkErrorMacro("Neural Compress: unexpected failure: " << e.what());
@@ -520,12 +537,27 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   const bool live = job.Run && !nvi::IsSettled(status.State);
   nvi::NetworkRecord record;
   vtkSmartPointer<vtkDataArray> decoded;
+  // A decode in this thread: parallel, with progress and abort; a field it cannot make leaves the network alone.
+  nvi::DecodeControl control;
+  control.Abort = [this]() { return this->GetAbortExecute() != 0; };
+  control.Progress = [this](double f) { this->UpdateProgress(f); };
+  auto decode = [&]() -> vtkSmartPointer<vtkDataArray> {
+    try
+    {
+      return nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode, control);
+    }
+    catch (const nv::Error& e)
+    {
+      vtkErrorMacro("Neural Compress: " << e.what() << " The output holds the network only.");
+    }
+    return nullptr;
+  };
   if (live)
   {
     record = job.Snapshot();
     if (in.DecodeRequested)
     {
-      decoded = nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode);
+      decoded = decode();
     }
   }
   else
@@ -538,9 +570,18 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     }
     record = *final;
     decoded = job.FinalDecoded(this->OutputMode);
-    if (!decoded)
+    std::string decodeError;
     {
-      decoded = nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode);
+      std::lock_guard<std::mutex> lock(job.Mutex);
+      std::swap(decodeError, job.DecodeError);
+    }
+    if (!decodeError.empty())
+    {
+      vtkErrorMacro("Neural Compress: " << decodeError << " The output holds the network only.");
+    }
+    else if (!decoded)
+    {
+      decoded = decode();
       if (decoded)
       {
         job.KeepDecoded(decoded, this->OutputMode);

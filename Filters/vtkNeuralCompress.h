@@ -319,6 +319,8 @@ public:
   const char* GetTrainingStatus();
   /// Training steps this filter object ran in total (tests check that a restore trains none).
   vtkIdType GetTotalStepsTrained();
+  /// 1 when this process has a GPU the engine can use (the panel hides the GPU-only settings otherwise).
+  int GetGpuUsable();
 
   ///@{
   /// Networks saved with a state file: "nvnet1" followed by one "key:base64" entry per time step.

@@ -4,6 +4,7 @@
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressState.h"
 
+#include "Core/Engine.h"
 #include "Core/Error.h"
 #include "Core/Serialization.h"
 
@@ -156,4 +157,9 @@ const char* vtkNeuralCompress::GetTrainedNetworks()
   }
   in.TrainedNetworksText = nvi::EncodeNetworks(records);
   return in.TrainedNetworksText.c_str();
+}
+
+int vtkNeuralCompress::GetGpuUsable()
+{
+  return nv::cudaAvailable() ? 1 : 0;
 }

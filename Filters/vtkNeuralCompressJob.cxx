@@ -1,5 +1,7 @@
 #include "vtkNeuralCompressJob.h"
 
+#include "vtkNeuralCompressDecode.h"
+
 #include "vtkNeuralCompress.h"
 
 #include "Core/Error.h"
@@ -33,69 +35,6 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
   return h;
 }
 
-/// Decoded values (source units) of the output samples, in float or double.
-template <typename T>
-void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out)
-{
-  const OutputGeometry& g = f.Geometry;
-  const int64_t n[3] = { g.DecodedDims[0], g.DecodedDims[1], g.DecodedDims[2] };
-  if (!f.Cells || g.OnSourceGrid)
-  {
-    nv::decodeGridValues(session, n[0], n[1], n[2], 0, n[2], out);
-    return;
-  }
-  // Cell centres of a resampled cell output, in the source's normalised coordinates.
-  const nv::SourceInfo src = session.currentModel().source;
-  const int64_t count = n[0] * n[1] * n[2];
-  std::vector<float> xyz(static_cast<size_t>(count) * 3);
-  size_t k = 0;
-  for (int64_t z = 0; z < n[2]; ++z)
-    for (int64_t y = 0; y < n[1]; ++y)
-      for (int64_t x = 0; x < n[0]; ++x)
-      {
-        const int64_t ijk[3] = { x, y, z };
-        for (int d = 0; d < 3; ++d)
-        {
-          const double world = g.Origin[d] + (ijk[d] + 0.5) * g.Spacing[d];
-          const double span = src.bounds[2 * d + 1] - src.bounds[2 * d];
-          const double u = span > 0 ? (world - src.bounds[2 * d]) / span : 0.5;
-          xyz[k++] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
-        }
-      }
-  std::vector<float> normalised(static_cast<size_t>(count));
-  session.inferPoints(xyz.data(), count, normalised.data(), nv::Memory::Host);
-  const double lo = src.valueMin, span = src.valueMax - src.valueMin;
-  for (int64_t i = 0; i < count; ++i)
-  {
-    out[i] = static_cast<T>(lo + normalised[i] * span);
-  }
-}
-
-/// Round and clamp into an integer (or keep a float) array of the input's type.
-template <typename In, typename Out>
-void StoreAs(const In* in, int64_t n, Out* out)
-{
-  if (std::numeric_limits<Out>::is_integer)
-  {
-    // The limits as doubles: 2^63 and 2^64 are one past the largest 64-bit values, so compare before converting.
-    const double lo = static_cast<double>(std::numeric_limits<Out>::lowest());
-    const double hi = static_cast<double>(std::numeric_limits<Out>::max());
-    for (int64_t i = 0; i < n; ++i)
-    {
-      const double v = std::isfinite(static_cast<double>(in[i])) ? std::nearbyint(static_cast<double>(in[i])) : 0.0;
-      out[i] = v >= hi ? std::numeric_limits<Out>::max()
-        : v <= lo      ? std::numeric_limits<Out>::lowest()
-                       : static_cast<Out>(v);
-    }
-  }
-  else
-  {
-    for (int64_t i = 0; i < n; ++i)
-    {
-      out[i] = static_cast<Out>(in[i]);
-    }
-  }
-}
 } // namespace
 
 bool Float32Holds(double lo, double hi)
@@ -173,57 +112,6 @@ uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const S
   return h;
 }
 
-/// NaN at the decoded points whose nearest source sample is outside the domain of a resampled input.
-static void MaskOutside(const FieldInfo& f, vtkDataArray* array)
-{
-  const OutputGeometry& g = f.Geometry;
-  const std::vector<uint8_t>& outside = *f.Outside;
-  if (int64_t(outside.size()) != int64_t(g.SourceDims[0]) * g.SourceDims[1] * g.SourceDims[2])
-  {
-    return;
-  }
-  std::vector<int64_t> map[3];
-  for (int a = 0; a < 3; ++a)
-  {
-    const int nd = g.DecodedDims[a], ns = g.SourceDims[a];
-    map[a].resize(size_t(nd));
-    for (int i = 0; i < nd; ++i)
-      map[a][size_t(i)] = nd > 1 && ns > 1 ? std::llround(double(i) * (ns - 1) / (nd - 1)) : 0;
-  }
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  vtkIdType k = 0;
-  for (int z = 0; z < g.DecodedDims[2]; ++z)
-    for (int y = 0; y < g.DecodedDims[1]; ++y)
-      for (int x = 0; x < g.DecodedDims[0]; ++x, ++k)
-      {
-        const int64_t s = (map[2][size_t(z)] * g.SourceDims[1] + map[1][size_t(y)]) * g.SourceDims[0] + map[0][size_t(x)];
-        if (outside[size_t(s)])
-          array->SetComponent(k, 0, nan);
-      }
-}
-
-/// A sparse input: the decoded samples in its empty macrocells are its background exactly (as the renderers draw
-/// them; nv::SourceInfo::occupancy).
-static void SetEmptyCells(const FieldInfo& f, vtkDataArray* array)
-{
-  const OutputGeometry& g = f.Geometry;
-  const int64_t sdims[3] = { g.SourceDims[0], g.SourceDims[1], g.SourceDims[2] };
-  if (int64_t(f.Occupancy->size()) != nv::occupancyWords(sdims))
-    return;
-  const nv::MacrocellLayout cells = nv::macrocellLayout(sdims);
-  vtkIdType k = 0;
-  for (int z = 0; z < g.DecodedDims[2]; ++z)
-    for (int y = 0; y < g.DecodedDims[1]; ++y)
-      for (int x = 0; x < g.DecodedDims[0]; ++x, ++k)
-      {
-        // The network coordinate of the decoded sample (decodeGrid's convention).
-        auto u = [](int i, int n) { return n > 1 ? static_cast<float>(double(i) / double(n - 1)) : 0.5f; };
-        if (!nv::cellOccupied(f.Occupancy->data(), cells, u(x, g.DecodedDims[0]), u(y, g.DecodedDims[1]),
-              u(z, g.DecodedDims[2])))
-          array->SetComponent(k, 0, f.Background);
-      }
-}
-
 /// Error of the network at the source's own samples of a resampled input, values normalised by [lo, hi] as in
 /// training. A non-finite network value counts as an infinite error (the PSNR is then -inf, never a good number).
 static nv::ErrorStats SourceError(
@@ -275,78 +163,6 @@ static nv::ErrorStats SourceError(
     : e.mse > 0.0       ? 10.0 * std::log10(1.0 / e.mse)
                         : std::numeric_limits<double>::infinity();
   return e;
-}
-
-vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& f, int outputMode)
-{
-  if (outputMode == vtkNeuralCompress::OUTPUT_NETWORK_ONLY)
-  {
-    return nullptr;
-  }
-  const OutputGeometry& g = f.Geometry;
-  const int64_t count = int64_t(g.DecodedDims[0]) * g.DecodedDims[1] * g.DecodedDims[2];
-  vtkSmartPointer<vtkDataArray> array;
-  // Decoded in double precision for float64 and 32/64-bit integer inputs, and for a float32 output that float32
-  // cannot hold (it is then float64; the filter warns).
-  const bool wideInput = f.VtkType == VTK_DOUBLE || f.VtkType == VTK_LONG_LONG || f.VtkType == VTK_UNSIGNED_LONG_LONG ||
-    f.VtkType == VTK_LONG || f.VtkType == VTK_UNSIGNED_LONG || f.VtkType == VTK_ID_TYPE || f.VtkType == VTK_INT ||
-    f.VtkType == VTK_UNSIGNED_INT;
-  if ((outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && wideInput) ||
-    (outputMode == vtkNeuralCompress::OUTPUT_FLOAT32 && !Float32Holds(f.Stats.min, f.Stats.max)))
-  {
-    auto d = vtkSmartPointer<vtkDoubleArray>::New();
-    d->SetNumberOfTuples(count);
-    DecodeValues(session, f, d->GetPointer(0));
-    array = d;
-    if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType != VTK_DOUBLE &&
-      vtkDataArray::CreateDataArray(f.VtkType))
-    {
-      vtkSmartPointer<vtkDataArray> typed = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(f.VtkType));
-      typed->SetNumberOfTuples(count);
-      void* out = typed->GetVoidPointer(0);
-      const double* in = d->GetPointer(0);
-      switch (f.VtkType)
-      {
-        vtkTemplateMacro(StoreAs(in, count, static_cast<VTK_TT*>(out)));
-        default:
-          break;
-      }
-      array = typed;
-    }
-  }
-  else
-  {
-    auto values = vtkSmartPointer<vtkFloatArray>::New();
-    values->SetNumberOfTuples(count);
-    DecodeValues(session, f, values->GetPointer(0));
-    array = values;
-    if (outputMode == vtkNeuralCompress::OUTPUT_INPUT_TYPE && f.VtkType != VTK_FLOAT &&
-      vtkDataArray::CreateDataArray(f.VtkType))
-    {
-      // Vectors were trained as one scalar (float); other types keep the input's.
-      vtkSmartPointer<vtkDataArray> typed = vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(f.VtkType));
-      typed->SetNumberOfTuples(count);
-      void* out = typed->GetVoidPointer(0);
-      const float* in = values->GetPointer(0);
-      switch (f.VtkType)
-      {
-        vtkTemplateMacro(StoreAs(in, count, static_cast<VTK_TT*>(out)));
-        default:
-          break;
-      }
-      array = typed;
-    }
-  }
-  if (f.Outside && (array->GetDataType() == VTK_FLOAT || array->GetDataType() == VTK_DOUBLE))
-  {
-    MaskOutside(f, array);
-  }
-  if (f.Occupancy)
-  {
-    SetEmptyCells(f, array);
-  }
-  array->SetName(f.Name.c_str());
-  return array;
 }
 
 Metrics MetricsOf(const nv::Model& model, const std::string& device)
@@ -415,7 +231,24 @@ void Job::Finalize(const RunStatus& status)
     std::lock_guard<std::mutex> lock(this->Mutex);
     mode = this->OutputMode;
   }
-  vtkSmartPointer<vtkDataArray> decoded = DecodeOutput(*this->Session, this->Field, mode);
+  vtkSmartPointer<vtkDataArray> decoded;
+  std::string decodeError;
+  try
+  {
+    // An abort that ended the training asked for the network of the moment, not for no field: only one raised
+    // during the decode stops it.
+    const bool abortedBefore = this->DecodeAbort && this->DecodeAbort();
+    DecodeControl control;
+    control.Abort = [this, abortedBefore]() {
+      return this->Retiring.load() || (!abortedBefore && this->DecodeAbort && this->DecodeAbort());
+    };
+    control.Progress = this->DecodeProgress;
+    decoded = DecodeOutput(*this->Session, this->Field, mode, control);
+  }
+  catch (const std::exception& e)
+  {
+    decodeError = e.what(); // the network stays; the output has no decoded field
+  }
   const nv::VolumeView& view = this->Data->Field.View;
   nv::ErrorStats error;
   if (!view.data)
@@ -476,6 +309,7 @@ void Job::Finalize(const RunStatus& status)
   this->FinalRecord = record;
   this->Decoded = decoded;
   this->DecodedMode = mode;
+  this->DecodeError = decodeError;
 }
 
 void Job::SetFinal(std::shared_ptr<const NetworkRecord> record)

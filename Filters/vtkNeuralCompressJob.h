@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -116,8 +117,6 @@ struct FieldInfo
 /// rounding at that magnitude below 1e-4 of the range); else "Decoded, float32" gives float64.
 bool Float32Holds(double lo, double hi);
 
-/// The decoded output field in the requested type (OutputMode), or null for OUTPUT_NETWORK_ONLY.
-vtkSmartPointer<vtkDataArray> DecodeOutput(nv::NetworkSession& session, const FieldInfo& field, int outputMode);
 
 /// Training of one time step: created by the filter, trained by its run, finalised in the run's thread.
 class Job
@@ -125,7 +124,11 @@ class Job
 public:
   Job() = default;
   /// The run (its thread may be finalising into this job) ends before any member goes.
-  ~Job() { this->Run.reset(); }
+  ~Job()
+  {
+    this->Retiring = true; // a decode at a phase end stops at its next chunk
+    this->Run.reset();
+  }
   Job(const Job&) = delete;
   Job& operator=(const Job&) = delete;
 
@@ -146,6 +149,13 @@ public:
   /// network for warm starts but skips the decode and the measurement, so the GUI thread waits one chunk only.
   std::atomic<bool> Retiring{ false };
   int OutputMode = 0; ///< read by the run's thread at phase ends (set under Mutex)
+  /// The decode at a phase end polls DecodeAbort (besides Retiring) and tells DecodeProgress its fraction done; set
+  /// by the filter before the run starts (a run in the calling thread: the filter's abort flag and progress).
+  std::function<bool()> DecodeAbort;
+  std::function<void(double)> DecodeProgress;
+  /// Why the decode at the last phase end gave no field (memory, abort; the network is kept); the filter reports it
+  /// once. Under Mutex.
+  std::string DecodeError;
 
   /// The network and numbers of the last ended phase (null before).
   std::shared_ptr<const NetworkRecord> Final() const;

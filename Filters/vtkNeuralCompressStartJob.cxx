@@ -6,6 +6,7 @@
 #include "vtkNeuralCompressState.h"
 
 #include "Core/Error.h"
+#include "Core/ResourceEstimate.h"
 #include "Core/Serialization.h"
 
 #include "vtkDataArray.h"
@@ -105,6 +106,17 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     : this->Device == DEVICE_CUDA                    ? nv::Device::Cuda
                                                      : nv::Device::Auto;
   const nv::Device device = nv::resolveDevice(requested, job->DeviceNote.empty() ? &job->DeviceNote : nullptr);
+
+  // Memory: a network or a batch the machine cannot hold is refused before anything is allocated.
+  {
+    const bool uploaded = device == nv::Device::Cuda && this->TrainingStrategy == STRATEGY_GPU_RESIDENT;
+    const nv::MemoryEstimate estimate = nv::trainingMemory(config, train, device, uploaded ? view.bytes() : 0);
+    int64_t freeBytes = -1, totalBytes = 0;
+    if (device != nv::Device::Cuda || !nv::deviceMemoryInfo(freeBytes, totalBytes))
+      freeBytes = -1;
+    nv::checkMemory(estimate, "training this network", "Lower Log2TableSize (or set it to 0 for the automatic size), "
+      "FinestResolution, Levels, FeaturesPerLevel or BatchSize", freeBytes);
+  }
 
   nv::Model model(config);
   nv::SourceInfo& src = model.source;
@@ -261,6 +273,16 @@ void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, in
         : new nvi::PsnrProbe(job.Data->BankXyz, job.Data->BankValues, 65536));
   }
   nvi::Job* jobPtr = &job;
+  if (this->TrainInBackground)
+  {
+    job.DecodeAbort = nullptr; // Retiring stops it (the filter may not be asked from the training thread)
+    job.DecodeProgress = nullptr;
+  }
+  else
+  {
+    job.DecodeAbort = [this]() { return this->GetAbortExecute() != 0; };
+    job.DecodeProgress = [this](double f) { this->UpdateProgress(0.95 + 0.05 * f); };
+  }
   job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, job.Train, limits,
     [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
   job.Run->Extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)

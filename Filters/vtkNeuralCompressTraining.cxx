@@ -11,6 +11,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <sstream>
+#include <string>
 
 namespace vtkNeuralCompressInternals
 {
@@ -119,6 +121,56 @@ TrainingResult Train(nv::NetworkSession& session, const nv::VolumeView& view, co
   result.DeviceMemoryBytes = status.DeviceMemoryBytes;
   result.Log = run.Log();
   return result;
+}
+
+//------------------------------------------------------------------------------
+// TrainingRun: the time budget's cap of the batch (vtkNeuralTrainingRun.h).
+int TrainingRun::BudgetedBatch(double stepSeconds, int batch) const
+{
+  if (stepSeconds <= 0.0 || batch <= 0)
+    return batch;
+  const double share = stepSeconds / this->PhaseBudget;
+  if (!this->Calibrating && share <= 2.0 * kStepShare)
+    return batch;
+  // Seconds per sample of this step: an upper bound for a larger batch (the fixed cost of a step is shared by more
+  // samples), so the cap errs on the safe side.
+  const double perSample = stepSeconds / static_cast<double>(batch);
+  const double fits = std::floor(kStepShare * this->PhaseBudget / perSample);
+  const double floor = std::min(kCalibrationBatch, this->RequestedBatch);
+  return static_cast<int>(std::max(floor, std::min(fits, static_cast<double>(this->RequestedBatch))));
+}
+
+void TrainingRun::ResizeBatch(int batch, double stepSeconds)
+{
+  this->Calibrating = false;
+  const int previous = this->Config.batchSize;
+  std::unique_ptr<nv::Trainer> trainer;
+  if (batch != previous) // else the calibration batch is the one to keep
+  {
+    this->Publish(); // the new trainer starts from the network trained so far
+    this->Trainer.reset();
+    this->Config.batchSize = batch;
+    this->StepSeconds = stepSeconds * static_cast<double>(batch) / static_cast<double>(previous); // until measured
+    trainer = this->CreateTrainer();
+  }
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  if (trainer)
+  {
+    this->Trainer = std::move(trainer);
+    this->ScheduleStart = this->Current.Steps;
+    this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
+  }
+  if (batch < this->RequestedBatch)
+  {
+    std::ostringstream s;
+    s.precision(3);
+    s << "BatchSize " << this->RequestedBatch << " capped to " << batch << " so that one step ("
+      << "measured: " << stepSeconds << " s for " << previous << " samples) stays within "
+      << static_cast<int>(kStepShare * 100.0) << "% of the " << this->PhaseBudget << " s TimeBudget";
+    if (this->Current.Warnings.empty() || this->Current.Warnings.back().compare(0, 9, "BatchSize") != 0)
+      this->Current.Warnings.push_back(s.str());
+  }
+  ++this->Current.Serial;
 }
 
 } // namespace vtkNeuralCompressInternals

@@ -61,6 +61,12 @@ TrainingRun::TrainingRun(std::shared_ptr<nv::NetworkSession> session, std::share
   this->PhaseBudget = limits.TimeBudget;
   this->PhaseTargetPsnr = limits.TargetPsnr;
   this->ScheduleStart = this->Current.Steps;
+  this->RequestedBatch = config.batchSize;
+  if (limits.TimeBudget > 0.0 && !config.deterministic && config.batchSize > kCalibrationBatch)
+  {
+    this->Config.batchSize = kCalibrationBatch; // one step to measure first (BudgetedBatch)
+    this->Calibrating = true;
+  }
 }
 
 TrainingRun::~TrainingRun()
@@ -214,6 +220,22 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
         count = std::min(chunkMax, this->Current.TargetSteps - step + 1);
+        if (this->PhaseBudget > 0.0 && this->StepSeconds > 0.0)
+        {
+          // The budget holds: training goes on until it is spent, but no step starts that would end more than
+          // kBudgetOverrun past it (measured by the last step); a chunk ends within that.
+          const double left = (1.0 + kBudgetOverrun) * this->PhaseBudget - phaseSeconds;
+          if (left < this->StepSeconds)
+          {
+            reason = "time budget";
+            break;
+          }
+          count = std::max<int64_t>(1, std::min<int64_t>(count, static_cast<int64_t>(left / this->StepSeconds)));
+        }
+        if (this->Calibrating)
+        {
+          count = 1;
+        }
         if (this->DataPtr->Probe && this->Limits.PsnrInterval > 0)
         {
           count = std::min<int64_t>(count, this->Limits.PsnrInterval - (step - 1) % this->Limits.PsnrInterval);
@@ -228,6 +250,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
       const auto before = Clock::now();
       this->Trainer->steps(count, losses.data());
       const double took = SecondsSince(before);
+      this->StepSeconds = took / static_cast<double>(count);
       // Diverged: a loss that is not finite, or above kDivergedLoss (the targets are normalised to [0, 1]: such a
       // loss means outputs tens of ranges away, a network blowing up on its way to Inf).
       int64_t bad = -1;
@@ -303,6 +326,16 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
       {
         this->Publish();
         lastPublish = Clock::now();
+      }
+
+      if (this->PhaseBudget > 0.0 && !this->Config.deterministic)
+      {
+        const int batch = this->BudgetedBatch(this->StepSeconds, this->Config.batchSize);
+        if (batch != this->Config.batchSize || this->Calibrating)
+        {
+          this->ResizeBatch(batch, this->StepSeconds);
+          lastPublish = Clock::now();
+        }
       }
 
       if (progress)

@@ -131,6 +131,19 @@ private:
   bool RollBack(int64_t failedStep, double loss);
   /// Phase end: the best probe's network replaces the last one when it was better (Limits.KeepBest).
   void KeepBestNetwork();
+  /// The time budget: a batch larger than kCalibrationBatch first trains one step of kCalibrationBatch samples,
+  /// whose time caps the batch so that one step takes at most kStepShare of the budget (never below
+  /// kCalibrationBatch); a later step above twice that share caps it again. Returns the batch for the next trainer
+  /// (the current one when no cap applies).
+  int BudgetedBatch(double stepSeconds, int batch) const;
+  /// A new trainer of `batch` samples from the published network (fresh optimizer state, the schedule restarts).
+  void ResizeBatch(int batch, double stepSeconds);
+  static constexpr int kCalibrationBatch = 65536;
+  static constexpr double kStepShare = 0.05;
+  static constexpr double kBudgetOverrun = 0.05; ///< a step may end this share of the budget past it, no more
+  int RequestedBatch = 0;      ///< the configured batch (Config.batchSize may be capped below it)
+  bool Calibrating = false;    ///< the trainer runs the calibration batch
+  double StepSeconds = 0.0;    ///< seconds of the last step (0: none yet)
   static constexpr int kMaxRollbacks = 10;
   static constexpr double kDivergedLoss = 1e3; ///< a step loss above this (or not finite) is a divergence
   /// Takes a snapshot of the trainer's network (a host copy of its parameters) when they are all finite: the rollback

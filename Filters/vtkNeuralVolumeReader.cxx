@@ -1,5 +1,6 @@
 #include "vtkNeuralVolumeReader.h"
 
+#include "vtkNeuralCompressDecode.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralVolumeFile.h"
@@ -191,4 +192,9 @@ void vtkNeuralVolumeReader::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n"
      << indent << "OutputMode: " << this->OutputMode << "\n"
      << indent << "Device: " << this->Device << "\n";
+}
+
+int vtkNeuralVolumeReader::GetGpuUsable()
+{
+  return nv::cudaAvailable() ? 1 : 0;
 }

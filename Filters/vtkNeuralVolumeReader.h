@@ -42,6 +42,8 @@ public:
   /// UpdateInformation: the Neural Volume colours a "Network only" output by it.
   const char* GetArrayName();
   int GetArrayAssociation();
+  /// 1 when this process has a GPU the engine can use (the panel hides Device otherwise).
+  int GetGpuUsable();
 
 protected:
   vtkNeuralVolumeReader();

@@ -7,6 +7,7 @@
 #include "Core/NetworkSession.h"
 #include "Core/Render.h"
 #include "Core/RenderSetup.h"
+#include "Core/ResourceEstimate.h"
 
 #include "vtkFieldData.h"
 #include "vtkImageData.h"
@@ -21,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -67,11 +69,66 @@ struct vtkNeuralVolumeMapper::vtkInternals
   bool WorkPending = false;
   std::vector<float> Depth;
 
+  // The decode grid's resolution: the one asked for (DecodeResolution, or the trained dims) clamped to what the machine
+  // holds, decided once per request and network (the clamp does not follow the free memory render by render).
+  int DecodeAsked[3] = { -1, -1, -1 };
+  const void* DecodeSession = nullptr;
+  int DecodeUsed[3] = { 0, 0, 0 };
+
   std::string LastError;
   std::string Reported;
   std::set<int> WarnedBlendModes;
   bool WarnedDepth = false;
 };
+
+namespace
+{
+/// The decode grid for `asked` (0 on an axis: the trained dims, negative: as 0): at most kMaxDecodeResolution per
+/// axis, kMaxDecodeGridSamples and the memory the machine has (host for the CPU renderer, the GPU's free memory for
+/// the CUDA one), its proportions kept. `why` says what clamped it (empty: nothing).
+void ClampDecodeGrid(nv::NetworkSession& session, const int asked[3], int used[3], std::string& why)
+{
+  const nv::SourceInfo& src = session.model().source;
+  const bool own = asked[0] > 0 && asked[1] > 0 && asked[2] > 0;
+  int64_t dims[3], clamped[3];
+  for (int a = 0; a < 3; ++a)
+    dims[a] = std::max<int64_t>(1, own ? asked[a] : src.dims[a]);
+  std::ostringstream s;
+  bool clamp = false;
+  for (int a = 0; a < 3; ++a)
+    if (dims[a] > nv::kMaxDecodeResolution)
+    {
+      dims[a] = nv::kMaxDecodeResolution;
+      clamp = true;
+    }
+  if (clamp)
+    s << "more than " << nv::kMaxDecodeResolution << " samples per axis; ";
+  const bool gpu = session.device() == nv::Device::Cuda;
+  const nv::MemoryEstimate one = nv::decodeGridMemory(dims, session.device());
+  int64_t maxSamples = nv::kMaxDecodeGridSamples;
+  const int64_t samples = dims[0] * dims[1] * dims[2];
+  const double bytesPerSample =
+    static_cast<double>(gpu ? one.deviceBytes : one.hostBytes) / static_cast<double>(std::max<int64_t>(samples, 1));
+  int64_t freeBytes = -1, totalBytes = 0;
+  const int64_t limit = !gpu ? nv::hostMemoryLimit()
+    : nv::deviceMemoryInfo(freeBytes, totalBytes)
+    ? static_cast<int64_t>(static_cast<double>(freeBytes) * nv::kDeviceMemoryShare)
+    : int64_t(-1);
+  if (limit >= 0 && bytesPerSample > 0.0)
+    maxSamples = std::min<int64_t>(maxSamples, static_cast<int64_t>(static_cast<double>(limit) / bytesPerSample));
+  if (nv::clampGrid(dims, maxSamples, clamped))
+  {
+    s << "a grid of " << dims[0] << " x " << dims[1] << " x " << dims[2] << " samples needs about "
+      << nv::formatBytes(gpu ? one.deviceBytes : one.hostBytes) << " of " << (gpu ? "GPU" : "host")
+      << " memory, the limit is " << nv::formatBytes(limit) << " and at most 2^31 samples; ";
+    std::copy(clamped, clamped + 3, dims);
+    clamp = true;
+  }
+  why = s.str();
+  for (int a = 0; a < 3; ++a)
+    used[a] = clamp || own ? static_cast<int>(dims[a]) : 0;
+}
+} // namespace
 
 //------------------------------------------------------------------------------
 vtkNeuralVolumeMapper::vtkNeuralVolumeMapper()
@@ -210,6 +267,11 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       fail(std::string("cannot use the input's network: ") + e.what(), true);
       return;
     }
+    catch (...)
+    {
+      fail("cannot use the input's network", true);
+      return;
+    }
   }
   nv::NetworkSession& session = *in.Session;
 
@@ -305,7 +367,24 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     q.accumulate = true;
     q.streamingSamples = this->StreamingSamples;
     q.emptySpaceSkipping = this->EmptySpaceSkipping;
-    std::copy(this->DecodeResolution, this->DecodeResolution + 3, q.decodeResolution);
+    if (!std::equal(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked) ||
+      in.DecodeSession != &session)
+    {
+      std::string why;
+      ClampDecodeGrid(session, this->DecodeResolution, in.DecodeUsed, why);
+      std::copy(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked);
+      in.DecodeSession = &session;
+      if (!why.empty())
+      {
+        vtkWarningMacro("Neural Volume: DecodeResolution " << this->DecodeResolution[0] << " "
+                                                           << this->DecodeResolution[1] << " "
+                                                           << this->DecodeResolution[2] << ": " << why
+                                                           << "the network is decoded at " << in.DecodeUsed[0]
+                                                           << " x " << in.DecodeUsed[1] << " x " << in.DecodeUsed[2]
+                                                           << " instead.");
+      }
+    }
+    std::copy(in.DecodeUsed, in.DecodeUsed + 3, q.decodeResolution);
     // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
     // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
     q.waitForDecode = !this->ProgressiveRefinement && !interactive;
@@ -398,13 +477,31 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     in.LastError.clear();
     in.Reported.clear();
   }
+  catch (const std::bad_alloc&)
+  {
+    fail("rendering failed: out of memory (lower DecodeResolution or the view's size)", true);
+    return;
+  }
   catch (const std::exception& e)
   {
     fail(std::string("rendering failed: ") + e.what(), true);
     return;
   }
+  catch (...)
+  {
+    // Nothing may leave a render: ParaView would abort and lose the session.
+    fail("rendering failed (unexpected error)", true);
+    return;
+  }
 
-  in.Compositor.Draw(ren);
+  try
+  {
+    in.Compositor.Draw(ren);
+  }
+  catch (...)
+  {
+    fail("drawing the rendered image failed", true);
+  }
 }
 
 //------------------------------------------------------------------------------

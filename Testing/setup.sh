@@ -6,7 +6,8 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${NV_BUILD_DIR:-$root/build}
 
 pkgs=(paraview paraview-dev python3-paraview xvfb xauth libopenmpi-dev libdouble-conversion-dev libglew-dev
-      libopenvdb-dev libboost-iostreams-dev cmake ninja-build g++ make)
+      libopenvdb-dev libboost-iostreams-dev cmake ninja-build g++ make clang libclang-rt-14-dev python3-pip
+      python3-matplotlib)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -17,6 +18,14 @@ if [ ${#missing[@]} -gt 0 ]; then
   [ "$(id -u)" -eq 0 ] || sudo="sudo"
   $sudo apt-get update -q
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${missing[@]}"
+fi
+
+# The run-time-versus-error harness (Testing/Benchmarks/tradeoff.py) compares with ZFP and SZ3: their Python wheels,
+# into the build folder (Debian's Python refuses system-wide pip installs).
+if [ ! -d "$build/pydeps/pysz" ] || [ ! -d "$build/pydeps/zfpy.libs" ]; then
+  mkdir -p "$build"
+  /usr/bin/python3 -m pip install -q --disable-pip-version-check --no-deps --target "$build/pydeps" \
+    pysz==1.1.0 zfpy==1.0.1.post0
 fi
 
 if [ ! -f "$build/build.ninja" ]; then

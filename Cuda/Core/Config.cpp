@@ -80,6 +80,8 @@ void validate(const TrainConfig& c)
   NV_CHECK(c.optimizer.epsilon >= 0.0, "epsilon must be >= 0");
   NV_CHECK(c.optimizer.warmupSteps >= 0, "warm-up steps must be >= 0");
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
+  NV_CHECK(c.importanceGrid == 0 || (c.importanceGrid >= 2 && c.importanceGrid <= 64),
+    "importance grid must be 0 (off) or 2..64 cells per axis, got " + std::to_string(c.importanceGrid));
 }
 
 } // namespace nv

@@ -97,6 +97,10 @@ struct TrainConfig
   /// same GPU and build (slower: one integer atomic per feature). The CPU trainer is deterministic for a seed and
   /// thread count in either mode.
   bool deterministic = false;
+  /// Error-guided sampling (Core/ImportanceGrid.h): cells per axis of the grid of per-cell errors that draws half
+  /// of each batch where the network is worst; 0 = uniform sampling. Volumes only (not banks of points, nor the
+  /// CUDA trainer's host-sampled strategy).
+  int importanceGrid = 0;
 };
 
 /// Throws nv::Error with a readable message when a configuration is out of range.

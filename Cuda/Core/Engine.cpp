@@ -37,7 +37,7 @@ Device resolveDevice(Device requested, std::string* message)
       }
       if (message)
       {
-        *message = "no usable GPU (" + why + "); using the CPU";
+        *message = "no GPU usable (" + why + "): running on the CPU";
       }
       return Device::Cpu;
   }

@@ -248,6 +248,62 @@ int64_t occupancyWords(const int64_t dims[3])
   return (int64_t(m.dims[0]) * m.dims[1] * m.dims[2] + 31) / 32;
 }
 
+int64_t domainWords(const int64_t dims[3])
+{
+  return (dims[0] * dims[1] * dims[2] + 31) / 32;
+}
+
+void validate(const SourceInfo& s)
+{
+  int64_t samples = 1;
+  for (int a = 0; a < 3; ++a)
+  {
+    // Each factor is checked before it multiplies: the product stays below 2^34 * 2^20, far from overflow.
+    if (s.dims[a] < 1 || s.dims[a] > kMaxSourceAxisSamples)
+      NV_THROW("source dimension " + std::to_string(a) + " is " + std::to_string(s.dims[a]) +
+        " samples; a model states 1 to " + std::to_string(kMaxSourceAxisSamples) + " per axis");
+    samples *= s.dims[a];
+    if (samples > kMaxSourceSamples)
+      NV_THROW("source grid of " + std::to_string(s.dims[0]) + " x " + std::to_string(s.dims[1]) + " x " +
+        std::to_string(s.dims[2]) + " samples; a model states at most " + std::to_string(kMaxSourceSamples) +
+        " (2^34) samples");
+  }
+  for (int a = 0; a < 3; ++a)
+  {
+    const std::string axis = std::to_string(a);
+    if (!std::isfinite(s.origin[a]))
+      NV_THROW("source origin " + axis + " is not finite");
+    // An axis of one sample (a flat image) may state any finite non-negative spacing, 0 included.
+    if (!(std::isfinite(s.spacing[a]) && (s.spacing[a] > 0.0 || (s.spacing[a] == 0.0 && s.dims[a] == 1))))
+      NV_THROW("source spacing " + axis + " is " + std::to_string(s.spacing[a]) + "; it must be positive and finite");
+    const double lo = s.bounds[2 * a], hi = s.bounds[2 * a + 1];
+    if (!(std::isfinite(lo) && std::isfinite(hi) && lo <= hi))
+      NV_THROW("source bounds " + std::to_string(lo) + " .. " + std::to_string(hi) + " on axis " + axis +
+        ": they must be finite with min <= max");
+  }
+  if (!(std::isfinite(s.valueMin) && std::isfinite(s.valueMax) && s.valueMax >= s.valueMin))
+    NV_THROW("source value range " + std::to_string(s.valueMin) + " .. " + std::to_string(s.valueMax) +
+      ": it must be finite with min <= max");
+  if (s.association != 0 && s.association != 1)
+    NV_THROW("source association " + std::to_string(s.association) + " (0 = points, 1 = cells)");
+  if (s.rawBytes < 0)
+    NV_THROW("negative source size " + std::to_string(s.rawBytes));
+  if (!s.domain.empty())
+  {
+    if (samples > kMaxDomainSamples)
+      NV_THROW("a domain mask over " + std::to_string(samples) + " samples (at most 2^32 - 1)");
+    if (int64_t(s.domain.size()) != domainWords(s.dims))
+      NV_THROW("domain mask size does not match the source dims");
+  }
+  if (!s.occupancy.empty())
+  {
+    if (!std::isfinite(s.background))
+      NV_THROW("a background that is not finite");
+    if (int64_t(s.occupancy.size()) != occupancyWords(s.dims))
+      NV_THROW("occupancy mask size does not match the macrocells");
+  }
+}
+
 bool inDomain(const SourceInfo& src, const float u[3])
 {
   const int64_t samples = src.dims[0] * src.dims[1] * src.dims[2];

@@ -33,8 +33,25 @@ struct SourceInfo
   double background = 0.0; ///< source units; used with `occupancy`
 };
 
+/// Bounds of a source grid that a model may state (its file's reader refuses larger ones before allocating): at
+/// most 2^20 samples per axis and 2^34 in all (2048^3 is 2^33; 4096^3 is refused). Within them no product of
+/// dims, macrocells or mask bits overflows 64 bits, and a mask's bits stay below 2^34.
+constexpr int64_t kMaxSourceAxisSamples = int64_t(1) << 20;
+constexpr int64_t kMaxSourceSamples = int64_t(1) << 34;
+/// A domain mask (one bit per source sample) covers fewer than 2^32 samples: at most 512 MiB of bits.
+constexpr int64_t kMaxDomainSamples = (int64_t(1) << 32) - 1;
+
 /// Number of 32-bit words of an occupancy mask for a source of `dims` samples (its macrocells).
 int64_t occupancyWords(const int64_t dims[3]);
+/// Number of 32-bit words of a domain mask for a source of `dims` samples.
+int64_t domainWords(const int64_t dims[3]);
+
+/// Throws nv::Error unless `source` is a grid a model may state: every dimension in 1..kMaxSourceAxisSamples and
+/// their product at most kMaxSourceSamples (checked without overflow), finite origin, positive finite spacing,
+/// finite bounds with min <= max per axis, a finite value range with max >= min, association 0 or 1,
+/// non-negative raw bytes, and masks (when present) of the size their dims need (a domain mask over at most
+/// kMaxDomainSamples samples).
+void validate(const SourceInfo& source);
 
 /// Whether the normalised point u (in [0,1]^3) lies in the domain of `src` (always true without a domain mask).
 bool inDomain(const SourceInfo& src, const float u[3]);

@@ -2,6 +2,7 @@
 
 #include "Error.h"
 #include "Macrocells.h"
+#include "ResourceEstimate.h"
 
 #include <cmath>
 #include <cstring>
@@ -34,9 +35,11 @@ public:
 class Reader
 {
 public:
-  Reader(const uint8_t* d, size_t n)
+  /// `label` names the bytes in messages: "model data", or "model header" for a header's own bytes.
+  Reader(const uint8_t* d, size_t n, const char* label = "model data")
     : Data(d)
     , Size(n)
+    , Label(label)
   {
   }
   template <typename T>
@@ -51,7 +54,8 @@ public:
   std::string getString(const char* what)
   {
     const uint32_t n = get<uint32_t>(what);
-    NV_CHECK(n <= 4096, std::string("corrupt model: ") + what + " is " + std::to_string(n) + " bytes long");
+    if (n > 4096)
+      throw Error(std::string("corrupt NeuralVolume model: ") + what + " is " + std::to_string(n) + " bytes long");
     need(n, what);
     std::string s(reinterpret_cast<const char*>(Data + Pos), n);
     Pos += n;
@@ -61,7 +65,7 @@ public:
   {
     if (Size - Pos < n)
     {
-      NV_THROW(std::string("truncated model data: ") + std::to_string(Size) + " bytes end inside '" + what + "'");
+      NV_THROW(std::string("truncated ") + Label + ": " + std::to_string(Size) + " bytes end inside '" + what + "'");
     }
   }
   const uint8_t* here() const { return Data + Pos; }
@@ -71,6 +75,7 @@ public:
 private:
   const uint8_t* Data;
   size_t Size;
+  const char* Label;
   size_t Pos = 0;
 };
 
@@ -140,6 +145,9 @@ uint32_t crc32(const uint8_t* data, size_t size)
 std::vector<uint8_t> serialize(const Model& model)
 {
   checkLittleEndian();
+  validate(model.source); // the reader refuses what this refuses: every written model reads back
+  NV_CHECK(model.source.arrayName.size() <= 4096 && model.stats.device.size() <= 4096,
+    "array and device names of a model are at most 4096 bytes");
   Writer h; // header fields
   const ModelConfig& c = model.config();
   h.put<int32_t>(c.encoding.levels);
@@ -237,7 +245,80 @@ std::vector<uint8_t> serialize(const Model& model)
   return std::move(w.bytes);
 }
 
-Model deserialize(const uint8_t* data, size_t size)
+namespace
+{
+[[noreturn]] void corrupt(const std::string& what)
+{
+  throw Error("corrupt NeuralVolume model: " + what);
+}
+
+/// Runs `check` (a validate() of Model.h or Config.h); its error becomes a corrupt-model error about `part` (when
+/// not null).
+template <typename F>
+void checkField(const char* part, F&& check)
+{
+  try
+  {
+    check();
+  }
+  catch (const Error& e)
+  {
+    corrupt(part ? std::string(part) + ": " + e.what() : std::string(e.what()));
+  }
+}
+
+/// Checks a run-length mask of `samples` bits at the reader's position without allocating: its count against the
+/// bytes present, every run against the bits left. Leaves the reader after the runs; returns their count.
+uint64_t scanRuns(Reader& r, int64_t samples, const char* what)
+{
+  const uint64_t count = r.get<uint64_t>(what);
+  if (count < 1 || count > uint64_t(samples) + 1)
+    corrupt(std::to_string(count) + " runs in the " + what + " of " + std::to_string(samples) + " bits");
+  r.need(size_t(count) * 4, what); // count <= 2^34 + 1: no overflow
+  const uint8_t* p = r.here();
+  int64_t at = 0;
+  for (uint64_t k = 0; k < count; ++k)
+  {
+    uint32_t len;
+    std::memcpy(&len, p + 4 * k, 4);
+    if (int64_t(len) > samples - at)
+      corrupt(std::string("the runs of the ") + what + " exceed its " + std::to_string(samples) + " bits");
+    at += len;
+  }
+  if (at != samples)
+    corrupt(std::string("the runs of the ") + what + " cover " + std::to_string(at) + " of " +
+      std::to_string(samples) + " bits");
+  r.skip(size_t(count) * 4);
+  return count;
+}
+
+/// The bits of a mask whose runs scanRuns() accepted: odd runs are 1-bits.
+std::vector<uint32_t> fillRuns(const uint8_t* runs, uint64_t count, int64_t samples)
+{
+  std::vector<uint32_t> bits(size_t((samples + 31) / 32), 0u);
+  int64_t at = 0;
+  for (uint64_t k = 0; k < count; ++k)
+  {
+    uint32_t len;
+    std::memcpy(&len, runs + 4 * k, 4);
+    int64_t i = at;
+    const int64_t end = at + len;
+    if (k % 2 == 1)
+    {
+      for (; i < end && (i & 31) != 0; ++i)
+        bits[size_t(i >> 5)] |= 1u << (i & 31);
+      for (; i + 32 <= end; i += 32)
+        bits[size_t(i >> 5)] = 0xFFFFFFFFu;
+      for (; i < end; ++i)
+        bits[size_t(i >> 5)] |= 1u << (i & 31);
+    }
+    at = end;
+  }
+  return bits;
+}
+} // namespace
+
+ModelFileInfo inspectModel(const uint8_t* data, size_t size)
 {
   checkLittleEndian();
   NV_CHECK(data != nullptr || size == 0, "null model data");
@@ -245,131 +326,146 @@ Model deserialize(const uint8_t* data, size_t size)
   {
     NV_THROW("not a NeuralVolume model (bad magic; " + std::to_string(size) + " bytes)");
   }
+  ModelFileInfo info;
   Reader r(data, size);
   r.skip(8);
-  const uint32_t version = r.get<uint32_t>("version");
-  if (version != kFormatVersion && version != kFormatVersionDomain && version != kFormatVersionNoMask)
+  info.version = r.get<uint32_t>("version");
+  if (info.version != kFormatVersion && info.version != kFormatVersionDomain && info.version != kFormatVersionNoMask)
   {
-    NV_THROW("unsupported NeuralVolume model version " + std::to_string(version) + " (this build reads version " +
+    NV_THROW("unsupported NeuralVolume model version " + std::to_string(info.version) + " (this build reads versions 1 to " +
       std::to_string(kFormatVersion) + ")");
   }
   const uint32_t headerBytes = r.get<uint32_t>("header size");
-  r.need(headerBytes, "header");
-  if (size >= 4)
+  if (headerBytes > kMaxHeaderBytes)
+    corrupt("a header of " + std::to_string(headerBytes) + " bytes (at most " + std::to_string(kMaxHeaderBytes) + ")");
+  r.need(size_t(headerBytes) + 8 + 4, "header"); // and the parameter count and checksum after it
+  uint32_t stored;
+  std::memcpy(&stored, data + size - 4, 4);
+  if (crc32(data, size - 4) != stored)
   {
-    uint32_t stored;
-    std::memcpy(&stored, data + size - 4, 4);
-    if (size < 4 + r.pos() + headerBytes + 8 || crc32(data, size - 4) != stored)
-    {
-      // Decide between truncation and corruption for a clearer message.
-      NV_THROW("corrupt or truncated NeuralVolume model: checksum mismatch over " + std::to_string(size) + " bytes");
-    }
+    NV_THROW("corrupt or truncated NeuralVolume model: checksum mismatch over " + std::to_string(size) + " bytes");
   }
-  const size_t headerStart = r.pos();
-  ModelConfig c;
-  c.encoding.levels = r.get<int32_t>("levels");
-  c.encoding.featuresPerLevel = r.get<int32_t>("features");
-  c.encoding.log2TableSize = r.get<int32_t>("log2 table size");
-  c.encoding.baseResolution = r.get<int32_t>("base resolution");
-  c.encoding.perLevelScale = r.get<double>("per-level scale");
-  c.encoding.finestResolution = r.get<int32_t>("finest resolution");
-  c.network.width = r.get<int32_t>("width");
-  c.network.hiddenLayers = r.get<int32_t>("hidden layers");
-  const int32_t precision = r.get<int32_t>("precision");
-  NV_CHECK(precision == 0 || precision == 1, "corrupt model: unknown parameter precision " + std::to_string(precision));
-  Model m(c); // validates the configuration
-  SourceInfo& s = m.source;
-  for (int i = 0; i < 3; ++i)
-    s.dims[i] = r.get<int64_t>("dims");
-  for (int i = 0; i < 3; ++i)
-    s.origin[i] = r.get<double>("origin");
-  for (int i = 0; i < 3; ++i)
-    s.spacing[i] = r.get<double>("spacing");
-  for (int i = 0; i < 6; ++i)
-    s.bounds[i] = r.get<double>("bounds");
-  s.valueMin = r.get<double>("value min");
-  s.valueMax = r.get<double>("value max");
-  s.association = r.get<int32_t>("association");
-  s.rawBytes = r.get<int64_t>("raw bytes");
-  s.arrayName = r.getString("array name");
-  TrainingStats& t = m.stats;
-  t.steps = r.get<int64_t>("steps");
-  t.seconds = r.get<double>("seconds");
-  t.finalLoss = r.get<double>("final loss");
-  t.psnr = r.get<double>("psnr");
-  t.maxError = r.get<double>("max error");
-  t.invalidSamples = r.get<int64_t>("invalid samples");
-  t.device = r.getString("device");
-  NV_CHECK(r.pos() - headerStart == headerBytes, "corrupt model: header size mismatch");
-  for (int i = 0; i < 3; ++i)
-    NV_CHECK(s.dims[i] >= 1, "corrupt model: non-positive source dimension");
-  NV_CHECK(std::isfinite(s.valueMin) && std::isfinite(s.valueMax) && s.valueMax >= s.valueMin,
-    "corrupt model: invalid value range");
 
-  const uint64_t n = r.get<uint64_t>("parameter count");
-  NV_CHECK(n == m.paramCount(), "corrupt model: " + std::to_string(n) + " parameters stored, configuration needs " +
-      std::to_string(m.paramCount()));
-  std::vector<float>& p = m.params();
-  if (precision == 1)
+  // The header, read within its own bytes.
+  Reader h(r.here(), headerBytes, "model header");
+  r.skip(headerBytes);
+  ModelConfig& c = info.config;
+  c.encoding.levels = h.get<int32_t>("levels");
+  c.encoding.featuresPerLevel = h.get<int32_t>("features");
+  c.encoding.log2TableSize = h.get<int32_t>("log2 table size");
+  c.encoding.baseResolution = h.get<int32_t>("base resolution");
+  c.encoding.perLevelScale = h.get<double>("per-level scale");
+  c.encoding.finestResolution = h.get<int32_t>("finest resolution");
+  c.network.width = h.get<int32_t>("width");
+  c.network.hiddenLayers = h.get<int32_t>("hidden layers");
+  const int32_t precision = h.get<int32_t>("precision");
+  if (precision != 0 && precision != 1)
+    corrupt("unknown parameter precision " + std::to_string(precision));
+  info.precision = static_cast<Precision>(precision);
+  uint64_t expected = 0;
+  checkField("configuration", [&] { expected = uint64_t(parameterCount(c)); }); // <= 2^31 + 2^17
+  SourceInfo& s = info.source;
+  for (int i = 0; i < 3; ++i)
+    s.dims[i] = h.get<int64_t>("dims");
+  for (int i = 0; i < 3; ++i)
+    s.origin[i] = h.get<double>("origin");
+  for (int i = 0; i < 3; ++i)
+    s.spacing[i] = h.get<double>("spacing");
+  for (int i = 0; i < 6; ++i)
+    s.bounds[i] = h.get<double>("bounds");
+  s.valueMin = h.get<double>("value min");
+  s.valueMax = h.get<double>("value max");
+  s.association = h.get<int32_t>("association");
+  s.rawBytes = h.get<int64_t>("raw bytes");
+  checkField(nullptr, [&] { validate(s); }); // before the strings: dims, geometry, ranges
+  s.arrayName = h.getString("array name");
+  TrainingStats& t = info.stats;
+  t.steps = h.get<int64_t>("steps");
+  t.seconds = h.get<double>("seconds");
+  t.finalLoss = h.get<double>("final loss");
+  t.psnr = h.get<double>("psnr");
+  t.maxError = h.get<double>("max error");
+  t.invalidSamples = h.get<int64_t>("invalid samples");
+  t.device = h.getString("device");
+  if (h.pos() != headerBytes)
+    corrupt("header size mismatch (" + std::to_string(headerBytes) + " bytes stated, " + std::to_string(h.pos()) +
+      " read)");
+  if (t.steps < 0 || t.invalidSamples < 0)
+    corrupt("negative training counts");
+
+  info.parameterCount = r.get<uint64_t>("parameter count");
+  if (info.parameterCount != expected)
+    corrupt(std::to_string(info.parameterCount) + " parameters stored, the configuration needs " +
+      std::to_string(expected));
+  const size_t bytesPer = info.precision == Precision::Float16 ? 2 : 4;
+  r.need(size_t(expected) * bytesPer, "parameters"); // expected <= 2^31 + 2^17: no overflow
+  info.parametersAt = r.pos();
+  r.skip(size_t(expected) * bytesPer);
+  info.hostBytes = expected * 4;
+
+  // Version 2: a domain mask; version 3: flags saying which masks follow.
+  const uint32_t flags = info.version >= 3 ? r.get<uint32_t>("mask flags") : info.version == 2 ? 1u : 0u;
+  if (flags > 3u || (info.version >= 3 && !(flags & 2u)))
+    corrupt("mask flags " + std::to_string(flags) + " in version " + std::to_string(info.version));
+  info.hasDomain = (flags & 1u) != 0;
+  info.hasOccupancy = (flags & 2u) != 0;
+  if (info.hasDomain)
   {
-    r.need(n * 2, "parameters");
+    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2]; // <= 2^34 (validated)
+    if (samples > kMaxDomainSamples)
+      corrupt("a domain mask over " + std::to_string(samples) + " samples (at most 2^32 - 1)");
+    info.domainRunsAt = r.pos() + 8;
+    info.domainRuns = scanRuns(r, samples, "domain mask");
+    info.hostBytes += uint64_t(domainWords(s.dims)) * 4;
+  }
+  if (info.hasOccupancy)
+  {
+    const MacrocellLayout cells = macrocellLayout(s.dims);
+    info.occupancyRunsAt = r.pos() + 8;
+    info.occupancyRuns = scanRuns(r, int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2], "occupancy mask");
+    s.background = r.get<double>("background");
+    if (!std::isfinite(s.background))
+      corrupt("a background that is not finite");
+    info.hostBytes += uint64_t(occupancyWords(s.dims)) * 4;
+  }
+  if (r.pos() + 4 != size)
+    corrupt(std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
+  return info;
+}
+
+Model deserialize(const uint8_t* data, size_t size)
+{
+  const ModelFileInfo info = inspectModel(data, size); // every check; nothing large allocated yet
+  Model m(info.config);
+  NV_CHECK(m.paramCount() == info.parameterCount, "parameter count of the configuration");
+  m.source = info.source;
+  m.stats = info.stats;
+  std::vector<float>& p = m.params();
+  const uint8_t* src = data + info.parametersAt;
+  if (info.precision == Precision::Float16)
+  {
     const float* table = halfTable();
-    const uint8_t* src = r.here();
-    for (uint64_t i = 0; i < n; ++i)
+    for (size_t i = 0; i < p.size(); ++i)
     {
       uint16_t h;
       std::memcpy(&h, src + 2 * i, 2);
       p[i] = table[h];
     }
-    r.skip(n * 2);
     m.setStoragePrecision(Precision::Float16); // the values are fp16 already
   }
-  else
+  else if (!p.empty())
   {
-    r.need(n * 4, "parameters");
-    std::memcpy(p.data(), r.here(), n * 4);
-    r.skip(n * 4);
+    std::memcpy(p.data(), src, p.size() * 4);
   }
-  // Version 2: a domain mask; version 3: flags saying which masks follow.
-  const uint32_t flags = version >= 3 ? r.get<uint32_t>("mask flags") : version == 2 ? 1u : 0u;
-  NV_CHECK(flags <= 3u && (version < 3 || (flags & 2u)), "corrupt model: mask flags " + std::to_string(flags));
-  auto getRuns = [&r](std::vector<uint32_t>& bits, int64_t samples, const char* what) {
-    const uint64_t count = r.get<uint64_t>(what);
-    NV_CHECK(count >= 1 && count <= uint64_t(samples) + 1,
-      std::string("corrupt model: ") + std::to_string(count) + " runs of the " + what);
-    r.need(count * 4, what);
-    bits.assign(size_t((samples + 31) / 32), 0u);
-    int64_t at = 0;
-    for (uint64_t k = 0; k < count; ++k)
-    {
-      const int64_t len = r.get<uint32_t>(what);
-      NV_CHECK(len <= samples - at, std::string("corrupt model: the runs of the ") + what + " exceed its samples");
-      if (k % 2 == 1)
-        for (int64_t i = at; i < at + len; ++i)
-          bits[size_t(i >> 5)] |= 1u << (i & 31);
-      at += len;
-    }
-    NV_CHECK(at == samples, std::string("corrupt model: the runs of the ") + what + " cover " + std::to_string(at) +
-        " of " + std::to_string(samples) + " samples");
-  };
-  if (flags & 1u)
+  SourceInfo& s = m.source;
+  if (info.hasDomain)
+    s.domain = fillRuns(data + info.domainRunsAt, info.domainRuns, s.dims[0] * s.dims[1] * s.dims[2]);
+  if (info.hasOccupancy)
   {
-    const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
-    NV_CHECK(s.dims[0] <= (1 << 20) && s.dims[1] <= (1 << 20) && s.dims[2] <= (1 << 20) && samples < (int64_t(1) << 32),
-      "corrupt model: a domain mask over " + std::to_string(samples) + " samples");
-    getRuns(s.domain, samples, "domain mask");
-  }
-  if (flags & 2u)
-  {
-    NV_CHECK(s.dims[0] <= (1 << 20) && s.dims[1] <= (1 << 20) && s.dims[2] <= (1 << 20),
-      "corrupt model: an occupancy mask over " + std::to_string(s.dims[0]) + " x " + std::to_string(s.dims[1]) + " x " +
-        std::to_string(s.dims[2]) + " samples");
     const MacrocellLayout cells = macrocellLayout(s.dims);
-    getRuns(s.occupancy, int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2], "occupancy mask");
-    s.background = r.get<double>("background");
-    NV_CHECK(std::isfinite(s.background), "corrupt model: a background that is not finite");
+    s.occupancy = fillRuns(
+      data + info.occupancyRunsAt, info.occupancyRuns, int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2]);
   }
-  NV_CHECK(r.pos() + 4 == size, "corrupt model: " + std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
   return m;
 }
 

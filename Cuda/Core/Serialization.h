@@ -7,7 +7,8 @@
 // follows -- u64 run count, u32 run lengths over the macrocells, alternately empty and occupied, then f64 background)],
 // u32 CRC-32 of everything before it. Models without a domain mask are written as version 1 (byte for byte as
 // before), with one only as version 2, with an occupancy mask as version 3; all are read. Reading checks magic,
-// version, sizes, ranges and the checksum.
+// version, the checksum, then every field against the bytes present and the bounds of Model.h (source grids of at
+// most 2^20 samples per axis and 2^34 in all, finite geometry, positive spacing) before it allocates anything.
 #pragma once
 
 #include "Model.h"
@@ -23,8 +24,37 @@ constexpr uint32_t kFormatVersion = 3;     ///< the newest version this build re
 constexpr uint32_t kFormatVersionDomain = 2; ///< written for models with a domain mask only
 constexpr uint32_t kFormatVersionNoMask = 1; ///< written for models without a domain mask
 
+/// What a model's bytes hold, every field checked against the bytes present and the bounds of Model.h (configuration,
+/// source grid: validate(SourceInfo), parameter count, mask runs) without allocating more than the two strings of the
+/// header (at most 4 KiB each). deserialize() inspects first, then allocates exactly `hostBytes`.
+struct ModelFileInfo
+{
+  uint32_t version = 0;
+  ModelConfig config;
+  Precision precision = Precision::Float32;
+  SourceInfo source; ///< without its masks (see hasDomain, hasOccupancy)
+  TrainingStats stats;
+  uint64_t parameterCount = 0;
+  bool hasDomain = false;
+  bool hasOccupancy = false;
+  /// Host bytes of the model deserialize() builds: 4 per parameter (at most twice the file's parameter bytes) and
+  /// the masks' bits (a domain mask at most 512 MiB: kMaxDomainSamples; an occupancy mask at most 2^34 / 8 bits).
+  uint64_t hostBytes = 0;
+  size_t parametersAt = 0;    ///< offset of the stored parameters
+  size_t domainRunsAt = 0;    ///< offset of the domain mask's first run length
+  uint64_t domainRuns = 0;
+  size_t occupancyRunsAt = 0; ///< offset of the occupancy mask's first run length
+  uint64_t occupancyRuns = 0;
+};
+
+/// Bound on the bytes of a serialized header (244 bytes of fixed fields and two strings of at most 4096 bytes each).
+constexpr uint32_t kMaxHeaderBytes = 16384;
+
 std::vector<uint8_t> serialize(const Model& model);
-/// Throws nv::Error with a clear message on truncated, corrupt or wrong-version input.
+/// Throws nv::Error with a clear message on truncated, corrupt, out-of-bounds or wrong-version input.
+ModelFileInfo inspectModel(const uint8_t* data, size_t size);
+/// inspectModel(), then the model. Throws nv::Error with a clear message on truncated, corrupt, out-of-bounds or
+/// wrong-version input, always before allocating the parameters or masks.
 Model deserialize(const uint8_t* data, size_t size);
 inline Model deserialize(const std::vector<uint8_t>& bytes) { return deserialize(bytes.data(), bytes.size()); }
 

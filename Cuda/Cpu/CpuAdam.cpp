@@ -1,6 +1,11 @@
 #include "CpuAdam.h"
 
+#include "CpuGemm.h"
 #include "ThreadPool.h"
+
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
 
 #include <cmath>
 
@@ -14,13 +19,47 @@ CpuAdam::CpuAdam(const OptimizerConfig& config, size_t paramCount)
 {
 }
 
+namespace
+{
+inline gemm::Vec vsqrt(gemm::Vec x)
+{
+#if defined(__AVX512F__)
+  return (gemm::Vec)_mm512_sqrt_ps((__m512)x);
+#elif defined(__AVX__)
+  return (gemm::Vec)_mm256_sqrt_ps((__m256)x);
+#elif defined(__SSE__)
+  return (gemm::Vec)_mm_sqrt_ps((__m128)x);
+#else
+  for (int k = 0; k < gemm::kVW; ++k)
+    x[k] = std::sqrt(x[k]);
+  return x;
+#endif
+}
+} // namespace
+
 void CpuAdam::updateRange(float* p, float* g, float* m, float* v, size_t begin, size_t end, float lr, float beta1,
   float beta2, float eps, double bc1, double bc2)
 {
   const float stepSize = static_cast<float>(lr / bc1);
   const float invSqrtBc2 = static_cast<float>(1.0 / std::sqrt(bc2));
   const float a1 = 1.0f - beta1, a2 = 1.0f - beta2;
-  for (size_t i = begin; i < end; ++i)
+  // Vectors (the same operations per element: IEEE square root and division), then the remainder.
+  using gemm::Vec;
+  using gemm::kVW;
+  const Vec b1v = gemm::splat(beta1), b2v = gemm::splat(beta2), a1v = gemm::splat(a1), a2v = gemm::splat(a2);
+  const Vec sv = gemm::splat(stepSize), cv = gemm::splat(invSqrtBc2), ev = gemm::splat(eps);
+  size_t i = begin;
+  for (; i + kVW <= end; i += kVW)
+  {
+    const Vec gi = gemm::load(g + i);
+    gemm::store(g + i, Vec{});
+    const Vec mi = b1v * gemm::load(m + i) + a1v * gi;
+    const Vec vi = b2v * gemm::load(v + i) + a2v * gi * gi;
+    gemm::store(m + i, mi);
+    gemm::store(v + i, vi);
+    gemm::store(p + i, gemm::load(p + i) - sv * mi / (vsqrt(vi) * cv + ev));
+  }
+  for (; i < end; ++i)
   {
     const float gi = g[i];
     g[i] = 0.0f;

@@ -2,6 +2,8 @@
 
 #include "Core/Model.h"
 
+#include "CpuGemm.h"
+
 #include <algorithm>
 #include <cstring>
 
@@ -10,187 +12,65 @@ namespace nv
 namespace
 {
 
-// out[t][:] = act(sum_i in[t][i] * WT[i][:]) for a layer of W outputs.
-template <int W>
-void layerForward(const float* in, int inDim, int n, const float* WT, float* out)
-{
-  for (int t = 0; t < n; ++t)
-  {
-    float acc[W] = {};
-    const float* x = in + static_cast<size_t>(t) * inDim;
-    for (int i = 0; i < inDim; ++i)
-    {
-      const float a = x[i];
-      if (a == 0.0f)
-      {
-        continue;
-      }
-      const float* w = WT + static_cast<size_t>(i) * W;
-      for (int o = 0; o < W; ++o)
-      {
-        acc[o] += a * w[o];
-      }
-    }
-    float* y = out + static_cast<size_t>(t) * W;
-    for (int o = 0; o < W; ++o)
-    {
-      y[o] = acc[o] > 0.0f ? acc[o] : 0.0f;
-    }
-  }
-}
+using gemm::Epilogue;
+using gemm::Operands;
+using gemm::Vec;
+using gemm::kVW;
 
-// dW[o][i] += sum_t dZ[t][o] * X[t][i]; blocks of 16 inputs stay in registers across the samples.
-template <int W>
-void weightGrad(const float* dZ, const float* X, int inDim, int n, float* dW)
+// out[t] = sum_i h[t][i] * w[i]: partial sums per vector lane, then the lanes in order.
+void outputLayer(const float* h, int W, int n, const float* w, float* out)
 {
-  for (int o = 0; o < W; ++o)
-  {
-    float* row = dW + static_cast<size_t>(o) * inDim;
-    int ib = 0;
-    for (; ib + 16 <= inDim; ib += 16)
-    {
-      float acc[16];
-      for (int k = 0; k < 16; ++k)
-        acc[k] = row[ib + k];
-      for (int t = 0; t < n; ++t)
-      {
-        const float z = dZ[static_cast<size_t>(t) * W + o];
-        if (z == 0.0f)
-          continue;
-        const float* x = X + static_cast<size_t>(t) * inDim + ib;
-        for (int k = 0; k < 16; ++k)
-          acc[k] += z * x[k];
-      }
-      for (int k = 0; k < 16; ++k)
-        row[ib + k] = acc[k];
-    }
-    for (; ib < inDim; ++ib)
-    {
-      float acc = row[ib];
-      for (int t = 0; t < n; ++t)
-        acc += dZ[static_cast<size_t>(t) * W + o] * X[static_cast<size_t>(t) * inDim + ib];
-      row[ib] = acc;
-    }
-  }
-}
-
-// dX[t][:] = sum_o dZ[t][o] * Wl[o][:]   (Wl row-major [W][inDim]); mask by (mask[t][:] > 0) if mask.
-template <int W>
-void inputGrad(const float* dZ, const float* Wl, int inDim, int n, const float* mask, float* dX)
-{
-  if (inDim == W)
+  if (W % kVW != 0)
   {
     for (int t = 0; t < n; ++t)
     {
-      float acc[W] = {};
-      const float* z = dZ + static_cast<size_t>(t) * W;
-      for (int o = 0; o < W; ++o)
-      {
-        const float zo = z[o];
-        if (zo == 0.0f)
-          continue;
-        const float* w = Wl + static_cast<size_t>(o) * W;
-        for (int i = 0; i < W; ++i)
-          acc[i] += zo * w[i];
-      }
-      float* d = dX + static_cast<size_t>(t) * W;
-      if (mask)
-      {
-        const float* m = mask + static_cast<size_t>(t) * W;
-        for (int i = 0; i < W; ++i)
-          d[i] = m[i] > 0.0f ? acc[i] : 0.0f;
-      }
-      else
-      {
-        for (int i = 0; i < W; ++i)
-          d[i] = acc[i];
-      }
+      float acc = 0.0f;
+      for (int i = 0; i < W; ++i)
+        acc += h[static_cast<size_t>(t) * W + i] * w[i];
+      out[t] = acc;
     }
     return;
   }
   for (int t = 0; t < n; ++t)
   {
-    float* d = dX + static_cast<size_t>(t) * inDim;
-    std::fill(d, d + inDim, 0.0f);
-    const float* z = dZ + static_cast<size_t>(t) * W;
-    for (int o = 0; o < W; ++o)
-    {
-      const float zo = z[o];
-      if (zo == 0.0f)
-        continue;
-      const float* w = Wl + static_cast<size_t>(o) * inDim;
-      for (int i = 0; i < inDim; ++i)
-        d[i] += zo * w[i];
-    }
-    if (mask)
-    {
-      const float* m = mask + static_cast<size_t>(t) * inDim;
-      for (int i = 0; i < inDim; ++i)
-        d[i] = m[i] > 0.0f ? d[i] : 0.0f;
-    }
-  }
-}
-
-template <int W>
-void forwardT(const CpuMlp& m, const float* WT, const float* in, int n, float* acts, float* out)
-{
-  const size_t actStride = static_cast<size_t>(n) * W;
-  for (int l = 0; l < m.hidden(); ++l)
-  {
-    const float* x = l == 0 ? in : acts + (l - 1) * actStride;
-    layerForward<W>(x, m.layerIn(l), n, WT + (m.layerOffset(l) - m.layerOffset(0)), acts + l * actStride);
-  }
-  const float* wOut = WT + (m.layerOffset(m.hidden()) - m.layerOffset(0)); // [W][1] == [1][W]
-  const float* h = acts + (m.hidden() - 1) * actStride;
-  for (int t = 0; t < n; ++t)
-  {
-    float acc = 0.0f;
     const float* x = h + static_cast<size_t>(t) * W;
-    for (int i = 0; i < W; ++i)
-      acc += x[i] * wOut[i];
-    out[t] = acc;
+    Vec acc = gemm::load(x) * gemm::load(w);
+    for (int i = kVW; i < W; i += kVW)
+      acc += gemm::load(x + i) * gemm::load(w + i);
+    float sum = acc[0];
+    for (int k = 1; k < kVW; ++k)
+      sum += acc[k];
+    out[t] = sum;
   }
 }
 
-template <int W>
-void backwardT(const CpuMlp& m, const float* Wts, const float* in, const float* acts, const float* dOut, int n,
-  float* dW, float* dIn, float* scratch)
+// Output layer backward: gOut[o] += sum_t g[t] h[t][o] (in t order); dZ[t][o] = h[t][o] > 0 ? g[t] w[o] : 0.
+void outputBackward(const float* h, int W, int n, const float* g, const float* w, float* gOut, float* dZ)
 {
-  const size_t actStride = static_cast<size_t>(n) * W;
-  const size_t base = m.layerOffset(0);
-  const int H = m.hidden();
-  float* dZ = scratch;
-  float* dZNext = scratch + actStride;
-  // Output layer (linear, 1 output).
-  const float* wOut = Wts + (m.layerOffset(H) - base);
-  float* gOut = dW + (m.layerOffset(H) - base);
-  const float* hLast = acts + (H - 1) * actStride;
-  for (int t = 0; t < n; ++t)
+  int o = 0;
+  for (; o + kVW <= W; o += kVW)
   {
-    const float g = dOut[t];
-    const float* h = hLast + static_cast<size_t>(t) * W;
-    float* z = dZ + static_cast<size_t>(t) * W;
-    for (int o = 0; o < W; ++o)
+    Vec acc = gemm::load(gOut + o);
+    const Vec wv = gemm::load(w + o);
+    for (int t = 0; t < n; ++t)
     {
-      gOut[o] += g * h[o];
-      z[o] = h[o] > 0.0f ? g * wOut[o] : 0.0f;
+      const Vec hv = gemm::load(h + static_cast<size_t>(t) * W + o);
+      const Vec gv = gemm::splat(g[t]);
+      acc += gv * hv;
+      gemm::store(dZ + static_cast<size_t>(t) * W + o, hv > Vec{} ? gv * wv : Vec{});
     }
+    gemm::store(gOut + o, acc);
   }
-  for (int l = H - 1; l >= 0; --l)
+  for (; o < W; ++o)
   {
-    const int inDim = m.layerIn(l);
-    const float* X = l == 0 ? in : acts + (l - 1) * actStride;
-    const float* Wl = Wts + (m.layerOffset(l) - base);
-    weightGrad<W>(dZ, X, inDim, n, dW + (m.layerOffset(l) - base));
-    if (l > 0)
+    float acc = gOut[o];
+    for (int t = 0; t < n; ++t)
     {
-      inputGrad<W>(dZ, Wl, inDim, n, X, dZNext);
-      std::swap(dZ, dZNext);
+      const float hv = h[static_cast<size_t>(t) * W + o];
+      acc += g[t] * hv;
+      dZ[static_cast<size_t>(t) * W + o] = hv > 0.0f ? g[t] * w[o] : 0.0f;
     }
-    else if (dIn)
-    {
-      inputGrad<W>(dZ, Wl, inDim, n, nullptr, dIn);
-    }
+    gOut[o] = acc;
   }
 }
 
@@ -236,32 +116,74 @@ void CpuMlp::transpose(const float* W, float* WT) const
 
 void CpuMlp::forward(const float* WT, const float* in, int n, float* acts, float* out) const
 {
-  switch (Width)
+  const size_t actStride = static_cast<size_t>(n) * Width;
+  const size_t base = layerOffset(0);
+  for (int l = 0; l < Hidden; ++l)
   {
-    case 16:
-      return forwardT<16>(*this, WT, in, n, acts, out);
-    case 32:
-      return forwardT<32>(*this, WT, in, n, acts, out);
-    case 64:
-      return forwardT<64>(*this, WT, in, n, acts, out);
-    default:
-      return forwardT<128>(*this, WT, in, n, acts, out);
+    const int inDim = layerIn(l);
+    Operands o{};
+    o.a = l == 0 ? in : acts + (l - 1) * actStride;
+    o.ars = inDim;
+    o.aks = 1;
+    o.b = WT + (layerOffset(l) - base); // [in][out]
+    o.ldb = Width;
+    o.c = acts + l * actStride;
+    o.ldc = Width;
+    o.K = inDim;
+    gemm::multiply<Epilogue::Relu>(o, n, Width);
   }
+  // The output layer's [1][W] block is also its transpose.
+  outputLayer(acts + (Hidden - 1) * actStride, Width, n, WT + (layerOffset(Hidden) - base), out);
 }
 
 void CpuMlp::backward(const float* W, const float* in, const float* acts, const float* dOut, int n, float* dW,
   float* dIn, float* scratch) const
 {
-  switch (Width)
+  const size_t actStride = static_cast<size_t>(n) * Width;
+  const size_t base = layerOffset(0);
+  float* dZ = scratch;
+  float* dZNext = scratch + actStride;
+  outputBackward(acts + (Hidden - 1) * actStride, Width, n, dOut, W + (layerOffset(Hidden) - base),
+    dW + (layerOffset(Hidden) - base), dZ);
+  for (int l = Hidden - 1; l >= 0; --l)
   {
-    case 16:
-      return backwardT<16>(*this, W, in, acts, dOut, n, dW, dIn, scratch);
-    case 32:
-      return backwardT<32>(*this, W, in, acts, dOut, n, dW, dIn, scratch);
-    case 64:
-      return backwardT<64>(*this, W, in, acts, dOut, n, dW, dIn, scratch);
-    default:
-      return backwardT<128>(*this, W, in, acts, dOut, n, dW, dIn, scratch);
+    const int inDim = layerIn(l);
+    const float* X = l == 0 ? in : acts + (l - 1) * actStride;
+    // dW_l[o][i] += sum_t dZ[t][o] X[t][i]
+    Operands g{};
+    g.a = dZ;
+    g.ars = 1;
+    g.aks = Width;
+    g.b = X;
+    g.ldb = inDim;
+    g.c = dW + (layerOffset(l) - base);
+    g.ldc = inDim;
+    g.K = n;
+    gemm::multiply<Epilogue::Accumulate>(g, Width, inDim);
+    if (l == 0 && !dIn)
+    {
+      break;
+    }
+    // dX[t][i] = sum_o dZ[t][o] W_l[o][i], masked by the ReLU of the layer below (its output X > 0).
+    Operands d{};
+    d.a = dZ;
+    d.ars = Width;
+    d.aks = 1;
+    d.b = W + (layerOffset(l) - base);
+    d.ldb = inDim;
+    d.c = l > 0 ? dZNext : dIn;
+    d.ldc = inDim;
+    d.mask = X;
+    d.K = Width;
+    if (l > 0)
+    {
+      gemm::multiply<Epilogue::Mask>(d, n, inDim);
+      std::swap(dZ, dZNext);
+    }
+    else
+    {
+      gemm::multiply<Epilogue::Store>(d, n, inDim);
+    }
   }
 }
 

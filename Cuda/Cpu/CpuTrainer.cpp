@@ -3,6 +3,7 @@
 #include "Core/Error.h"
 #include "CpuHashGrid.h"
 #include "CpuSampler.h"
+#include "HugePages.h"
 
 #include <algorithm>
 #include <cmath>
@@ -28,12 +29,16 @@ CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const Train
   NV_CHECK(Publish != nullptr, "a trainer needs the session it publishes to");
   validate(config);
   NV_CHECK(Params.size() == model.encodingParamCount() + Mlp.paramCount(), "model parameter count mismatch");
+  adviseHugePages(Params); // the hash table and its gradient are read and written at random
+  adviseHugePages(Grad);
   const size_t B = static_cast<size_t>(config.batchSize);
   Xyz.resize(3 * B);
   Targets.resize(B);
   Valid.resize(B);
   DEnc.resize(B * Config.encoding.outputDims());
   Work.resize(Pool.size());
+  if (points.count == 0)
+    Importance.reset(config.importanceGrid, Pool.size());
   const int W = Config.network.width;
   for (Scratch& s : Work)
   {
@@ -57,7 +62,7 @@ void CpuTrainer::publish()
   Publish(Params);
 }
 
-float CpuTrainer::forwardBackward(int64_t n, int64_t nValid)
+float CpuTrainer::forwardBackward(int64_t n, int64_t nValid, bool measure)
 {
   const float* table = Params.data();
   const float* W = Params.data() + Layout.totalEntries * static_cast<size_t>(Layout.features);
@@ -85,6 +90,8 @@ float CpuTrainer::forwardBackward(int64_t n, int64_t nValid)
           continue;
         }
         const float diff = s.out[k] - Targets[i];
+        if (measure)
+          Importance.add(w, &Xyz[3 * i], std::fabs(diff));
         if (l1)
         {
           s.loss += std::fabs(diff);
@@ -153,7 +160,7 @@ float CpuTrainer::step()
     }
     for (int64_t i = b; i < e; ++i)
     {
-      randomPoint(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(i), &Xyz[3 * i]);
+      Importance.point(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(i), &Xyz[3 * i]);
     }
     counts[w] = sampleTargets(Volume, Xyz.data() + 3 * b, e - b, Targets.data() + b, Valid.data() + b);
   });
@@ -165,8 +172,10 @@ float CpuTrainer::step()
   {
     return 0.0f; // nothing valid to learn from in this batch
   }
-  const float loss = forwardBackward(B, nValid);
+  const float loss = forwardBackward(B, nValid, Importance.enabled());
   Adam.update(Params.data(), Grad.data(), s, Pool);
+  if (Importance.enabled() && s % kImportanceInterval == 0)
+    Importance.refresh(); // the errors of the last kImportanceInterval batches; used from step s + 1
   return loss;
 }
 

@@ -3,6 +3,7 @@
 
 #include "Core/Engine.h"
 #include "CpuAdam.h"
+#include "CpuImportance.h"
 #include "CpuMlp.h"
 #include "Core/TrainingPoints.h"
 #include "ThreadPool.h"
@@ -37,7 +38,7 @@ public:
     std::vector<float>& grad);
 
 private:
-  float forwardBackward(int64_t n, int64_t nValid);
+  float forwardBackward(int64_t n, int64_t nValid, bool measure = false);
 
   static constexpr int kTile = 64;
   ModelConfig Config;
@@ -61,6 +62,7 @@ private:
   };
   std::vector<Scratch> Work;
   CpuAdam Adam;
+  CpuImportance Importance; ///< error-guided sampling (TrainConfig::importanceGrid; volumes only)
   PublishFn Publish;
   int64_t Steps = 0;
 };

@@ -8,7 +8,7 @@ namespace nv
 bool cudaBackendUsable(std::string* why)
 {
   if (why)
-    *why = "this build of NeuralVolume has no CUDA support (no CUDA compiler at build time)";
+    *why = "this build has no CUDA support";
   return false;
 }
 

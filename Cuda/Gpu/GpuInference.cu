@@ -66,8 +66,11 @@ const Usable& usable()
     cudaError_t e = cudaGetDeviceCount(&count);
     if (e != cudaSuccess)
     {
-      if (e == cudaErrorInsufficientDriver || e == cudaErrorNoDevice)
-        u.why = "no NVIDIA GPU driver for CUDA 13 found (" + std::string(cudaGetErrorString(e)) + ")";
+      // No driver or no device is the ordinary machine without a GPU: a plain reason, not a CUDA error text.
+      if (e == cudaErrorNoDevice)
+        u.why = "no NVIDIA GPU found";
+      else if (e == cudaErrorInsufficientDriver)
+        u.why = "no NVIDIA GPU with a driver for CUDA " + std::to_string(CUDART_VERSION / 1000) + " found";
       else
         u.why = std::string("CUDA runtime reports ") + cudaGetErrorString(e);
       cudaGetLastError();
@@ -75,7 +78,7 @@ const Usable& usable()
     }
     if (count == 0)
     {
-      u.why = "no CUDA device found";
+      u.why = "no NVIDIA GPU found";
       return;
     }
     cudaDeviceProp p;

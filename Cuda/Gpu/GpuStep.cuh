@@ -5,6 +5,7 @@
 
 #include "Core/TrainingPoints.h"
 #include "Cpu/CpuSampler.h"
+#include "GpuImportance.cuh"
 #include "GpuNetwork.cuh"
 
 namespace nv
@@ -49,16 +50,28 @@ __device__ __forceinline__ void addValid(int local, Counters* counters)
     atomicAdd(&counters->nValid, local);
 }
 
+/// Targets of step `step` at randomPoint's uniform points, or (imp.cdf set) at the importance draw's points, whose
+/// positions then go to imp.xyz for the training kernel.
 template <typename T>
 __global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, double lo, double inv,
-  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters)
+  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters, ImportanceDraw imp)
 {
   const int64_t dims[3] = { d0, d1, d2 };
   int local = 0;
   for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
   {
     float x[3];
-    randomPoint(seed, step, static_cast<uint64_t>(i), x);
+    if (imp.cdf)
+    {
+      importancePoint(imp.cdf, imp.cells, imp.invCells, seed, step, static_cast<uint64_t>(i), x);
+      imp.xyz[3 * i] = x[0];
+      imp.xyz[3 * i + 1] = x[1];
+      imp.xyz[3 * i + 2] = x[2];
+    }
+    else
+    {
+      randomPoint(seed, step, static_cast<uint64_t>(i), x);
+    }
     auto get = [&](int64_t k) { return static_cast<float>((static_cast<double>(vol[k]) - lo) * inv); };
     float t = 0.0f;
     const bool ok = sampleTrilinear(get, dims, 0.0f, 1.0f, x, t);

@@ -162,6 +162,15 @@ public:
     {
       Vol.allocate(static_cast<size_t>(volume.bytes()), "source volume");
       NV_CUDA(cudaMemcpyAsync(Vol.get(), volume.data, Vol.bytes(), cudaMemcpyHostToDevice, St.get()));
+      if (config.importanceGrid > 0)
+      {
+        // Error-guided sampling (GpuImportance.cuh): sampleKernel writes the positions; the probes read the fp16
+        // table, refreshed before each (the register-resident kernel does not keep it).
+        Imp.allocate(config.importanceGrid, B, St.get());
+        Xyz.allocate(size_t(3 * B), "training batch positions");
+        if (Dm.table16.size() == 0)
+          Dm.table16.allocate(NEnc, "fp16 hash table (importance probes)");
+      }
       St.sync();
     }
     else
@@ -225,8 +234,10 @@ public:
           NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
           Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
         }
-        launchTrain(Points.count > 0 ? Xyz.get() : nullptr, B, s);
+        launchTrain(Points.count > 0 || Imp.enabled() ? Xyz.get() : nullptr, B, s);
         launchAdam(s);
+        if (Imp.enabled() && s % kImportanceInterval == 0)
+          launchImportance();
       }
       forSlots(s0, m, [&](Counters* d, Counters* h, size_t k) {
         NV_CUDA(cudaMemcpyAsync(h, d, k * sizeof(Counters), cudaMemcpyDeviceToHost, st));
@@ -265,7 +276,7 @@ public:
   {
     return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
       Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes() +
-      GFix.bytes() + MFix.bytes());
+      GFix.bytes() + MFix.bytes() + Imp.bytes());
   }
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
@@ -357,12 +368,13 @@ private:
     const int blocks = gridFor(B);
     const int64_t* d = Volume.dims;
     cudaStream_t st = St.get();
+    const ImportanceDraw draw{ Imp.enabled() ? Imp.cdf.get() : nullptr, Imp.cells, Imp.invCells, Xyz.get() };
     switch (Volume.type)
     {
 #define NV_SAMPLE(E, T)                                                                            \
   case ScalarType::E:                                                                              \
     sampleKernel<T><<<blocks, 256, 0, st>>>(reinterpret_cast<const T*>(Vol.get()), d[0], d[1], d[2],           \
-      Volume.valueMin, inv, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s));      \
+      Volume.valueMin, inv, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s), draw);\
     break;
       NV_SAMPLE(Int8, int8_t)
       NV_SAMPLE(UInt8, uint8_t)
@@ -376,6 +388,22 @@ private:
       NV_SAMPLE(Float64, double)
 #undef NV_SAMPLE
     }
+    NV_CUDA_LAUNCH();
+  }
+
+  /// Importance grid: the network (after this step's update) at the step's points, per-cell errors, new CDF.
+  void launchImportance()
+  {
+    const int64_t B = Train.batchSize;
+    cudaStream_t st = St.get();
+    if (Reg.warps > 0)
+      packParams(P.get(), Dm, st); // the fp16 table the forward kernel reads
+    launchForward(Dm, Xyz.get(), 0, 0, 0, 0, 0, B, Imp.out.get(), st);
+    importanceMeasureKernel<<<gridFor(B), 256, 0, st>>>(Xyz.get(), Imp.out.get(), Targets.get(), B, Imp.cells,
+      Imp.sums.get(), Imp.counts.get());
+    NV_CUDA_LAUNCH();
+    importanceRefreshKernel<<<1, kRefreshThreads, 0, st>>>(Imp.weights.get(), Imp.sums.get(), Imp.counts.get(),
+      Imp.cdf.get(), static_cast<int>(Imp.weights.size()));
     NV_CUDA_LAUNCH();
   }
 
@@ -545,7 +573,8 @@ private:
     const int64_t work = std::max<int64_t>(n / 4, q.count);
     const int blocks = static_cast<int>(
       std::max<int64_t>(1, std::min<int64_t>((work + 255) / 256, int64_t(deviceInfo().sms) * 8)));
-    adamKernel<<<blocks, 256, 0, St.get()>>>(P.get(), G.get(), MV.get(), Dm.table16.get(), n, q, a, slot(s));
+    __half* p16 = Reg.warps > 0 ? nullptr : Dm.table16.get(); // importance probes refresh their own copy
+    adamKernel<<<blocks, 256, 0, St.get()>>>(P.get(), G.get(), MV.get(), p16, n, q, a, slot(s));
     NV_CUDA_LAUNCH();
   }
 
@@ -579,6 +608,7 @@ private:
   DeviceBuffer<Fixed> GFix, MFix; ///< deterministic mode only (GpuFixedPoint.cuh)
   DeviceBuffer<unsigned char> Vol;
   DeviceBuffer<Counters> Cnt;
+  GpuImportanceGrid Imp; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
   PinnedBuffer<Counters> HCnt;
   PinnedBuffer<float> HTargets[2];
   int HCounts[2] = { 0, 0 };

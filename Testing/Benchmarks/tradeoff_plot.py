@@ -46,7 +46,9 @@ def _ratio_panel(ax, rows):
                     last[r["setting"]] = r
             rs = list(last.values())
             label += ", %s steps" % "/".join(sorted({r["steps"] for r in rs}, key=float))
-        pts = sorted((_f(r["ratio"]), _f(r["psnr"])) for r in rs)
+        # Neural: by table size (ratio); compressors: by their setting's accuracy (PSNR), so a line joins neighbours.
+        key = (lambda p: p[0]) if method.startswith("neural") else (lambda p: -p[1])
+        pts = sorted(((_f(r["ratio"]), _f(r["psnr"])) for r in rs), key=key)
         pts = [p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1])]
         if pts:
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=marker, color=color, label=label, ms=4)
@@ -54,6 +56,7 @@ def _ratio_panel(ax, rows):
     ax.set_xlabel("compression ratio (source bytes / stored bytes)")
     ax.set_ylabel("PSNR (dB)")
     ax.axvline(8.0, color="0.7", ls=":", lw=1)
+    ax.set_ylim(top=min(ax.get_ylim()[1], 75.0))
     ax.grid(alpha=0.3)
 
 
@@ -77,6 +80,7 @@ def _time_panel(ax, rows):
                        label=label + " (compress time)")
     ax.set_xscale("log")
     ax.set_xlabel("compression / training time (s)")
+    ax.set_ylim(top=min(ax.get_ylim()[1], 75.0))
     ax.set_ylabel("PSNR (dB)")
     ax.grid(alpha=0.3)
 

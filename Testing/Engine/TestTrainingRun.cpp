@@ -332,7 +332,8 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   EXPECT_TRUE(st.Steps == 300);
   EXPECT_TRUE(!st.Warnings.empty() && st.Warnings.front().find("rolled back") != std::string::npos);
   bool finite = true;
-  for (float p : s->currentModel().params())
+  const Model current = s->currentModel(); // held: a range-for over a temporary's member reads freed memory
+  for (float p : current.params())
     finite = finite && std::isfinite(p);
   EXPECT_TRUE(finite);
   for (const vi::LogRow& r : run.Log())

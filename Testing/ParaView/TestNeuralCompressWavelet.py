@@ -29,7 +29,7 @@ vmin, vmax = original.min(), original.max()
 # --- defaults of the proxy (the README documents them) -------------------------------------
 probe = NeuralCompress(Input=wavelet)
 defaults = dict(TrainingSteps=2000, TimeBudget=60.0, BatchSize=65536, LearningRate=0.01, Seed=1,
-                TargetCompressionRatio=0.0, Levels=16, FeaturesPerLevel=4, Log2TableSize=0,
+                TargetCompressionRatio=0.0, Levels=16, FeaturesPerLevel=4, Log2TableSize="Automatic",
                 BaseResolution=16, FinestResolution=0, NetworkWidth=64, HiddenLayers=4,
                 Loss="L1", LearningRateSchedule="Step decay (x0.8 / 1000 steps)",
                 StoragePrecision="Float16", Device="Auto", Threads=0, PSNRInterval=100,

@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Run time against error on the device machine (issue 12). Binaries in .devcarry/bin (nvBench, optionally .xz),
+# volumes in .devcarry/data/<name>/*.nhdr (as ../shared/data; a .raw.xz is unpacked), the PyTorch reference scripts in
+# .devcarry/ref, zfpy/pysz unpacked wheels in .devcarry/py. Usage: run_tradeoff_gpu.sh SECTION...
+#   schedule  learning-rate schedules, L1 and L2, PSNR every 50 steps (collapses)
+#   sweep     tradeoff.py neural sweep on the GPU (all volumes, 2^12..2^20, 250..8000 steps)
+#   cpu       tradeoff.py neural sweep of the CPU engine (all volumes, 2^14 and 2^18, 250 and 500 steps, 12 threads)
+#   compress  tradeoff.py ZFP and SZ3 sweep (when zfpy and pysz import)
+#   torch     the paper's method in PyTorch, 4000 steps (tradeoff.py torch)
+#   pair      the engine (GPU) and the PyTorch reference side by side, 2^14 (all) and 2^18 (stent, walnut)
+#   importance error-guided sampling on and off, 3 seeds, 2^19 (binary nvBenchImp)
+#   spread    six seeds at 2^16 on a 256^3 volume and on stent, 4000 steps
+# Results go to $OUT (or ./tradeoff-out).
+set -u
+B=.devcarry/bin
+D=.devcarry/data
+O=${OUT:-tradeoff-out}
+mkdir -p "$O"
+for f in $B/*.xz; do [ -e "$f" ] && xz -d -f "$f" && chmod +x "${f%.xz}"; done
+for f in $D/*/*.raw.xz; do [ -e "$f" ] && xz -d -f -T0 "$f"; done
+export PYTHONPATH=$PWD/.devcarry/py${PYTHONPATH:+:$PYTHONPATH}
+VOLS=$(ls $D/{nucleon,neghip,bucky,ironprot,walnut,stent,headsq}/*.nhdr 2>/dev/null)
+T="python3 Testing/Benchmarks/tradeoff.py"
+for s in "$@"; do
+  case $s in
+    schedule)
+      nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
+      marks=$(seq -s, 50 50 4000)
+      for v in $D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr; do
+        for cfg in "l2 16" "l2 19" "l1 19"; do set -- $cfg
+          for variant in "base" "warm200 --warmup=200" "eps1e-10 --eps=1e-10" "fast --warmup=200 --decay-interval=500 --decay-factor=0.7" "lr3e-3 --warmup=200 --lr=3e-3"; do
+            name=${variant%% *}; opts=${variant#$name}
+            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
+            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
+          done
+        done
+      done > "$O/schedule.log" 2>&1 ;;
+    schedule2)
+      # Adam's second-moment decay and epsilon against the periodic collapses the schedule section showed.
+      marks=$(seq -s, 50 50 3000)
+      for run in "$D/neghip/*.nhdr l1 19" "$D/neghip/*.nhdr l2 16" "$D/headsq/*.nhdr l2 16" "$D/headsq/*.nhdr l1 19" \
+                 "$D/synth/smooth48_float.nhdr l2 16" "$D/synth/smooth48_float.nhdr l1 19" "$D/stent/*.nhdr l1 16"; do
+        set -- $run
+        for variant in "base" "b2_0.999 --beta2=0.999" "eps1e-8 --eps=1e-8" "eps1e-6 --eps=1e-6" \
+                       "b2_0.999_fast --beta2=0.999 --decay-interval=500 --decay-factor=0.7" \
+                       "eps1e-8_fast --eps=1e-8 --decay-interval=500 --decay-factor=0.7"; do
+          name=${variant%% *}; opts=${variant#$name}
+          echo "VARIANT $name loss $2 log2T $3 $(basename $1)"
+          $B/nvBench tradeoff cuda $1 $3 $marks --loss=$2 $opts
+        done
+      done > "$O/schedule2.log" 2>&1 ;;
+    sweep)
+      $T neural --device cuda --nvbench $B/nvBench --out "$O/sweep" --volumes $VOLS 2>&1 | tail -5 ;;
+    cpu)
+      $T neural --device cpu --nvbench $B/nvBench --out "$O/cpu" --volumes $VOLS --cpu-tables 14,18 \
+        --cpu-steps 250,500 --threads 12 2>&1 | tail -5 ;;
+    compress)
+      $T compressors --out "$O/compress" --volumes $VOLS 2>&1 | tail -5 ;;
+    torch)
+      $T torch --torch .devcarry/ref --out "$O/torch" --volumes $VOLS --torch-tables 14 --torch-steps 4000 2>&1 | tail -3
+      $T torch --torch .devcarry/ref --out "$O/torch" --volumes $D/stent/*.nhdr $D/walnut/*.nhdr --torch-tables 18 \
+        --torch-steps 4000 2>&1 | tail -3 ;;
+    pair)
+      # The engine and the PyTorch reference side by side in one run: same volumes, tables and step marks.
+      $T neural --device cuda --nvbench $B/nvBench --out "$O/pair" --volumes $VOLS --tables 14 \
+        --steps 250,500,1000,2000,4000 2>&1 | tail -2
+      $T neural --device cuda --nvbench $B/nvBench --out "$O/pair" --volumes $D/stent/*.nhdr $D/walnut/*.nhdr \
+        --tables 18 --steps 250,500,1000,2000,4000 2>&1 | tail -2
+      timeout 420 $T torch --torch .devcarry/ref --out "$O/pair" --volumes $VOLS --torch-tables 14 --torch-steps 4000 2>&1 | tail -3
+      timeout 100 $T torch --torch .devcarry/ref --out "$O/pair" --volumes $D/stent/*.nhdr $D/walnut/*.nhdr --torch-tables 18 \
+        --torch-steps 4000 2>&1 | tail -3 ;;
+    importance)
+      # Error-guided sampling (TrainConfig::importanceGrid, 16^3 cells) against uniform sampling, three seeds, 2^19.
+      for v in $VOLS; do for seed in 1 2 3; do for imp in 0 16; do
+        $B/nvBenchImp tradeoff cuda $v 19 1000,2000,4000 --seed=$seed --importance=$imp | sed "s/^RESULT/imp=$imp RESULT/"
+      done; done; done > "$O/importance.log" 2>&1 ;;
+    spread)
+      for v in $D/stent256/*.nhdr $D/stent/*.nhdr; do for seed in 1 2 3 4 5 6; do
+        $B/nvBench tradeoff cuda $v 16 1000,4000 --seed=$seed; done; done 2>&1 | tee "$O/spread.log" ;;
+  esac
+done

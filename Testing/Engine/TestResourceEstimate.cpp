@@ -1,0 +1,99 @@
+// Memory estimates made before allocating (Core/ResourceEstimate.h): exact parameter counts against a constructed
+// model, the batch and table terms, saturation instead of overflow, the refusal message and the grid clamp.
+#include "TestHarness.h"
+
+#include "Core/Model.h"
+#include "Core/ResourceEstimate.h"
+
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+
+namespace
+{
+nv::ModelConfig smallConfig()
+{
+  nv::ModelConfig c;
+  c.encoding.levels = 8;
+  c.encoding.featuresPerLevel = 2;
+  c.encoding.log2TableSize = 14;
+  c.encoding.finestResolution = 256;
+  c.network.width = 32;
+  c.network.hiddenLayers = 2;
+  return c;
+}
+} // namespace
+
+NV_TEST(ParameterCountMatchesTheModel)
+{
+  const nv::ModelConfig c = smallConfig();
+  EXPECT_TRUE(nv::parameterCount(c) == static_cast<int64_t>(nv::Model(c).paramCount()));
+  nv::ModelConfig d = c;
+  d.encoding.levels = 16;
+  d.encoding.featuresPerLevel = 4;
+  d.network.width = 64;
+  d.network.hiddenLayers = 4;
+  EXPECT_TRUE(nv::parameterCount(d) == static_cast<int64_t>(nv::Model(d).paramCount()));
+}
+
+NV_TEST(TrainingEstimateHasTheTableAndTheBatch)
+{
+  const nv::ModelConfig c = smallConfig();
+  nv::TrainConfig t;
+  t.batchSize = 1 << 20;
+  const int64_t params = nv::parameterCount(c);
+  const nv::MemoryEstimate e = nv::trainingMemory(c, t, nv::Device::Cpu);
+  // 40 bytes per parameter, 17 + 4 D bytes per sample (D = 16 encoding outputs).
+  EXPECT_TRUE(e.hostBytes == params * 40 + (int64_t(1) << 20) * (17 + 4 * 16));
+  EXPECT_TRUE(e.deviceBytes == 0);
+  const nv::MemoryEstimate g = nv::trainingMemory(c, t, nv::Device::Cuda, 1000);
+  EXPECT_TRUE(g.deviceBytes > params * 16 + 1000);
+  // The case: a 2^24 table on 16 levels to a finest resolution of 4096 holds ~595 M parameters, ~24 GB.
+  nv::ModelConfig big;
+  big.encoding.log2TableSize = 24;
+  big.encoding.finestResolution = 4096;
+  const nv::MemoryEstimate b = nv::trainingMemory(big, nv::TrainConfig(), nv::Device::Cpu);
+  EXPECT_NEAR_REL(static_cast<double>(b.hostBytes), 23.8e9, 0.02, 0.0);
+}
+
+NV_TEST(SaturationInsteadOfOverflow)
+{
+  const int64_t max = std::numeric_limits<int64_t>::max();
+  EXPECT_TRUE(nv::saturatingMul(int64_t(1) << 40, int64_t(1) << 40) == max);
+  EXPECT_TRUE(nv::saturatingMul(-5, 7) == 0);
+  EXPECT_TRUE(nv::saturatingAdd(max, 1) == max);
+  const int64_t dims[3] = { 2147483647, 2147483647, 2147483647 };
+  EXPECT_TRUE(nv::decodeGridMemory(dims, nv::Device::Cpu).hostBytes == max);
+}
+
+NV_TEST(RefusalNamesEstimateAndLimit)
+{
+  nv::MemoryEstimate e;
+  e.hostBytes = 9400000000;
+  e.detail = "a table";
+  EXPECT_THROW_MSG(nv::checkMemory(e, "training this network", "Lower it", -1, 1000000000),
+    "training this network needs about 9.4 GB of host memory (a table); the limit is 1 GB. Lower it.");
+  nv::checkMemory(e, "training", "Lower it", -1, 9400000000); // at the limit: accepted
+  e.hostBytes = 0;
+  e.deviceBytes = 2000;
+  EXPECT_THROW_MSG(nv::checkMemory(e, "a grid", "Lower it", 1000, 1), "of GPU memory");
+  EXPECT_TRUE(nv::physicalMemoryBytes() > 0);
+  EXPECT_TRUE(nv::hostMemoryLimit() < nv::physicalMemoryBytes());
+}
+
+NV_TEST(GridClampKeepsProportions)
+{
+  int64_t out[3];
+  const int64_t fits[3] = { 100, 200, 300 };
+  EXPECT_TRUE(!nv::clampGrid(fits, 6000000, out) && out[0] == 100 && out[1] == 200 && out[2] == 300);
+  const int64_t big[3] = { 4096, 4096, 4096 };
+  EXPECT_TRUE(nv::clampGrid(big, int64_t(1) << 31, out));
+  EXPECT_TRUE(out[0] == 1290 && out[1] == 1290 && out[2] == 1290);
+  const int64_t flat[3] = { 2048, 2048, 1024 };
+  EXPECT_TRUE(nv::clampGrid(flat, int64_t(1) << 31, out));
+  EXPECT_TRUE(out[0] * out[1] * out[2] <= (int64_t(1) << 31) && std::llabs(out[0] - 2 * out[2]) <= 2 && out[0] == out[1] && out[0] >= 1600);
+  const int64_t line[3] = { 8192, 1, 1 };
+  EXPECT_TRUE(nv::clampGrid(line, 100, out) && out[0] == 100 && out[1] == 1 && out[2] == 1);
+}
+
+NV_TEST_MAIN()
