@@ -152,6 +152,18 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
         src.domain[i >> 5] |= 1u << (i & 31);
   }
 
+  // The geometry the network will carry is checked now (as the network format does), not after training.
+  try
+  {
+    nv::validate(model.source);
+  }
+  catch (const nv::Error& e)
+  {
+    throw nv::Error(std::string("the input's geometry cannot be stored with a network: ") + e.what() +
+      ". Flip an image with negative spacing first (e.g. Filters > Transform with a negative scale and "
+      "Resample With Dataset)");
+  }
+
   // Warm start: the network of the nearest time step trained before, when its layout is the same.
   bool warm = false;
   if (this->WarmStart)

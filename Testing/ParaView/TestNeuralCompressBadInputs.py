@@ -118,6 +118,14 @@ check("ERROR" not in text, "2D image: no error (%r)" % text)
 check(out.GetDimensions() == (32, 32, 1), "2D image: output dims %r" % (out.GetDimensions(),))
 Delete(filt)
 
+# --- negative spacing: refused before training, with the way out -----------------------------------
+neg = image_source(np.sin(np.linspace(0, 6, 16 ** 3)).astype(np.float32))
+neg.GetClientSideObject().GetOutputDataObject(0).SetSpacing(-0.5, 0.5, 0.5)
+filt, out, table, text = run(neg)
+expect_empty("negative spacing", out, table, text, "cannot be stored with a network")
+check("negative spacing" in text, "negative spacing: the message says how to flip the image (%r)" % text)
+Delete(filt)
+
 # --- a single voxel ------------------------------------------------------------------------
 filt, out, table, text = run(image_source(np.array([7.0], dtype=np.float32), dims=(1, 1, 1)))
 check(out.GetNumberOfPoints() == 1 and vtk_to_numpy(out.GetPointData().GetArray("f"))[0] == 7.0,
