@@ -79,6 +79,7 @@ void validate(const TrainConfig& c)
   NV_CHECK(c.optimizer.beta2 >= 0.0 && c.optimizer.beta2 < 1.0, "beta2 must be in [0,1)");
   NV_CHECK(c.optimizer.epsilon >= 0.0, "epsilon must be >= 0");
   NV_CHECK(c.optimizer.warmupSteps >= 0, "warm-up steps must be >= 0");
+  NV_CHECK(c.optimizer.plateauWindow >= 0, "the plateau window must be >= 0 steps");
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
   NV_CHECK(c.importanceGrid == 0 || (c.importanceGrid >= 2 && c.importanceGrid <= 64),
     "importance grid must be 0 (off) or 2..64 cells per axis, got " + std::to_string(c.importanceGrid));

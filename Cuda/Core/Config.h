@@ -56,6 +56,9 @@ struct OptimizerConfig
   /// Linear warm-up: the rate grows from learningRate / warmupSteps to learningRate over the first warmupSteps
   /// steps (0: none).
   int warmupSteps = 0;
+  /// Loss-driven decay (PlateauSchedule.h): windows of this many steps; a window whose mean loss is not 1% below
+  /// the best window's halves the rate, down to 1/64 (0: off).
+  int plateauWindow = 0;
 
   /// Learning rate used by (1-based) step `step`.
   double learningRateAt(int64_t step) const;

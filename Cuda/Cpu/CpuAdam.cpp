@@ -71,11 +71,11 @@ void CpuAdam::updateRange(float* p, float* g, float* m, float* v, size_t begin, 
   }
 }
 
-void CpuAdam::update(float* params, float* grad, int64_t step, ThreadPool& pool)
+void CpuAdam::update(float* params, float* grad, int64_t step, ThreadPool& pool, double rateScale)
 {
   const double bc1 = 1.0 - std::pow(Config.beta1, static_cast<double>(step));
   const double bc2 = 1.0 - std::pow(Config.beta2, static_cast<double>(step));
-  const float lr = static_cast<float>(Config.learningRateAt(step));
+  const float lr = static_cast<float>(Config.learningRateAt(step) * rateScale);
   float* m = M.data();
   float* v = V.data();
   const float b1 = static_cast<float>(Config.beta1), b2 = static_cast<float>(Config.beta2);

@@ -16,8 +16,9 @@ class CpuAdam
 public:
   CpuAdam(const OptimizerConfig& config, size_t paramCount);
 
-  /// One update of params[0..n) with grad (zeroed afterwards); `step` is 1-based.
-  void update(float* params, float* grad, int64_t step, ThreadPool& pool);
+  /// One update of params[0..n) with grad (zeroed afterwards); `step` is 1-based; the schedule's rate times
+  /// rateScale (PlateauSchedule).
+  void update(float* params, float* grad, int64_t step, ThreadPool& pool, double rateScale = 1.0);
 
   /// The arithmetic of one element, shared with the tests' closed form.
   static void updateRange(float* p, float* g, float* m, float* v, size_t begin, size_t end, float lr, float beta1,

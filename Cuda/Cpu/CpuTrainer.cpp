@@ -24,6 +24,7 @@ CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const Train
   , Grad(model.paramCount(), 0.0f)
   , WT(Mlp.paramCount())
   , Adam(config.optimizer, model.paramCount())
+  , Plateau(config.optimizer)
   , Publish(std::move(publish))
 {
   NV_CHECK(Publish != nullptr, "a trainer needs the session it publishes to");
@@ -173,7 +174,8 @@ float CpuTrainer::step()
     return 0.0f; // nothing valid to learn from in this batch
   }
   const float loss = forwardBackward(B, nValid, Importance.enabled());
-  Adam.update(Params.data(), Grad.data(), s, Pool);
+  Adam.update(Params.data(), Grad.data(), s, Pool, Plateau.scale());
+  Plateau.observe(loss);
   if (Importance.enabled() && s % kImportanceInterval == 0)
     Importance.refresh(); // the errors of the last kImportanceInterval batches; used from step s + 1
   return loss;

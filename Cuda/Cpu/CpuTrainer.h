@@ -2,6 +2,7 @@
 #pragma once
 
 #include "Core/Engine.h"
+#include "Core/PlateauSchedule.h"
 #include "CpuAdam.h"
 #include "CpuImportance.h"
 #include "CpuMlp.h"
@@ -27,7 +28,10 @@ public:
 
   float step() override;
   int64_t stepsDone() const override { return Steps; }
-  double currentLearningRate() const override { return Train.optimizer.learningRateAt(Steps + 1); }
+  double currentLearningRate() const override
+  {
+    return Train.optimizer.learningRateAt(Steps + 1) * Plateau.scale();
+  }
   void syncTo(Model& model) const override;
   void publish() override;
   Device device() const override { return Device::Cpu; }
@@ -62,6 +66,7 @@ private:
   };
   std::vector<Scratch> Work;
   CpuAdam Adam;
+  PlateauSchedule Plateau;
   CpuImportance Importance; ///< error-guided sampling (TrainConfig::importanceGrid; volumes only)
   PublishFn Publish;
   int64_t Steps = 0;

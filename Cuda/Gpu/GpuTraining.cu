@@ -6,6 +6,7 @@
 // Deterministic mode sums the gradients in fixed point (GpuFixedPoint.cuh), so a seed gives the same bits every run.
 // Trainer::steps queues many steps with one read-back of their losses.
 #include "Core/Config.h"
+#include "Core/PlateauSchedule.h"
 #include "Cpu/CpuSampler.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
@@ -246,8 +247,10 @@ public:
       for (int64_t s = s0; s < s0 + m; ++s)
       {
         const Counters& c = HCnt.get()[s % kSlots];
+        const float loss = c.nValid > 0 ? static_cast<float>(c.lossSum / c.nValid) : 0.0f;
         if (losses)
-          losses[done + (s - s0)] = c.nValid > 0 ? static_cast<float>(c.lossSum / c.nValid) : 0.0f;
+          losses[done + (s - s0)] = loss;
+        Plateau.observe(loss); // the rate of the next queue of steps (queued steps share their queue's rate)
       }
       Steps += m;
       done += m;
@@ -255,7 +258,10 @@ public:
   }
 
   int64_t stepsDone() const override { return Steps; }
-  double currentLearningRate() const override { return Train.optimizer.learningRateAt(Steps + 1); }
+  double currentLearningRate() const override
+  {
+    return Train.optimizer.learningRateAt(Steps + 1) * Plateau.scale();
+  }
   Device device() const override { return Device::Cuda; }
 
   void syncTo(Model& model) const override
@@ -441,7 +447,7 @@ private:
     const OptimizerConfig& o = Train.optimizer;
     const double bc1 = 1.0 - std::pow(o.beta1, static_cast<double>(s));
     const double bc2 = 1.0 - std::pow(o.beta2, static_cast<double>(s));
-    const double lr = static_cast<float>(o.learningRateAt(s));
+    const double lr = static_cast<float>(o.learningRateAt(s) * Plateau.scale());
     AdamArgs a;
     a.b1 = static_cast<float>(o.beta1);
     a.b2 = static_cast<float>(o.beta2);
@@ -608,6 +614,7 @@ private:
   DeviceBuffer<Fixed> GFix, MFix; ///< deterministic mode only (GpuFixedPoint.cuh)
   DeviceBuffer<unsigned char> Vol;
   DeviceBuffer<Counters> Cnt;
+  PlateauSchedule Plateau{ Train.optimizer }; ///< loss-driven decay (OptimizerConfig::plateauWindow)
   GpuImportanceGrid Imp; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
   PinnedBuffer<Counters> HCnt;
   PinnedBuffer<float> HTargets[2];

@@ -1,7 +1,7 @@
 // nvBench tradeoff: run time against error for one volume and table size (Testing/Benchmarks/tradeoff.py).
 //   nvBench tradeoff DEVICE file.nhdr LOG2T STEPS[,..] [--batch=N] [--seed=N] [--threads=N] [--loss=l1|l2]
 //                    [--lr=X] [--decay=step|none] [--decay-interval=N] [--decay-factor=X] [--warmup=N] [--eps=X]
-//                    [--beta2=X]
+//                    [--beta2=X] [--plateau=STEPS]
 //                    [--importance=CELLS] [--dump=DIR]
 // Trains the method's network (16x4 levels, finest 2x the largest dimension, 64x4 MLP, the filter's defaults) and, at
 // each step count, stores it as Neural Compress does (fp16), decodes the full grid and prints one line
@@ -76,6 +76,8 @@ int tradeoffBenchmark(int argc, char** argv)
       tc.optimizer.stepDecay = v != "none";
     else if (option(a, "warmup", v))
       tc.optimizer.warmupSteps = std::atoi(v.c_str());
+    else if (option(a, "plateau", v))
+      tc.optimizer.plateauWindow = std::atoi(v.c_str());
     else if (option(a, "beta2", v))
       tc.optimizer.beta2 = std::atof(v.c_str());
     else if (option(a, "eps", v))

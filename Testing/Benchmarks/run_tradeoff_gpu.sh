@@ -9,6 +9,7 @@
 #   torch     the paper's method in PyTorch, 4000 steps (tradeoff.py torch)
 #   pair      the engine (GPU) and the PyTorch reference side by side, 2^14 (all) and 2^18 (stent, walnut)
 #   importance error-guided sampling on and off, 3 seeds, 2^19 (binary nvBenchImp)
+#   plateau   the loss-driven decay against the default schedule (collapses; every volume at 2^14/2^18)
 #   spread    six seeds at 2^16 on a 256^3 volume and on stent, 4000 steps
 # Results go to $OUT (or ./tradeoff-out).
 set -u
@@ -49,6 +50,23 @@ for s in "$@"; do
           $B/nvBench tradeoff cuda $1 $3 $marks --loss=$2 $opts
         done
       done > "$O/schedule2.log" 2>&1 ;;
+    plateau)
+      # The loss-driven decay (OptimizerConfig::plateauWindow) against the default schedule, PSNR every 100 steps,
+      # then every volume at 2^14 and 2^18.
+      marks=$(seq -s, 100 100 4000)
+      for v in $D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr; do
+        for cfg in "l2 16" "l2 19" "l1 19"; do set -- $cfg
+          for variant in "base" "plateau100 --plateau=100" "plateau50 --plateau=50"; do
+            name=${variant%% *}; opts=${variant#$name}
+            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
+            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
+          done
+        done
+      done > "$O/plateau.log" 2>&1
+      for v in $VOLS; do for t in 14 18; do for p in 0 100; do
+        echo "VARIANT plateau$p loss l1 log2T $t $(basename $v)"
+        $B/nvBench tradeoff cuda $v $t 1000,2000,4000 --plateau=$p
+      done; done; done > "$O/plateau_volumes.log" 2>&1 ;;
     sweep)
       $T neural --device cuda --nvbench $B/nvBench --out "$O/sweep" --volumes $VOLS 2>&1 | tail -5 ;;
     cpu)
