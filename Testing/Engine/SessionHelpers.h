@@ -11,6 +11,32 @@
 namespace nvtest
 {
 
+/// A float32 n^3 volume over v with its own value range.
+inline nv::VolumeView cubeView(const std::vector<float>& v, int n)
+{
+  nv::VolumeView vol;
+  vol.data = v.data();
+  vol.type = nv::ScalarType::Float32;
+  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
+  const nv::VolumeStats s = nv::computeStats(vol);
+  vol.valueMin = s.min;
+  vol.valueMax = s.max;
+  return vol;
+}
+
+/// A small network for fast CPU tests: 8 levels x 2 features, finest 64, MLP 32 x 2.
+inline nv::ModelConfig smallModelConfig(int log2TableSize)
+{
+  nv::ModelConfig c;
+  c.encoding.levels = 8;
+  c.encoding.featuresPerLevel = 2;
+  c.encoding.log2TableSize = log2TableSize;
+  c.encoding.finestResolution = 64;
+  c.network.width = 32;
+  c.network.hiddenLayers = 2;
+  return c;
+}
+
 /// Kernel variants of every session the helpers create (GPU tests set them from command-line flags).
 inline nv::KernelOptions& kernelOptions()
 {

@@ -36,26 +36,12 @@ std::vector<float> analyticVolume(int n, double offset = 0.0)
 
 VolumeView view(const std::vector<float>& v, int n)
 {
-  VolumeView vol;
-  vol.data = v.data();
-  vol.type = ScalarType::Float32;
-  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
-  const VolumeStats s = computeStats(vol);
-  vol.valueMin = s.min;
-  vol.valueMax = s.max;
-  return vol;
+  return nvtest::cubeView(v, n);
 }
 
 ModelConfig smallConfig()
 {
-  ModelConfig c;
-  c.encoding.levels = 8;
-  c.encoding.featuresPerLevel = 2;
-  c.encoding.log2TableSize = 14;
-  c.encoding.finestResolution = 64;
-  c.network.width = 32;
-  c.network.hiddenLayers = 2;
-  return c;
+  return nvtest::smallModelConfig(14);
 }
 
 Model train(const VolumeView& vol, int steps, int threads, uint64_t seed, std::vector<float>* losses = nullptr)
