@@ -81,55 +81,6 @@ struct vtkNeuralVolumeMapper::vtkInternals
   bool WarnedDepth = false;
 };
 
-namespace
-{
-/// The decode grid for `asked` (0 on an axis: the trained dims, negative: as 0): at most kMaxDecodeResolution per
-/// axis, kMaxDecodeGridSamples and the memory the machine has (host for the CPU renderer, the GPU's free memory for
-/// the CUDA one), its proportions kept. `why` says what clamped it (empty: nothing).
-void ClampDecodeGrid(nv::NetworkSession& session, const int asked[3], int used[3], std::string& why)
-{
-  const nv::SourceInfo& src = session.model().source;
-  const bool own = asked[0] > 0 && asked[1] > 0 && asked[2] > 0;
-  int64_t dims[3], clamped[3];
-  for (int a = 0; a < 3; ++a)
-    dims[a] = std::max<int64_t>(1, own ? asked[a] : src.dims[a]);
-  std::ostringstream s;
-  bool clamp = false;
-  for (int a = 0; a < 3; ++a)
-    if (dims[a] > nv::kMaxDecodeResolution)
-    {
-      dims[a] = nv::kMaxDecodeResolution;
-      clamp = true;
-    }
-  if (clamp)
-    s << "more than " << nv::kMaxDecodeResolution << " samples per axis; ";
-  const bool gpu = session.device() == nv::Device::Cuda;
-  const nv::MemoryEstimate one = nv::decodeGridMemory(dims, session.device());
-  int64_t maxSamples = nv::kMaxDecodeGridSamples;
-  const int64_t samples = dims[0] * dims[1] * dims[2];
-  const double bytesPerSample =
-    static_cast<double>(gpu ? one.deviceBytes : one.hostBytes) / static_cast<double>(std::max<int64_t>(samples, 1));
-  int64_t freeBytes = -1, totalBytes = 0;
-  const int64_t limit = !gpu ? nv::hostMemoryLimit()
-    : nv::deviceMemoryInfo(freeBytes, totalBytes)
-    ? static_cast<int64_t>(static_cast<double>(freeBytes) * nv::kDeviceMemoryShare)
-    : int64_t(-1);
-  if (limit >= 0 && bytesPerSample > 0.0)
-    maxSamples = std::min<int64_t>(maxSamples, static_cast<int64_t>(static_cast<double>(limit) / bytesPerSample));
-  if (nv::clampGrid(dims, maxSamples, clamped))
-  {
-    s << "a grid of " << dims[0] << " x " << dims[1] << " x " << dims[2] << " samples needs about "
-      << nv::formatBytes(gpu ? one.deviceBytes : one.hostBytes) << " of " << (gpu ? "GPU" : "host")
-      << " memory, the limit is " << nv::formatBytes(limit) << " and at most 2^31 samples; ";
-    std::copy(clamped, clamped + 3, dims);
-    clamp = true;
-  }
-  why = s.str();
-  for (int a = 0; a < 3; ++a)
-    used[a] = clamp || own ? static_cast<int>(dims[a]) : 0;
-}
-} // namespace
-
 //------------------------------------------------------------------------------
 vtkNeuralVolumeMapper::vtkNeuralVolumeMapper()
   : StreamingSamples(nv::kDefaultStreamingSamples)
@@ -370,8 +321,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     if (!std::equal(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked) ||
       in.DecodeSession != &session)
     {
-      std::string why;
-      ClampDecodeGrid(session, this->DecodeResolution, in.DecodeUsed, why);
+      const std::string why =
+        nv::fitDecodeGrid(session.model().source, session.device(), this->DecodeResolution, in.DecodeUsed);
       std::copy(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked);
       in.DecodeSession = &session;
       if (!why.empty())

@@ -219,4 +219,45 @@ bool clampGrid(const int64_t dims[3], int64_t maxSamples, int64_t out[3])
   return true;
 }
 
+std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[3], int used[3])
+{
+  const bool own = asked[0] > 0 && asked[1] > 0 && asked[2] > 0;
+  int64_t dims[3], clamped[3];
+  for (int a = 0; a < 3; ++a)
+    dims[a] = std::max<int64_t>(1, own ? asked[a] : src.dims[a]);
+  std::ostringstream s;
+  bool clamp = false;
+  for (int a = 0; a < 3; ++a)
+    if (dims[a] > kMaxDecodeResolution)
+    {
+      dims[a] = kMaxDecodeResolution;
+      clamp = true;
+    }
+  if (clamp)
+    s << "more than " << kMaxDecodeResolution << " samples per axis; ";
+  const bool gpu = device == Device::Cuda;
+  const MemoryEstimate one = decodeGridMemory(dims, device);
+  int64_t maxSamples = kMaxDecodeGridSamples;
+  const int64_t samples = dims[0] * dims[1] * dims[2];
+  const double bytesPerSample =
+    static_cast<double>(gpu ? one.deviceBytes : one.hostBytes) / static_cast<double>(std::max<int64_t>(samples, 1));
+  int64_t freeBytes = -1, totalBytes = 0;
+  const int64_t limit = !gpu ? hostMemoryLimit()
+    : deviceMemoryInfo(freeBytes, totalBytes) ? static_cast<int64_t>(static_cast<double>(freeBytes) * kDeviceMemoryShare)
+                                              : int64_t(-1);
+  if (limit >= 0 && bytesPerSample > 0.0)
+    maxSamples = std::min<int64_t>(maxSamples, static_cast<int64_t>(static_cast<double>(limit) / bytesPerSample));
+  if (clampGrid(dims, maxSamples, clamped))
+  {
+    s << "a grid of " << dims[0] << " x " << dims[1] << " x " << dims[2] << " samples needs about "
+      << formatBytes(gpu ? one.deviceBytes : one.hostBytes) << " of " << (gpu ? "GPU" : "host")
+      << " memory, the limit is " << formatBytes(limit) << " and at most 2^31 samples; ";
+    std::copy(clamped, clamped + 3, dims);
+    clamp = true;
+  }
+  for (int a = 0; a < 3; ++a)
+    used[a] = clamp || own ? static_cast<int>(dims[a]) : 0;
+  return s.str();
+}
+
 } // namespace nv

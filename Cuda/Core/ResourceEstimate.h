@@ -71,6 +71,13 @@ void checkMemory(const MemoryEstimate& estimate, const std::string& what, const 
 /// `maxSamples` samples; `dims` itself when it fits. Returns true when it clamped.
 bool clampGrid(const int64_t dims[3], int64_t maxSamples, int64_t out[3]);
 
+struct SourceInfo;
+/// The decode grid a renderer on `device` uses for `asked` (DecodeResolution; 0 on an axis: the source's dims,
+/// negative: as 0): at most kMaxDecodeResolution per axis, kMaxDecodeGridSamples and the memory the machine has (host
+/// for the CPU renderer, kDeviceMemoryShare of the GPU's free memory for the CUDA one), its proportions kept. `used`
+/// is all 0 when the source's dims are used unclamped. Returns why it clamped ("" when it did not).
+std::string fitDecodeGrid(const SourceInfo& source, Device device, const int asked[3], int used[3]);
+
 /// Samples the renderers decode at most (the CPU renderer's limit, kept for both devices).
 constexpr int64_t kMaxDecodeGridSamples = int64_t(1) << 31;
 /// Samples per axis of a decode grid the engine accepts (RenderRequest::decodeResolution).

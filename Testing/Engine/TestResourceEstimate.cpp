@@ -96,4 +96,27 @@ NV_TEST(GridClampKeepsProportions)
   EXPECT_TRUE(nv::clampGrid(line, 100, out) && out[0] == 100 && out[1] == 1 && out[2] == 1);
 }
 
+NV_TEST(DecodeGridFitsTheMachine)
+{
+  nv::SourceInfo src;
+  src.dims[0] = 64;
+  src.dims[1] = 32;
+  src.dims[2] = 16;
+  int used[3] = { -1, -1, -1 };
+  const int trained[3] = { 0, 0, 0 };
+  EXPECT_TRUE(nv::fitDecodeGrid(src, nv::Device::Cpu, trained, used).empty());
+  EXPECT_TRUE(used[0] == 0 && used[1] == 0 && used[2] == 0); // the source's dims, unclamped
+  const int small[3] = { 100, 50, 25 };
+  EXPECT_TRUE(nv::fitDecodeGrid(src, nv::Device::Cpu, small, used).empty());
+  EXPECT_TRUE(used[0] == 100 && used[1] == 50 && used[2] == 25);
+  const int huge[3] = { 4096, 4096, 4096 }; // 2^36 samples: above 2^31 on any machine
+  const std::string why = nv::fitDecodeGrid(src, nv::Device::Cpu, huge, used);
+  EXPECT_TRUE(!why.empty());
+  EXPECT_TRUE(used[0] == used[1] && used[1] == used[2] && used[0] > 0);
+  EXPECT_TRUE(int64_t(used[0]) * used[1] * used[2] <= nv::kMaxDecodeGridSamples);
+  const int wide[3] = { 100000, 2, 2 }; // beyond the per-axis cap
+  EXPECT_TRUE(!nv::fitDecodeGrid(src, nv::Device::Cpu, wide, used).empty());
+  EXPECT_TRUE(used[0] == nv::kMaxDecodeResolution && used[1] == 2 && used[2] == 2);
+}
+
 NV_TEST_MAIN()
