@@ -22,7 +22,6 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
-#include "vtkMatrix3x3.h"
 #include "vtkIntArray.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
@@ -284,226 +283,23 @@ int vtkNeuralCompress::RequestData(
 }
 
 //------------------------------------------------------------------------------
-bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-  vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
+namespace
 {
-  vtkInternals& in = *this->Internals;
-  vtkImageData* input = vtkImageData::SafeDownCast(inputObject);
-  int association = -1;
-  vtkDataArray* array = nullptr;
-  std::shared_ptr<std::vector<uint8_t>> outside;
-  vtkSmartPointer<vtkImageData> resampled;
-  if (!input && nvi::IsSparseVoxels(inputObject))
-  {
-    return this->ExecuteSparse(inputObject, output, log, metrics, time);
-  }
-  if (!input)
-  {
-    // Not an image: resampled onto one (vtkNeuralCompressResample.h), cached across re-executions.
-    if (!vtkDataSet::SafeDownCast(inputObject) && !vtkCompositeDataSet::SafeDownCast(inputObject))
-    {
-      vtkErrorMacro("Neural Compress: " << (inputObject ? inputObject->GetClassName() : "no")
-                                        << " input; a dataset or composite dataset is needed. The output is empty.");
-      return false;
-    }
-    vtkInformation* ai = this->GetInputArrayInformation(0);
-    const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
-    const int assoc = ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
-    if (!name || !*name ||
-      (assoc != vtkDataObject::FIELD_ASSOCIATION_POINTS && assoc != vtkDataObject::FIELD_ASSOCIATION_CELLS))
-    {
-      vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array "
-                    "(SelectInputScalars). The output is empty.");
-      return false;
-    }
-    int64_t outsideCount = 0;
-    std::string problem;
-    int dims[3];
-    // The dimensions RequestInformation announced (from the input data it saw), else resolved now.
-    if (in.AnnouncedDims[0] > 0)
-      std::copy(in.AnnouncedDims, in.AnnouncedDims + 3, dims);
-    else if (!nvi::ResolveSamplingDimensions(inputObject, name, assoc, this->SamplingDimensions, dims, problem))
-    {
-      vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
-                                                            << ". The output is empty.");
-      return false;
-    }
-    if (!in.Resampler.Resample(inputObject, name, assoc, dims, resampled, outsideCount, problem))
-    {
-      vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
-                                                            << ". The output is empty.");
-      return false;
-    }
-    input = resampled;
-    array = resampled->GetPointData()->GetArray(name);
-    association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
-    outside = std::make_shared<std::vector<uint8_t>>(size_t(array->GetNumberOfTuples()), uint8_t(0));
-    for (vtkIdType i = 0; i < array->GetNumberOfTuples(); ++i)
-      (*outside)[size_t(i)] = std::isnan(array->GetComponent(i, 0)) ? 1 : 0;
-  }
-  else
-  {
-    array = this->GetInputArrayToProcess(0, inputVector, association);
-  }
-  if (input->GetNumberOfPoints() == 0)
-  {
-    vtkErrorMacro("Neural Compress: the input image has an empty extent; nothing to train on. "
-                  "The output is empty.");
-    return false;
-  }
-  if (!array)
-  {
-    vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array of the "
-                  "image (SelectInputScalars). The output is empty.");
-    return false;
-  }
-  if (association != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
-    association != vtkDataObject::FIELD_ASSOCIATION_CELLS)
-  {
-    vtkErrorMacro("Neural Compress: array '" << (array->GetName() ? array->GetName() : "")
-                                             << "' is neither a point nor a cell array. "
-                                                "The output is empty.");
-    return false;
-  }
 
-  try
-  {
-    nvi::Settings settings = this->CurrentSettings();
-    if (!outside)
-      settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
-    const std::string canonical = settings.Canonical();
-    if (in.Current && in.KeyArray == array && in.KeyArrayMTime == array->GetMTime() &&
-      in.KeySettings == canonical && in.Current->Time == time)
-    {
-      return this->EmitOutputs(output, log, metrics); // a live refresh or a control: same training
-    }
-
-    nvi::FieldInfo field;
-    field.Name = array->GetName() ? array->GetName() : "Scalars";
-    field.Cells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
-    field.VtkType = array->GetDataType();
-    int ext[6];
-    input->GetExtent(ext);
-    field.Geometry =
-      nvi::ComputeGeometry(ext, input->GetOrigin(), input->GetSpacing(), field.Cells, this->OutputResolution);
-    std::copy(input->GetDirectionMatrix()->GetData(), input->GetDirectionMatrix()->GetData() + 9, field.Direction);
-    std::copy(ext, ext + 6, field.InputExtent);
-    std::copy(input->GetOrigin(), input->GetOrigin() + 3, field.InputOrigin);
-    std::copy(input->GetSpacing(), input->GetSpacing() + 3, field.InputSpacing);
-    field.Outside = outside;
-    const int64_t outsideCount =
-      outside ? std::count(outside->begin(), outside->end(), uint8_t(1)) : int64_t(0);
-    const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
-      field.Geometry.SourceDims[2] };
-    // A decoded output the machine cannot hold is refused before any training (the estimate and the limit).
-    nvi::CheckDecodedOutputMemory(field, this->OutputMode);
-    if (dims[0] * dims[1] * dims[2] <= 0)
-    {
-      vtkErrorMacro("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
-                                                               << "; nothing to train on.");
-      return false;
-    }
-    auto data = std::make_shared<nvi::TrainingData>();
-    std::string problem;
-    if (!nvi::MakeSourceField(array, this->VectorMode, this->VectorComponent, dims, data->Field, problem))
-    {
-      vtkErrorMacro("Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
-      return false;
-    }
-    field.Description = data->Field.Description;
-    if (outside)
-    {
-      // The source's own samples measure the result; its own array's bytes give the compression ratio.
-      field.Samples = in.Resampler.Samples(this->VectorMode, this->VectorComponent);
-      data->Field.RawBytes = field.Samples->SourceBytes;
-      field.Description = field.Description.empty() ? in.Resampler.Description()
-                                                    : field.Description + "; " + in.Resampler.Description();
-    }
-    // The run may read the array in place from another thread: keep it alive.
-    array->Register(this);
-    data->Owner = std::shared_ptr<void>(array, [](void* a) { static_cast<vtkDataArray*>(a)->UnRegister(nullptr); });
-    field.Stats = nv::computeStats(data->Field.View);
-    if (field.Stats.valid == 0)
-    {
-      vtkErrorMacro("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
-                                            << "' are NaN or Inf; nothing to train on.");
-      return false;
-    }
-    if (!std::isfinite(field.Stats.max - field.Stats.min))
-    {
-      vtkErrorMacro("Neural Compress: the values of '" << field.Name << "' span " << field.Stats.min << " to "
-                                                       << field.Stats.max
-                                                       << ": their range overflows double precision. Scale the field "
-                                                          "(e.g. with the Calculator) first. The output is empty.");
-      return false;
-    }
-    if (outside && this->Sampling == SAMPLING_PROBE)
-    {
-      // Probe sampling: the training targets are a bank of points probed inside the source's cells (once per
-      // input), normalised like the field; the range covers both.
-      const int64_t count = this->ProbePoints > 0 ? this->ProbePoints : int64_t(1) << 20;
-      std::shared_ptr<const nvi::ProbedBank> bank =
-        in.Resampler.Probe(count, uint64_t(this->Seed), this->VectorMode, this->VectorComponent, problem);
-      if (!bank)
-      {
-        vtkErrorMacro("Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
-                                                           << ". The output is empty.");
-        return false;
-      }
-      for (double v : bank->Values)
-      {
-        field.Stats.min = std::min(field.Stats.min, v);
-        field.Stats.max = std::max(field.Stats.max, v);
-      }
-      const double lo = field.Stats.min, range = field.Stats.max - field.Stats.min;
-      data->BankXyz = bank->Xyz;
-      data->BankValues.resize(bank->Values.size());
-      for (size_t i = 0; i < bank->Values.size(); ++i)
-        data->BankValues[i] = range > 0.0 ? static_cast<float>((bank->Values[i] - lo) / range) : 0.0f;
-      std::ostringstream d;
-      d << "; Probe: " << bank->Values.size() << " of " << bank->Probed << " random points inside the domain ("
-        << std::fixed << std::setprecision(2) << bank->Seconds << " s)";
-      field.Description += d.str();
-    }
-    data->Field.View.valueMin = field.Stats.min;
-    data->Field.View.valueMax = field.Stats.max;
-    in.Key = nvi::TrainingKey(data->Field.View, field, settings);
-    in.KeyArray = array;
-    in.KeyArrayMTime = array->GetMTime();
-    in.KeySettings = canonical;
-    if (!in.Current || in.Current->Key != in.Key || in.Current->Time != time)
-    {
-      if (outside)
-      {
-        vtkDebugMacro("Neural Compress: " << in.Resampler.Description());
-      }
-      if (field.Stats.invalid > outsideCount)
-      {
-        vtkWarningMacro("Neural Compress: " << field.Stats.invalid - outsideCount << " of " << data->Field.View.count()
-                                            << " values of '" << field.Name
-                                            << "' are NaN or Inf; they are excluded from training "
-                                               "and decode to finite values.");
-      }
-      in.Retire();
-      this->StartJob(field, data, settings, in.Key, time);
-    }
-    return this->EmitOutputs(output, log, metrics);
-  }
-  catch (const nv::Error& e)
-  {
-    vtkErrorMacro("Neural Compress: " << e.what());
-  }
-  catch (const std::bad_alloc&)
-  {
-    vtkErrorMacro("Neural Compress: out of memory. Lower Log2TableSize, BatchSize or OutputResolution. The output is "
-                  "empty.");
-  }
-  catch (const std::exception& e)
-  {
-    vtkErrorMacro("Neural Compress: unexpected failure: " << e.what());
-  }
-  return false;
+/// The panel's status line: "Training 1234/2000 steps, 12.3 s, PSNR 41.2 dB" (targetSteps < 0: no run).
+std::string StatusLine(const nvi::NetworkRecord& record, int64_t targetSteps)
+{
+  std::ostringstream text;
+  text.precision(4);
+  text << record.M.State << ": " << record.M.Steps;
+  if (targetSteps >= 0)
+    text << "/" << targetSteps;
+  text << " steps, " << record.M.Seconds << " s, PSNR " << record.M.Psnr << " dB"
+       << (record.M.PsnrFinal ? "" : " (estimate)");
+  return text.str();
 }
+
+} // namespace
 
 //------------------------------------------------------------------------------
 bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics)
@@ -515,142 +311,164 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     job.OutputMode = this->OutputMode;
   }
   nvi::RunStatus status;
-  if (job.Run)
+  if (job.Run && !this->ReportRunStatus(job, status))
   {
-    status = job.Run->Status();
-    job.EmittedSerial = status.Serial;
-    // A recovered divergence is a warning; keeping the best network is the normal course: text, as the summary.
-    for (; in.WarningsPrinted < status.Warnings.size(); ++in.WarningsPrinted)
-    {
-      vtkWarningMacro("Neural Compress: " << status.Warnings[in.WarningsPrinted] << ".");
-    }
-    for (; in.NotesPrinted < status.Notes.size(); ++in.NotesPrinted)
-    {
-      vtkOutputWindowDisplayText(("Neural Compress: " + status.Notes[in.NotesPrinted] + ".\n").c_str());
-    }
-    if (status.State == nvi::RunState::Failed)
-    {
-      vtkErrorMacro("Neural Compress: training failed: " << status.Error);
-      return false;
-    }
+    return false;
   }
   const bool live = job.Run && !nvi::IsSettled(status.State);
   nvi::NetworkRecord record;
   vtkSmartPointer<vtkDataArray> decoded;
+  if (!this->CurrentNetwork(job, live, record, decoded))
+  {
+    return false;
+  }
+  in.DecodeRequested = false;
+  this->FillOutputs(job, record, decoded, live, output, log, metrics);
+  in.StatusText = StatusLine(record, job.Run ? status.TargetSteps : -1);
+  if (!live && !in.SummaryPrinted)
+  {
+    // A network complete for the first time (re-executions of the same one emit it without this).
+    in.Cache.Put(record);
+    in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
+    in.SummaryPrinted = true;
+    this->ReportFinalNetwork(job, record);
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::ReportRunStatus(nvi::Job& job, nv::RunStatus& status)
+{
+  vtkInternals& in = *this->Internals;
+  status = job.Run->Status();
+  job.EmittedSerial = status.Serial;
+  // A recovered divergence is a warning; keeping the best network is the normal course: text, as the summary.
+  for (; in.WarningsPrinted < status.Warnings.size(); ++in.WarningsPrinted)
+  {
+    vtkWarningMacro("Neural Compress: " << status.Warnings[in.WarningsPrinted] << ".");
+  }
+  for (; in.NotesPrinted < status.Notes.size(); ++in.NotesPrinted)
+  {
+    vtkOutputWindowDisplayText(("Neural Compress: " + status.Notes[in.NotesPrinted] + ".\n").c_str());
+  }
+  if (status.State == nvi::RunState::Failed)
+  {
+    vtkErrorMacro("Neural Compress: training failed: " << status.Error);
+    return false;
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::CurrentNetwork(
+  nvi::Job& job, bool live, nvi::NetworkRecord& record, vtkSmartPointer<vtkDataArray>& decoded)
+{
+  if (live)
+  {
+    record = job.Snapshot();
+    if (this->Internals->DecodeRequested)
+    {
+      decoded = this->DecodeNetwork(job);
+    }
+    return true;
+  }
+  std::shared_ptr<const nvi::NetworkRecord> final = job.Final();
+  if (!final)
+  {
+    vtkErrorMacro("Neural Compress: the training ended without a network.");
+    return false;
+  }
+  record = *final;
+  decoded = job.FinalDecoded(this->OutputMode);
+  std::string decodeError;
+  {
+    std::lock_guard<std::mutex> lock(job.Mutex);
+    std::swap(decodeError, job.DecodeError);
+  }
+  if (!decodeError.empty())
+  {
+    vtkErrorMacro("Neural Compress: " << decodeError << " The output holds the network only.");
+  }
+  else if (!decoded)
+  {
+    decoded = this->DecodeNetwork(job);
+    if (decoded)
+    {
+      job.KeepDecoded(decoded, this->OutputMode);
+    }
+  }
+  return true;
+}
+
+//------------------------------------------------------------------------------
+vtkSmartPointer<vtkDataArray> vtkNeuralCompress::DecodeNetwork(nvi::Job& job)
+{
   // A decode in this thread: parallel, with progress and abort; a field it cannot make leaves the network alone.
   nvi::DecodeControl control;
   control.Abort = [this]() { return this->GetAbortExecute() != 0; };
   control.Progress = [this](double f) { this->UpdateProgress(f); };
-  auto decode = [&]() -> vtkSmartPointer<vtkDataArray> {
-    try
-    {
-      return nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode, control);
-    }
-    catch (const nv::Error& e)
-    {
-      vtkErrorMacro("Neural Compress: " << e.what() << " The output holds the network only.");
-    }
-    return nullptr;
-  };
-  if (live)
+  try
   {
-    record = job.Snapshot();
-    if (in.DecodeRequested)
-    {
-      decoded = decode();
-    }
+    return nvi::DecodeOutput(*job.Session, job.Field, this->OutputMode, control);
   }
-  else
+  catch (const nv::Error& e)
   {
-    std::shared_ptr<const nvi::NetworkRecord> final = job.Final();
-    if (!final)
-    {
-      vtkErrorMacro("Neural Compress: the training ended without a network.");
-      return false;
-    }
-    record = *final;
-    decoded = job.FinalDecoded(this->OutputMode);
-    std::string decodeError;
-    {
-      std::lock_guard<std::mutex> lock(job.Mutex);
-      std::swap(decodeError, job.DecodeError);
-    }
-    if (!decodeError.empty())
-    {
-      vtkErrorMacro("Neural Compress: " << decodeError << " The output holds the network only.");
-    }
-    else if (!decoded)
-    {
-      decoded = decode();
-      if (decoded)
-      {
-        job.KeepDecoded(decoded, this->OutputMode);
-      }
-    }
+    vtkErrorMacro("Neural Compress: " << e.what() << " The output holds the network only.");
   }
-  in.DecodeRequested = false;
+  return nullptr;
+}
 
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::FillOutputs(nvi::Job& job, const nvi::NetworkRecord& record, vtkDataArray* decoded, bool live,
+  vtkImageData* output, vtkTable* log, vtkTable* metrics)
+{
   nvi::FillImage(output, job.Field, record, decoded, job.Session, live);
   nvi::FillLog(log, record);
+  // One metrics row per time step: the cached networks of the other time steps, then this one.
   std::vector<const nvi::NetworkRecord*> rows;
-  for (const nvi::NetworkRecord* r : in.Cache.All())
+  for (const nvi::NetworkRecord* r : this->Internals->Cache.All())
   {
     if (r->Time != job.Time)
       rows.push_back(r);
   }
   rows.push_back(&record);
   nvi::FillMetrics(metrics, rows);
+}
 
-  std::ostringstream text;
-  text.precision(4);
-  text << record.M.State << ": " << record.M.Steps;
-  if (job.Run)
-    text << "/" << status.TargetSteps;
-  text << " steps, " << record.M.Seconds << " s, PSNR " << record.M.Psnr << " dB"
-       << (record.M.PsnrFinal ? "" : " (estimate)");
-  in.StatusText = text.str();
-
-  if (!live && !in.SummaryPrinted)
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkRecord& record)
+{
+  if (this->OutputMode == OUTPUT_FLOAT32 && !nvi::Float32Holds(job.Field.Stats.min, job.Field.Stats.max))
   {
-    // A network complete for the first time (re-executions of the same one emit it without this).
-    in.Cache.Put(record);
-    in.Cache.Trim(static_cast<int64_t>(this->NetworkCacheMiB) << 20, job.Time);
-    {
-      in.SummaryPrinted = true;
-      if (this->OutputMode == OUTPUT_FLOAT32 && !nvi::Float32Holds(job.Field.Stats.min, job.Field.Stats.max))
-      {
-        std::ostringstream range;
-        range << std::setprecision(12) << job.Field.Stats.min << " to " << job.Field.Stats.max << ", a range of "
-              << job.Field.Stats.max - job.Field.Stats.min;
-        vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
-          << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
-      }
-      if (std::isinf(record.M.MaxError))
-      {
-        vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
-                      "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
-      }
-      if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
-        record.M.Ratio < this->TargetCompressionRatio)
-      {
-        std::string advice;
-        if (this->StoragePrecision != FLOAT16)
-          advice += ", Float16 storage";
-        if (this->Levels > 8)
-          advice += ", fewer Levels";
-        if (this->FeaturesPerLevel > 1)
-          advice += ", fewer FeaturesPerLevel";
-        if (this->NetworkWidth > 16)
-          advice += ", a narrower network";
-        vtkWarningMacro("Neural Compress: the target compression ratio "
-          << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
-          << "(the smallest hash table gives " << record.M.Ratio << ":1)"
-          << (advice.empty() ? std::string(".") : "; try" + advice.substr(1) + "."));
-      }
-      vtkOutputWindowDisplayText(nvi::Summary(job.Field, job, record, this->TargetCompressionRatio).c_str());
-    }
+    std::ostringstream range;
+    range << std::setprecision(12) << job.Field.Stats.min << " to " << job.Field.Stats.max << ", a range of "
+          << job.Field.Stats.max - job.Field.Stats.min;
+    vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
+      << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
   }
-  return true;
+  if (std::isinf(record.M.MaxError))
+  {
+    vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
+                  "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
+  }
+  if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
+    record.M.Ratio < this->TargetCompressionRatio)
+  {
+    std::string advice;
+    if (this->StoragePrecision != FLOAT16)
+      advice += ", Float16 storage";
+    if (this->Levels > 8)
+      advice += ", fewer Levels";
+    if (this->FeaturesPerLevel > 1)
+      advice += ", fewer FeaturesPerLevel";
+    if (this->NetworkWidth > 16)
+      advice += ", a narrower network";
+    vtkWarningMacro("Neural Compress: the target compression ratio "
+      << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
+      << "(the smallest hash table gives " << record.M.Ratio << ":1)"
+      << (advice.empty() ? std::string(".") : "; try" + advice.substr(1) + "."));
+  }
+  vtkOutputWindowDisplayText(nvi::Summary(job.Field, job, record, this->TargetCompressionRatio).c_str());
 }
 
 //------------------------------------------------------------------------------

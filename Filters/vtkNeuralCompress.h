@@ -51,21 +51,29 @@
 
 #include "NeuralVolumeFiltersModule.h" // for export macro
 #include "vtkDataObjectAlgorithm.h"
+#include "vtkSmartPointer.h" // for vtkSmartPointer
 
 #include <cstdint> // for uint64_t
 #include <memory>  // for std::shared_ptr
+#include <string>  // for std::string
 
 class vtkDataArray;
 class vtkImageData;
 class vtkTable;
+namespace nv
+{
+struct RunLimits;
+struct RunStatus;
+struct TrainingData;
+class TrainingRun;
+}
 namespace vtkNeuralCompressInternals
 {
 class Job;
 struct FieldInfo;
-struct RunLimits;
+struct NetworkRecord;
+struct SelectedInput;
 struct Settings;
-struct TrainingData;
-class TrainingRun;
 }
 
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
@@ -88,7 +96,8 @@ public:
   enum Schedules
   {
     STEP_DECAY = 0,
-    CONSTANT = 1
+    CONSTANT = 1,
+    ANNEALED = 2 ///< cosine to 1/100 over the run (nv::LearningRateSchedule::Cosine)
   };
   enum Precisions
   {
@@ -134,7 +143,7 @@ public:
   vtkGetMacro(Seed, int);
   vtkSetClampMacro(Loss, int, LOSS_L1, LOSS_L2);
   vtkGetMacro(Loss, int);
-  vtkSetClampMacro(LearningRateSchedule, int, STEP_DECAY, CONSTANT);
+  vtkSetClampMacro(LearningRateSchedule, int, STEP_DECAY, ANNEALED);
   vtkGetMacro(LearningRateSchedule, int);
   ///@}
 
@@ -380,9 +389,30 @@ private:
   vtkNeuralCompress(const vtkNeuralCompress&) = delete;
   void operator=(const vtkNeuralCompress&) = delete;
 
-  /// Validates the input and selected array, then Compress(); false after reporting an error.
+  /// The input's field, a job training it when the input or the settings changed, the outputs; false after
+  /// reporting an error. Its steps (vtkNeuralCompressExecute.cxx) follow.
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
     vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
+  /// The image to train from (the input, or a dataset resampled onto one) and its selected array, checked.
+  bool SelectInput(vtkDataObject* inputObject, vtkInformationVector** inputVector,
+    vtkNeuralCompressInternals::SelectedInput& input);
+  /// A dataset that is not an image, resampled onto one (vtkNeuralCompressResample.h) with its outside points.
+  bool ResampleInput(vtkDataObject* inputObject, vtkNeuralCompressInternals::SelectedInput& input);
+  /// The current job trains this array's content (unchanged since) with these settings at this time.
+  bool IsCurrentTraining(vtkDataArray* array, const std::string& canonicalSettings, double time) const;
+  /// The field's name, association and geometry; refuses an output the machine cannot hold, or no samples.
+  bool DescribeField(
+    const vtkNeuralCompressInternals::SelectedInput& input, vtkNeuralCompressInternals::FieldInfo& field);
+  /// The training field (the array in place or a single-component copy, kept alive) and its statistics, checked.
+  bool ReadField(const vtkNeuralCompressInternals::SelectedInput& input, vtkNeuralCompressInternals::FieldInfo& field,
+    nv::TrainingData& data);
+  /// Sampling "Probe": the bank of training points probed inside the source's cells; widens the value range.
+  bool ProbeTrainingPoints(
+    vtkDataObject* inputObject, vtkNeuralCompressInternals::FieldInfo& field, nv::TrainingData& data);
+  /// Records the training key; a new job (StartJob) when it or the time differs from the current job's.
+  void StartJobIfChanged(vtkDataArray* array, const vtkNeuralCompressInternals::FieldInfo& field,
+    std::shared_ptr<nv::TrainingData> data, const vtkNeuralCompressInternals::Settings& settings,
+    const std::string& canonicalSettings, double time);
 
   /// The OpenVDB reader's sparse output (vtkNeuralCompressSparse.h): trained from its active voxels and background
   /// samples without a dense grid; false after reporting an error.
@@ -391,15 +421,27 @@ private:
   vtkNeuralCompressInternals::Settings CurrentSettings() const;
   /// A job for a new input or settings: a cached or restored network, or a training run.
   void StartJob(const vtkNeuralCompressInternals::FieldInfo& field,
-    std::shared_ptr<vtkNeuralCompressInternals::TrainingData> data,
+    std::shared_ptr<nv::TrainingData> data,
     const vtkNeuralCompressInternals::Settings& settings, uint64_t key, double time);
-  /// The outputs from the current job (a snapshot while it trains).
+  /// The outputs from the current job (a snapshot while it trains). Its steps follow.
   bool EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics);
+  /// The run's status; prints its new warnings and notes; false (an error) when it failed.
+  bool ReportRunStatus(vtkNeuralCompressInternals::Job& job, nv::RunStatus& status);
+  /// The network to output (the run's snapshot while live, else the final one) and its decoded field, if any.
+  bool CurrentNetwork(vtkNeuralCompressInternals::Job& job, bool live,
+    vtkNeuralCompressInternals::NetworkRecord& record, vtkSmartPointer<vtkDataArray>& decoded);
+  /// Decodes the session's network in this thread (progress, abort); null after reporting an error.
+  vtkSmartPointer<vtkDataArray> DecodeNetwork(vtkNeuralCompressInternals::Job& job);
+  void FillOutputs(vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::NetworkRecord& record,
+    vtkDataArray* decoded, bool live, vtkImageData* output, vtkTable* log, vtkTable* metrics);
+  /// A network complete for the first time: its warnings (range, divergence, compression ratio) and the summary.
+  void ReportFinalNetwork(
+    vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::NetworkRecord& record);
   /// Starts `job`'s run (in the background or here) with `limits`, `moreSteps` added to its first phase.
-  void StartRun(vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::RunLimits& limits,
+  void StartRun(vtkNeuralCompressInternals::Job& job, const nv::RunLimits& limits,
     int64_t moreSteps, bool fastForward);
   /// The current job's run, or null.
-  vtkNeuralCompressInternals::TrainingRun* CurrentRun();
+  nv::TrainingRun* CurrentRun();
   /// Continue / Fast-forward: more steps for the run, or a run from a cached or restored network.
   void ExtendTraining(int64_t steps, bool fastForward);
 

@@ -4,6 +4,7 @@
 
 #include "Core/Macrocells.h"
 #include "Core/ResourceEstimate.h"
+#include "Core/ValueRange.h"
 
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
@@ -62,13 +63,13 @@ private:
 
 /// Decoded values (source units) at `count` points (xyz in [0,1]^3, interleaved), in chunks written to out.
 template <typename T>
-void DecodePointsChunk(nv::NetworkSession& session, const float* xyz, int64_t count, double lo, double span, T* out,
+void DecodePointsChunk(nv::NetworkSession& session, const float* xyz, int64_t count, const nv::ValueRange& range, T* out,
   std::vector<float>& normalised)
 {
   normalised.resize(static_cast<size_t>(count));
   session.inferPoints(xyz, count, normalised.data(), nv::Memory::Host);
   for (int64_t i = 0; i < count; ++i)
-    out[i] = static_cast<T>(lo + static_cast<double>(normalised[static_cast<size_t>(i)]) * span);
+    out[i] = static_cast<T>(range.denormalize(static_cast<double>(normalised[static_cast<size_t>(i)])));
 }
 
 /// Decoded values (source units) of the output samples, in float or double, in chunks of about kDecodeChunk.
@@ -80,7 +81,7 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
   const int64_t count = n[0] * n[1] * n[2];
   ChunkTicker ticker(control, count);
   const nv::SourceInfo& src = session.model().source;
-  const double lo = src.valueMin, span = src.valueMax - src.valueMin;
+  const nv::ValueRange range(src.valueMin, src.valueMax); // also wider than the largest double (ValueRange.h)
   const bool onGrid = !f.Cells || g.OnSourceGrid;
   const int64_t slice = n[0] * n[1];
   const int64_t slabs = std::max<int64_t>(1, kDecodeChunk / slice);
@@ -119,7 +120,7 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
         xyz[static_cast<size_t>(3 * k + d)] = u;
       }
     }
-    DecodePointsChunk(session, xyz.data(), m, lo, span, out + i0, normalised);
+    DecodePointsChunk(session, xyz.data(), m, range, out + i0, normalised);
     ticker.Done(i0 + m);
   }
 }

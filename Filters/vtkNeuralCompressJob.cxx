@@ -7,6 +7,7 @@
 #include "Core/Error.h"
 #include "Core/Macrocells.h"
 #include "Core/Serialization.h"
+#include "Core/ValueRange.h"
 
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
@@ -39,14 +40,15 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
 
 bool Float32Holds(double lo, double hi)
 {
-  const double m = std::max(std::fabs(lo), std::fabs(hi)), range = hi - lo;
+  const double m = std::max(std::fabs(lo), std::fabs(hi));
+  const nv::ValueRange range(lo, hi);
   if (!(m <= double(std::numeric_limits<float>::max())))
-    return false;
+    return false; // also every range wider than the largest double
   if (m > 0.0 && m < double(std::numeric_limits<float>::min()))
     return false; // subnormal or flushed to 0 in float32
   // float32's spacing at the largest magnitude (2^-23 relative) within 1e-4 of the range: 80 dB of rounding noise,
   // below any network's error.
-  return range <= 0.0 || m * std::ldexp(1.0, -23) <= 1e-4 * range;
+  return !range.spans() || m * std::ldexp(1.0, -23) <= 1e-4 * range.width();
 }
 
 std::string Settings::Canonical() const
@@ -134,7 +136,10 @@ static nv::ErrorStats SourceError(
       xyz[3 * i + size_t(a)] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
     }
   session.inferPoints(xyz.data(), static_cast<int64_t>(n), out.data(), nv::Memory::Host);
-  const double range = hi > lo ? hi - lo : 1.0;
+  // Errors in units of the range (a constant field: in source units). A range wider than the largest double
+  // (ValueRange.h) takes the difference of the normalised values, which stays finite.
+  const nv::ValueRange range(lo, hi);
+  const double width = range.spans() ? range.width() : 1.0;
   double se = 0.0;
   for (size_t i = 0; i < n; ++i)
   {
@@ -148,9 +153,9 @@ static nv::ErrorStats SourceError(
       ++e.nonFinite; // a diverged network: never a score (see nv::ErrorStats)
       continue;
     }
-    const double d = v - src;
-    se += (d / range) * (d / range);
-    e.maxAbsError = std::max(e.maxAbsError, std::fabs(d));
+    const double dn = range.halved() ? range.normalize(v) - range.normalize(src) : (v - src) / width;
+    se += dn * dn;
+    e.maxAbsError = std::max(e.maxAbsError, range.halved() ? std::fabs(range.span(dn)) : std::fabs(v - src));
   }
   if (e.nonFinite > 0)
   {

@@ -3,7 +3,7 @@
 #ifndef vtkNeuralCompressJob_h
 #define vtkNeuralCompressJob_h
 
-#include "vtkNeuralTrainingRun.h"
+#include "vtkNeuralCompressInternals.h"
 
 #include "vtkSmartPointer.h"
 

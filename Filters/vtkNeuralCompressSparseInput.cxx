@@ -10,6 +10,7 @@
 
 #include "Core/Error.h"
 #include "Core/Serialization.h"
+#include "Core/ValueRange.h"
 
 #include "vtkDataArray.h"
 #include "vtkDataObject.h"
@@ -91,14 +92,7 @@ bool vtkNeuralCompress::ExecuteSparse(
                                             << "' are NaN or Inf; nothing to train on.");
       return false;
     }
-    field.Stats = stats;
-    if (!std::isfinite(stats.max - stats.min))
-    {
-      vtkErrorMacro("Neural Compress: the values of '" << field.Name << "' span " << stats.min << " to " << stats.max
-                                                       << ": their range overflows double precision. Scale the field "
-                                                          "first. The output is empty.");
-      return false;
-    }
+    field.Stats = stats; // a range wider than the largest double is normalised on halves (Core/ValueRange.h)
 
     auto data = std::make_shared<nvi::TrainingData>();
     // No dense field: the view only carries the box's dimensions and the value range (data stays null).
@@ -109,12 +103,12 @@ bool vtkNeuralCompress::ExecuteSparse(
     data->Field.View.valueMin = stats.min;
     data->Field.View.valueMax = stats.max;
     data->Field.RawBytes = bank.Samples->SourceBytes;
-    const double lo = stats.min, range = stats.max - stats.min;
+    const nv::ValueRange range(stats.min, stats.max);
     data->BankXyz = std::move(bank.Xyz);
     data->BankValues.resize(bank.Values.size());
     for (size_t i = 0; i < bank.Values.size(); ++i)
       data->BankValues[i] = std::isfinite(bank.Values[i])
-        ? (range > 0.0 ? static_cast<float>((bank.Values[i] - lo) / range) : 0.0f)
+        ? static_cast<float>(range.fraction(bank.Values[i]))
         : std::numeric_limits<float>::quiet_NaN();
     std::ostringstream d;
     d << "sparse OpenVDB grid, " << bank.Active << " active of " << bank.Active + bank.Inactive

@@ -95,6 +95,9 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   train.seed = static_cast<uint64_t>(this->Seed);
   train.loss = this->Loss == LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
   train.optimizer.learningRate = this->LearningRate;
+  // Annealed: TrainingRun sets the planned steps (the run's length) before each chunk of steps.
+  train.optimizer.schedule =
+    this->LearningRateSchedule == ANNEALED ? nv::LearningRateSchedule::Auto : nv::LearningRateSchedule::StepDecay;
   train.optimizer.stepDecay = this->LearningRateSchedule == STEP_DECAY;
   train.threads = this->Threads;
   train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);

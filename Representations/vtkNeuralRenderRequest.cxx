@@ -1,5 +1,7 @@
 #include "vtkNeuralRenderRequest.h"
 
+#include "Core/ValueRange.h"
+
 #include "vtkCamera.h"
 #include "vtkColorTransferFunction.h"
 #include "vtkImageData.h"
@@ -131,10 +133,12 @@ void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::Transf
   tf.unitDistance = property->GetScalarOpacityUnitDistance(0);
   tf.rgba.resize(static_cast<size_t>(entries) * 4);
   // Evaluated one value at a time (not GetTable, which samples logarithmically for log-scaled maps): the engine
-  // expects entries uniform in value.
+  // expects entries uniform in value. A range wider than the largest double steps on halves (ValueRange.h).
+  const nv::ValueRange range(lo, hi);
   for (int i = 0; i < entries; ++i)
   {
-    const double v = lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(entries - 1);
+    const double v = range.halved() ? range.denormalize(static_cast<double>(i) / static_cast<double>(entries - 1))
+                                    : lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(entries - 1);
     double rgb[3] = { 1.0, 1.0, 1.0 };
     if (color)
       color->GetColor(v, rgb);

@@ -21,10 +21,26 @@ double EncodingConfig::effectivePerLevelScale() const
   return std::pow(static_cast<double>(finestResolution) / baseResolution, 1.0 / (levels - 1));
 }
 
+LearningRateSchedule OptimizerConfig::effectiveSchedule() const
+{
+  if (schedule != LearningRateSchedule::Auto)
+    return schedule;
+  return plannedSteps > 0.0 ? LearningRateSchedule::Cosine : LearningRateSchedule::StepDecay;
+}
+
 double OptimizerConfig::learningRateAt(int64_t step) const
 {
   const double warm =
     warmupSteps > 0 && step < warmupSteps ? static_cast<double>(std::max<int64_t>(step, 1)) / warmupSteps : 1.0;
+  const LearningRateSchedule s = effectiveSchedule();
+  if (s == LearningRateSchedule::Exponential || s == LearningRateSchedule::Cosine)
+  {
+    const double t = std::min(std::max(static_cast<double>(step), 0.0) / plannedSteps, 1.0);
+    const double f = s == LearningRateSchedule::Exponential
+      ? std::pow(finalRateFraction, t)
+      : finalRateFraction + (1.0 - finalRateFraction) * 0.5 * (1.0 + std::cos(3.14159265358979323846 * t));
+    return learningRate * warm * f;
+  }
   if (!stepDecay || decayInterval <= 0 || step <= 0)
   {
     return learningRate * warm;
@@ -80,6 +96,23 @@ void validate(const TrainConfig& c)
   NV_CHECK(c.optimizer.epsilon >= 0.0, "epsilon must be >= 0");
   NV_CHECK(c.optimizer.warmupSteps >= 0, "warm-up steps must be >= 0");
   NV_CHECK(c.optimizer.plateauWindow >= 0, "the plateau window must be >= 0 steps");
+  const OptimizerConfig& o = c.optimizer;
+  NV_CHECK(o.schedule == LearningRateSchedule::StepDecay || o.schedule == LearningRateSchedule::Exponential ||
+      o.schedule == LearningRateSchedule::Cosine || o.schedule == LearningRateSchedule::Auto,
+    "unknown learning-rate schedule " + std::to_string(static_cast<int>(o.schedule)));
+  NV_CHECK(std::isfinite(o.plannedSteps) && o.plannedSteps >= 0.0,
+    "the planned number of steps must be a finite number >= 0, got " + std::to_string(o.plannedSteps));
+  if (o.schedule == LearningRateSchedule::Exponential || o.schedule == LearningRateSchedule::Cosine)
+  {
+    NV_CHECK(o.plannedSteps > 0.0,
+      "the annealed learning-rate schedule needs the planned number of steps (OptimizerConfig::plannedSteps > 0): "
+      "the run's step count, or an estimate for a time budget");
+  }
+  if (o.effectiveSchedule() != LearningRateSchedule::StepDecay)
+  {
+    NV_CHECK(std::isfinite(o.finalRateFraction) && o.finalRateFraction > 0.0 && o.finalRateFraction <= 1.0,
+      "the final learning-rate fraction must be in (0, 1], got " + std::to_string(o.finalRateFraction));
+  }
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
   NV_CHECK(c.importanceGrid == 0 || (c.importanceGrid >= 2 && c.importanceGrid <= 64),
     "importance grid must be 0 (off) or 2..64 cells per axis, got " + std::to_string(c.importanceGrid));

@@ -43,7 +43,20 @@ enum class LossType : int
   L2 = 1
 };
 
-/// Adam; the default schedule is the paper's (lr 1e-2, x0.8 every 1000 steps).
+/// How the learning rate falls over a run (OptimizerConfig::schedule).
+enum class LearningRateSchedule : int
+{
+  StepDecay = 0,   ///< x decayFactor every decayInterval steps (the paper's; stepDecay false: constant)
+  Exponential = 1, ///< learningRate * finalRateFraction^(step / plannedSteps), then constant past plannedSteps
+  Cosine = 2,      ///< half a cosine from learningRate down to learningRate * finalRateFraction at plannedSteps
+  /// The default: Cosine when plannedSteps > 0 (a run of known length), else StepDecay. Measured
+  /// (Testing/Benchmarks/results/tradeoff_2026-11-24/anneal_cpu.md, anneal_gpu.md): the cosine to 1/100 ends within
+  /// 0.4 dB of its best probe on every real volume, where the step decay ended up to 11 dB below it.
+  Auto = 3
+};
+
+/// Adam, lr 1e-2. The default schedule (Auto) anneals over plannedSteps when the caller sets them (cosine to 1/100),
+/// else it is the paper's step decay (x0.8 every 1000 steps).
 struct OptimizerConfig
 {
   double learningRate = 1e-2;
@@ -59,7 +72,15 @@ struct OptimizerConfig
   /// Loss-driven decay (PlateauSchedule.h): windows of this many steps; a window whose mean loss is not 1% below
   /// the best window's halves the rate, down to 1/64 (0: off).
   int plateauWindow = 0;
+  LearningRateSchedule schedule = LearningRateSchedule::Auto;
+  /// The number of steps this trainer is planned to take (finite, >= 0; Exponential and Cosine need > 0): the
+  /// annealed rate reaches learningRate * finalRateFraction there and stays. A run of TrainingSteps passes the steps
+  /// it will take; a time-budget run an estimate (from its measured step rate). 0: not known (Auto: StepDecay).
+  double plannedSteps = 0.0;
+  double finalRateFraction = 0.01; ///< annealed schedules: the rate at plannedSteps / learningRate, in (0, 1]
 
+  /// The schedule in effect (Auto resolved: never Auto).
+  LearningRateSchedule effectiveSchedule() const;
   /// Learning rate used by (1-based) step `step`.
   double learningRateAt(int64_t step) const;
 };

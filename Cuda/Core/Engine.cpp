@@ -3,6 +3,7 @@
 #include "Backends.h"
 #include "Cpu/ThreadPool.h"
 #include "Error.h"
+#include "ValueRange.h"
 
 #include <algorithm>
 #include <cmath>
@@ -50,8 +51,7 @@ template <typename T>
 ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMin, double valueMax, int threads)
 {
   ErrorStats r;
-  const double range = valueMax - valueMin;
-  const double inv = range > 0.0 ? 1.0 / range : 0.0;
+  const ValueRange range(valueMin, valueMax);
   ThreadPool pool(threads);
   std::vector<double> se(pool.size(), 0.0), mx(pool.size(), 0.0);
   std::vector<int64_t> cnt(pool.size(), 0), bad(pool.size(), 0);
@@ -67,11 +67,11 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
         ++cnt[w];
         continue;
       }
-      // Difference in normalised units first: stays finite for huge ranges.
-      const double dn = range > 0.0 ? (static_cast<double>(decoded[i]) - valueMin) * inv - (x - valueMin) * inv
-                                    : static_cast<double>(decoded[i]) - x;
+      // Difference in normalised units first: stays finite for huge ranges (and ranges wider than DBL_MAX).
+      const double dn = range.spans() ? range.normalize(static_cast<double>(decoded[i])) - range.normalize(x)
+                                      : static_cast<double>(decoded[i]) - x;
       se[w] += dn * dn;
-      mx[w] = std::max(mx[w], std::fabs(range > 0.0 ? dn * range : dn));
+      mx[w] = std::max(mx[w], std::fabs(range.spans() ? range.span(dn) : dn));
       ++cnt[w];
     }
   });

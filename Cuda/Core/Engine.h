@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nv
 {
@@ -47,6 +48,9 @@ public:
   virtual int64_t stepsDone() const = 0;
   /// Learning rate the next step will use.
   virtual double currentLearningRate() const = 0;
+  /// Update OptimizerConfig::plannedSteps (counted from this trainer's first step) of an annealed schedule while
+  /// training, e.g. as a time budget's measured step rate refines the estimate; finite and >= 0 (0: not known).
+  virtual void setPlannedSteps(double steps) = 0;
   /// Copy the current parameters into `model` (same configuration as the one trained).
   virtual void syncTo(Model& model) const = 0;
   /// Make the current parameters those of the session that created this trainer (in place: on the GPU without
@@ -55,6 +59,11 @@ public:
   virtual Device device() const = 0;
   /// Bytes of accelerator memory held (0 on the CPU).
   virtual int64_t deviceMemoryBytes() const { return 0; }
+  /// Loss and dL/dparams (Model::params layout: encoding, then MLP) of the current parameters on a given batch of
+  /// 1..batchSize samples (xyz: n x 3 host floats in [0,1]^3, normalised targets, valid flags), without an update;
+  /// for gradient checks between backends. Call between steps.
+  virtual float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
+    std::vector<float>& grad) = 0;
 };
 
 /// Error against a source volume over every valid voxel (values normalised by the source range):

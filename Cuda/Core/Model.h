@@ -3,6 +3,7 @@
 
 #include "Config.h"
 #include "HashGridMath.h"
+#include "ValueRange.h"
 
 #include <cstdint>
 #include <string>
@@ -110,7 +111,9 @@ public:
   TrainingStats stats;
 
   /// Map a de-normalised value to [0,1] and back.
-  double denormalize(double y) const { return source.valueMin + y * (source.valueMax - source.valueMin); }
+  double denormalize(double y) const { return valueRange().denormalize(y); }
+  /// The source value range as a normalisation map (ValueRange.h: safe when max - min overflows).
+  ValueRange valueRange() const { return ValueRange(source.valueMin, source.valueMax); }
 
 private:
   ModelConfig Config;

@@ -55,9 +55,9 @@ void decodeValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t
     norm = tmp.data();
   }
   s.decodeGrid(nx, ny, nz, z0, z1, norm, Memory::Host);
-  const double lo = s.model().source.valueMin, range = s.model().source.valueMax - lo;
+  const ValueRange range = s.model().valueRange();
   for (int64_t i = 0; i < n; ++i)
-    out[i] = static_cast<T>(lo + range * static_cast<double>(norm[i]));
+    out[i] = static_cast<T>(range.denormalize(static_cast<double>(norm[i])));
 }
 } // namespace
 

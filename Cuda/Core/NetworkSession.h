@@ -37,6 +37,10 @@ struct KernelOptions
   int trainTwoPass = -1;          ///< -1 auto (tables > 16 MiB and batches > 32768), 0 fused, 1 two passes
   bool trainRegisterResident = true; ///< false: the WMMA training kernel
   bool inShaderHalfAccumulate = true; ///< In-Shader path: fp16 accumulation in the MLP (fewer registers per ray)
+  /// Dynamic shared memory per block the kernels may use, bytes: 0 = the GPU's opt-in maximum (227 KiB on Hopper,
+  /// 99 KiB on Ampere sm_86 and Ada, 64 KiB on Turing); a smaller value makes every kernel choose the tiling it
+  /// would choose on a GPU with that limit.
+  int sharedMemoryLimit = 0;
 };
 
 struct SessionOptions

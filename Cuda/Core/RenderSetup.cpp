@@ -1,8 +1,10 @@
 #include "RenderSetup.h"
 
 #include "Error.h"
+#include "ValueRange.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -334,12 +336,31 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.tfSize = n;
   double lo = tf.valueMin, hi = tf.valueMax;
   if (!(hi > lo))
-    hi = lo + std::max(std::fabs(lo) * 1e-6, 1e-30);
-  const double vr = src.valueMax - src.valueMin;
-  // entry coordinate of source value v: (v - lo) / (hi - lo) * (n - 1); v = valueMin + y * vr.
-  const double k = static_cast<double>(n - 1) / (hi - lo);
-  P.tfScale = static_cast<float>(vr * k);
-  P.tfShift = static_cast<float>((src.valueMin - lo) * k);
+  {
+    const double pad = std::max(std::fabs(lo) * 1e-6, 1e-30);
+    hi = lo + pad;
+    if (!(hi <= DBL_MAX)) // a constant at the top of the doubles: widen downwards
+    {
+      hi = lo;
+      lo -= pad;
+    }
+  }
+  const ValueRange tfRange(lo, hi), source(src.valueMin, src.valueMax);
+  if (!tfRange.halved() && !source.halved())
+  {
+    const double vr = source.width();
+    // entry coordinate of source value v: (v - lo) / (hi - lo) * (n - 1); v = valueMin + y * vr.
+    const double k = static_cast<double>(n - 1) / (hi - lo);
+    P.tfScale = static_cast<float>(vr * k);
+    P.tfShift = static_cast<float>((src.valueMin - lo) * k);
+  }
+  else
+  {
+    // A range wider than the largest double (ValueRange.h): the same map on halves, (v/2 - lo/2) / (hi/2 - lo/2).
+    const double k = static_cast<double>(n - 1) / (0.5 * hi - 0.5 * lo);
+    P.tfScale = static_cast<float>((0.5 * src.valueMax - 0.5 * src.valueMin) * k);
+    P.tfShift = static_cast<float>((0.5 * src.valueMin - 0.5 * lo) * k);
+  }
   NV_CHECK(std::isfinite(P.tfScale) && std::isfinite(P.tfShift),
     "the transfer function's range is too small for the field's value range");
   P.unitDistance = static_cast<float>(ud);
@@ -353,10 +374,10 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.skipping = q.emptySpaceSkipping ? 1 : 0;
   P.shading = static_cast<int>(q.shading);
   P.blend = static_cast<int>(q.blend);
-  if (q.averageRange[1] > q.averageRange[0] && vr > 0.0)
+  if (q.averageRange[1] > q.averageRange[0] && source.spans())
   {
-    P.avgLo = static_cast<float>((q.averageRange[0] - src.valueMin) / vr);
-    P.avgHi = static_cast<float>((q.averageRange[1] - src.valueMin) / vr);
+    P.avgLo = static_cast<float>(source.fraction(q.averageRange[0]));
+    P.avgHi = static_cast<float>(source.fraction(q.averageRange[1]));
   }
   else
   {
@@ -386,8 +407,7 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   // A sparse source's occupancy (host memory here; the GPU renderer points P.occupancy at its device copy).
   const bool occupancy = !src.occupancy.empty() && int64_t(src.occupancy.size()) == occupancyWords(src.dims);
   P.occupancy = occupancy ? src.occupancy.data() : nullptr;
-  const double valueRange = src.valueMax - src.valueMin;
-  P.background = static_cast<float>(valueRange > 0.0 ? (src.background - src.valueMin) / valueRange : 0.0);
+  P.background = static_cast<float>(source.fraction(src.background));
 
   for (int a = 0; a < 3; ++a)
     s.gridDims[a] = q.decodeResolution[a] > 0 ? q.decodeResolution[a] : std::max<int64_t>(1, src.dims[a]);

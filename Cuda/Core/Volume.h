@@ -28,7 +28,8 @@ size_t scalarSize(ScalarType t);
 const char* scalarTypeName(ScalarType t);
 
 /// A single-component volume, x fastest, contiguous. Values are normalised by
-/// (v - valueMin) / (valueMax - valueMin); non-finite samples are "invalid" and never trained on.
+/// (v - valueMin) / (valueMax - valueMin) (nv::ValueRange: also when that width overflows); non-finite samples are
+/// "invalid" and never trained on.
 struct VolumeView
 {
   const void* data = nullptr;

@@ -2,6 +2,7 @@
 
 #include "Core/Error.h"
 #include "Core/RenderSetup.h"
+#include "Core/ValueRange.h"
 #include "CpuGridSampler.h"
 #include "CpuHalfNetwork.h"
 #include "CpuInference.h"
@@ -60,14 +61,14 @@ std::shared_ptr<const DecodedGrid> CpuRenderer::referenceGrid(const Model& model
   auto g = std::make_shared<DecodedGrid>();
   const int64_t n = v.count();
   g->values.resize(static_cast<size_t>(n));
-  const double inv = hi > lo ? 1.0 / (hi - lo) : 0.0;
+  const ValueRange range(lo, hi);
   std::vector<uint8_t> nan(static_cast<size_t>(Pool.size()), 0);
   Pool.parallelFor(n, [&](int64_t b, int64_t e, int w) {
     for (int64_t i = b; i < e; ++i)
     {
       const double x = v.at(i);
       const bool ok = std::isfinite(x);
-      g->values[static_cast<size_t>(i)] = ok ? static_cast<float>((x - lo) * inv) : NAN;
+      g->values[static_cast<size_t>(i)] = ok ? static_cast<float>(range.normalize(x)) : NAN;
       nan[static_cast<size_t>(w)] |= ok ? 0 : 1;
     }
   });

@@ -1,5 +1,7 @@
 #include "CpuSampler.h"
 
+#include "Core/ValueRange.h"
+
 namespace nv
 {
 namespace
@@ -8,11 +10,9 @@ template <typename T>
 int64_t sampleT(const VolumeView& v, const float* xyz, int64_t n, float* targets, uint8_t* valid)
 {
   const T* data = static_cast<const T*>(v.data);
-  const double lo = v.valueMin;
-  const double range = v.valueMax - v.valueMin;
-  const double inv = range > 0.0 ? 1.0 / range : 0.0;
-  // Normalise in double so huge ranges (e.g. 1e300) stay finite in float.
-  auto get = [&](int64_t i) { return static_cast<float>((static_cast<double>(data[i]) - lo) * inv); };
+  // Normalise in double so huge ranges (e.g. 1e300, or wider than the largest double) stay finite in float.
+  const ValueRange range(v.valueMin, v.valueMax);
+  auto get = [&](int64_t i) { return static_cast<float>(range.normalize(static_cast<double>(data[i]))); };
   int64_t count = 0;
   for (int64_t s = 0; s < n; ++s)
   {

@@ -32,14 +32,20 @@ public:
   {
     return Train.optimizer.learningRateAt(Steps + 1) * Plateau.scale();
   }
+  void setPlannedSteps(double steps) override
+  {
+    TrainConfig changed = Train;
+    changed.optimizer.plannedSteps = steps;
+    validate(changed); // finite, >= 0; > 0 for an explicitly annealed schedule
+    Train.optimizer.plannedSteps = steps;
+    Adam.setPlannedSteps(steps);
+  }
   void syncTo(Model& model) const override;
   void publish() override;
   Device device() const override { return Device::Cpu; }
 
-  /// Loss and gradient of the current parameters on a given batch, without updating (for tests).
-  /// grad receives dL/dparams (encoding then MLP). Returns the loss.
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
-    std::vector<float>& grad);
+    std::vector<float>& grad) override;
 
 private:
   float forwardBackward(int64_t n, int64_t nValid, bool measure = false);

@@ -393,8 +393,8 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
         continue;
       }
       float* d = a.gradPad + o;
-      atomicAdd(reinterpret_cast<float2*>(d), make_float2(acc[q][0], acc[q][1]));
-      atomicAdd(reinterpret_cast<float2*>(d + 8 * K), make_float2(acc[q][2], acc[q][3]));
+      atomicAddPair(d, acc[q][0], acc[q][1]);
+      atomicAddPair(d + 8 * K, acc[q][2], acc[q][3]);
     }
   }
 #pragma unroll
@@ -415,8 +415,7 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
       fixedAdd(a.fixedMlp + s.off[s.H] + 8 * j + 2 * t + 1, woutAcc[j][1]);
     }
     else if (g == 0)
-      atomicAdd(reinterpret_cast<float2*>(a.gradPad + s.off[s.H] + 8 * j + 2 * t),
-        make_float2(woutAcc[j][0], woutAcc[j][1]));
+      atomicAddPair(a.gradPad + s.off[s.H] + 8 * j + 2 * t, woutAcc[j][0], woutAcc[j][1]);
   }
   for (int o = 16; o > 0; o >>= 1)
     lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);

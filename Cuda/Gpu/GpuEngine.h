@@ -14,8 +14,12 @@ namespace nv
 namespace gpu
 {
 
-/// True when the CUDA runtime finds a usable device (sm_90 build: compute capability 9.x).
+/// True when the CUDA runtime finds a device this build can run on (compute capability 7.5 or newer, with code
+/// for it in the build); otherwise `why` says what is missing, in one sentence.
 bool deviceUsable(std::string* why);
+
+/// Name, architecture, multiprocessors and memory of the device, for reports.
+std::string deviceDescription();
 
 /// Receives a trainer's fp32 parameters (device pointer, Model::params layout) and the trainer's stream on publish().
 using PublishFn = std::function<void(const float* deviceParams, void* stream)>;

@@ -7,7 +7,6 @@
 #include <cub/device/device_scan.cuh>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <string>
 
@@ -21,50 +20,51 @@ namespace
 using FwdFn = void (*)(FwdArgs);
 
 /// Fused (grid decoding): 2 blocks per SM, L1 left for the coarse levels' gathers. Two-pass MLP pass (point
-/// arrays): 3 blocks per SM (80 registers): measured 1.62 -> 1.69 G samples/s on binned random points. Widths up to
-/// 64 always have their weights in shared memory (at most 98 KiB: 8 hidden layers of 64 after 256 inputs); width
-/// 128 reads them through L1 when they do not fit.
-template <int W, int F, typename Weights>
+/// arrays): 3 blocks per SM (80 registers): measured 1.62 -> 1.69 G samples/s on binned random points. Widths 16 and
+/// 32 always have their weights in shared memory (at most 34 KiB); widths 64 (up to 98 KiB: 8 hidden layers after
+/// 256 inputs, more than a Turing or an sm_86 block holds) and 128 read them through L1 when they do not fit.
+template <int W, int F, typename Weights, int Warps = 8>
 struct FwdPick
 {
   // Width 128 holds 64 accumulators and 32 A registers per lane: one block per SM (no spills).
   static constexpr int kPre = W <= 64 ? 3 : 1, kFused = W <= 64 ? 2 : 1;
   static FwdFn fn(bool pre)
   {
-    return pre ? forwardKernel<W, F, 8, kPre, true, Weights> : forwardKernel<W, F, 8, kFused, false, Weights>;
+    return pre ? forwardKernel<W, F, Warps, kPre, true, Weights> : forwardKernel<W, F, Warps, kFused, false, Weights>;
   }
 };
 
-FwdFn pickForward(int W, int F, bool pre, bool shared)
+/// The forward kernel for a shape, 8 warps per block; 4 warps exist for width 128 with its weights through L1 (its
+/// 8-warp staging of 256 inputs, 66 KiB, exceeds a Turing block's 64 KiB).
+FwdFn pickForward(int W, int F, bool pre, bool shared, int warps)
 {
+  if (warps == 4)
+  {
+#define NV_CASE(f)                                                                                 \
+  if (W == 128 && F == f && !shared)                                                               \
+    return FwdPick<128, f, WeightsInGlobal, 4>::fn(pre);
+    NV_CASE(1) NV_CASE(2) NV_CASE(4) NV_CASE(8)
+#undef NV_CASE
+    return nullptr;
+  }
+  if (warps != 8)
+    return nullptr;
 #define NV_CASE(w, f)                                                                              \
   if (W == w && F == f)                                                                            \
     return FwdPick<w, f, WeightsInShared>::fn(pre);
-  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
-  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
+  if (shared)
+  {
+    NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
+    NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
+  }
+#undef NV_CASE
+#define NV_CASE(w, f)                                                                              \
+  if (W == w && F == f)                                                                            \
+    return shared ? FwdPick<w, f, WeightsInShared>::fn(pre) : FwdPick<w, f, WeightsInGlobal>::fn(pre);
   NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
+  NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
 #undef NV_CASE
-#define NV_CASE(f)                                                                                 \
-  if (W == 128 && F == f)                                                                          \
-    return shared ? FwdPick<128, f, WeightsInShared>::fn(pre) : FwdPick<128, f, WeightsInGlobal>::fn(pre);
-  NV_CASE(1) NV_CASE(2) NV_CASE(4) NV_CASE(8)
-#undef NV_CASE
-  return nullptr;
-}
-
-/// Bits per axis of the Morton bins for m points (0: no binning): about 32 points per bin (1M random points:
-/// 2^5 bins per axis measured best, 2^6 within 1%); from 2^18 points (2^16 random points: 0.079 ms unbinned,
-/// 0.087 binned; 2^18: 0.202 / 0.196). KernelOptions::binBitsPerAxis >= 0 forces a value.
-std::atomic<int> gLastBinBits{ 0 };
-
-int binBits(int64_t m, int forced)
-{
-  if (forced >= 0)
-    return std::min(forced, 8);
-  if (m < (int64_t(1) << 18))
-    return 0;
-  const int b = static_cast<int>(std::floor(std::log2(static_cast<double>(m) / 32.0) / 3.0));
-  return std::max(3, std::min(7, b));
+  return nullptr; // widths 16 and 32 without shared weights: not instantiated (their weights always fit)
 }
 
 /// Counting sort of m points by Morton bin (2^(3 bits) bins) into dm.bins.binned.
@@ -123,9 +123,17 @@ void launchEncodeLevels(int lpt, int F, const FwdArgs& a, __half* enc, cudaStrea
 
 } // namespace
 
-int lastInferenceBinning()
+/// Bits per axis of the Morton bins for m points (0: no binning): about 32 points per bin (1M random points:
+/// 2^5 bins per axis measured best, 2^6 within 1%); from 2^18 points (2^16 random points: 0.079 ms unbinned,
+/// 0.087 binned; 2^18: 0.202 / 0.196). KernelOptions::binBitsPerAxis >= 0 forces a value.
+int inferenceBinBits(int64_t m, int forced)
 {
-  return gLastBinBits.load();
+  if (forced >= 0)
+    return std::min(forced, 8);
+  if (m < (int64_t(1) << 18))
+    return 0;
+  const int b = static_cast<int>(std::floor(std::log2(static_cast<double>(m) / 32.0) / 3.0));
+  return std::max(3, std::min(7, b));
 }
 
 /// Kernel, shared memory and occupancy of the forward kernel for a model (once per model and mode).
@@ -135,28 +143,31 @@ const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre)
   if (p.fn)
     return p;
   NV_CHECK(dm.shape.H <= kMaxHidden, "too many hidden layers for the GPU");
-  constexpr int warps = 8;
+  const int limit = sharedMemoryLimit(dm.options);
   for (bool shared : { true, false })
-  {
-    FwdArgs a{};
-    const int bytes = fwdLayout(dm.shape, warps, shared, a);
-    const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre, shared);
-    if (!fn || bytes > deviceInfo().maxSmemOptin)
-      continue;
-    const void* fp = reinterpret_cast<const void*>(fn);
-    NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, bytes));
-    int perSm = 0;
-    NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, warps * 32, bytes));
-    if (perSm < 1)
-      continue;
-    p.fn = reinterpret_cast<const void*>(fn);
-    p.shared = shared;
-    p.bytes = bytes;
-    p.blocksPerSm = perSm;
-    return p;
-  }
+    for (int warps : { 8, 4 })
+    {
+      FwdArgs a{};
+      const int bytes = fwdLayout(dm.shape, warps, shared, a);
+      const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre, shared, warps);
+      if (!fn || bytes > limit)
+        continue;
+      const void* fp = reinterpret_cast<const void*>(fn);
+      NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, bytes));
+      int perSm = 0;
+      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, warps * 32, bytes));
+      if (perSm < 1)
+        continue;
+      p.fn = fp;
+      p.shared = shared;
+      p.bytes = bytes;
+      p.blocksPerSm = perSm;
+      p.warps = warps;
+      return p;
+    }
   NV_THROW("this network shape (width " + std::to_string(dm.shape.W) + ", " + std::to_string(dm.grid.features) +
-    " features per level) cannot run on the GPU");
+    " features per level) cannot run on the GPU within " + std::to_string(limit / 1024) +
+    " KiB of shared memory per block");
 }
 
 /// Inference and decoding through the forward kernel.
@@ -168,7 +179,7 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   const bool pre = mode == 2 || (mode == 1 && xyz != nullptr);
   const ForwardPlan& plan = forwardPlan(dm, pre);
   const FwdFn fn = reinterpret_cast<FwdFn>(plan.fn);
-  constexpr int warps = 8;
+  const int warps = plan.warps;
   const int bytes = plan.bytes;
   const int perSm = plan.blocksPerSm;
   FwdArgs a{};
@@ -197,8 +208,7 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     a.out = out + b;
     if (pre)
     {
-      const int bits = a.xyz ? binBits(m, o.binBitsPerAxis) : 0;
-      gLastBinBits.store(bits);
+      const int bits = a.xyz ? inferenceBinBits(m, o.binBitsPerAxis) : 0;
       if (bits > 0)
       {
         binPoints(dm, a.xyz, m, bits, stream);

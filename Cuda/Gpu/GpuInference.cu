@@ -1,16 +1,18 @@
-// NeuralVolume engine: CUDA device queries, parameter packing, the inference entry point (the forward kernel of
-// GpuForward.cu) and test/benchmark hooks.
+// NeuralVolume engine: CUDA device queries, parameter packing and the inference entry point (the forward kernel of
+// GpuForward.cu).
 #include "Core/Model.h"
 #include "GpuEngine.h"
 #include "GpuInternal.cuh"
-#include "GpuTesting.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstring>
 #include <mutex>
 #include <sstream>
 #include <vector>
+
+#ifndef NV_CUDA_ARCHITECTURES
+#define NV_CUDA_ARCHITECTURES "an unknown list of architectures"
+#endif
 
 namespace nv
 {
@@ -88,11 +90,11 @@ const Usable& usable()
       u.why = "cannot query CUDA device 0";
       return;
     }
-    if (p.major != 9)
+    if (p.major * 10 + p.minor < 75)
     {
       std::ostringstream os;
       os << "GPU '" << p.name << "' has compute capability " << p.major << "." << p.minor
-         << "; this build of NeuralVolume supports compute capability 9.x (sm_90, Hopper) only";
+         << "; NeuralVolume's CUDA engine needs 7.5 (Turing) or newer";
       u.why = os.str();
       return;
     }
@@ -100,7 +102,17 @@ const Usable& usable()
     e = cudaFuncGetAttributes(&fa, probeKernel);
     if (e != cudaSuccess)
     {
-      u.why = std::string("the CUDA kernels cannot run on '") + p.name + "': " + cudaGetErrorString(e);
+      std::ostringstream os;
+      os << "the CUDA kernels cannot run on '" << p.name << "' (sm_" << p.major << p.minor << "): ";
+      if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorInvalidKernelImage)
+        os << "this build has no code for it (built for " << NV_CUDA_ARCHITECTURES
+           << "; rebuild with CMAKE_CUDA_ARCHITECTURES including " << p.major << p.minor << ")";
+      else if (e == cudaErrorUnsupportedPtxVersion)
+        os << "its driver is older than this build's CUDA " << CUDART_VERSION / 1000 << "." << CUDART_VERSION % 1000 / 10
+           << " (update the NVIDIA driver)";
+      else
+        os << cudaGetErrorString(e);
+      u.why = os.str();
       cudaGetLastError();
       return;
     }
@@ -126,38 +138,6 @@ __global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half*
     else
       w16[m.padded] = __float2half_rn(mlp[j]);
   }
-}
-
-__global__ void encodeTestKernel(GridLayout g, const __half* __restrict__ table, const float* __restrict__ xyz,
-  int64_t n, float* __restrict__ out)
-{
-  const int64_t items = n * g.levels;
-  for (int64_t it = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; it < items; it += int64_t(gridDim.x) * blockDim.x)
-  {
-    const int64_t s = it / g.levels;
-    const int l = static_cast<int>(it % g.levels);
-    const LevelInfo& lv = g.level[l];
-    const float x[3] = { xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2] };
-    uint32_t corner[3];
-    float frac[3];
-    gridPosition(lv, x, corner, frac);
-    float acc[kMaxFeatures] = {};
-    for (int c = 0; c < 8; ++c)
-    {
-      const float w = cornerWeight(c, frac);
-      const __half* e = table + size_t(cornerIndex(lv, c, corner)) * g.features;
-      for (int f = 0; f < g.features; ++f)
-        acc[f] += w * __half2float(e[f]);
-    }
-    for (int f = 0; f < g.features; ++f)
-      out[s * g.levels * g.features + l * g.features + f] = acc[f];
-  }
-}
-
-__global__ void randomPointsKernel(float* xyz, int64_t n)
-{
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-    randomPoint(12345, 1, static_cast<uint64_t>(i), xyz + 3 * i);
 }
 
 } // namespace
@@ -202,12 +182,17 @@ std::string deviceDescription()
   return os.str();
 }
 
-SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm)
+int sharedMemoryLimit(const KernelOptions& options)
+{
+  const int device = deviceInfo().maxSmemOptin;
+  return options.sharedMemoryLimit > 0 ? std::min(device, options.sharedMemoryLimit) : device;
+}
+
+SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int limit, int* blocksPerSm)
 {
   // First plan that fits: weights in shared memory and the largest tile (8 warps). Measured on an H100 (see
   // Testing/Benchmarks/results/gpu_notes.md): choosing the plan with the most resident warps instead (smaller
   // tiles, weights through L1) was slower for training (0.94 vs 0.82 ms), inference and decode.
-  const int limit = deviceInfo().maxSmemOptin;
   NV_CUDA(cudaFuncSetAttribute(fn, cudaFuncAttributeMaxDynamicSharedMemorySize, limit));
   SmemPlan best{};
   int bestWarps = 0, bestBlocks = 0;
@@ -269,103 +254,6 @@ void launchInference(const DeviceModel& dm, const float* xyz, int64_t nx, int64_
   if (n <= 0)
     return;
   launchForward(dm, xyz, nx, ny, nz, z0, first, n, out, stream);
-}
-
-void testEncode(const Model& model, const float* xyz, int64_t n, float* out)
-{
-  Stream st;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
-  DeviceBuffer<float> dx(3 * n), dy(n * D);
-  NV_CUDA(cudaMemcpyAsync(dx.get(), xyz, dx.bytes(), cudaMemcpyHostToDevice, st.get()));
-  encodeTestKernel<<<gridFor(n * dm.grid.levels), 256, 0, st.get()>>>(dm.grid, dm.table16.get(), dx.get(), n, dy.get());
-  NV_CUDA_LAUNCH();
-  NV_CUDA(cudaMemcpyAsync(out, dy.get(), dy.bytes(), cudaMemcpyDeviceToHost, st.get()));
-  st.sync();
-}
-
-namespace
-{
-template <typename Fn>
-double medianMs(int reps, cudaStream_t st, Fn&& fn)
-{
-  Event a, b;
-  std::vector<float> ts;
-  fn(); // warm-up
-  fn();
-  for (int r = 0; r < reps; ++r)
-  {
-    NV_CUDA(cudaEventRecord(a.get(), st));
-    fn();
-    NV_CUDA(cudaEventRecord(b.get(), st));
-    NV_CUDA(cudaEventSynchronize(b.get()));
-    float ms = 0;
-    NV_CUDA(cudaEventElapsedTime(&ms, a.get(), b.get()));
-    ts.push_back(ms);
-  }
-  std::sort(ts.begin(), ts.end());
-  return ts[ts.size() / 2];
-}
-} // namespace
-
-double benchInferKernel(const Model& model, int64_t n, int reps)
-{
-  Stream st;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  DeviceBuffer<float> dx(3 * n), dy(n);
-  randomPointsKernel<<<gridFor(n), 256, 0, st.get()>>>(dx.get(), n);
-  NV_CUDA_LAUNCH();
-  return medianMs(reps, st.get(), [&] { launchInference(dm, dx.get(), 0, 0, 0, 0, 0, n, dy.get(), st.get()); });
-}
-
-double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz, int reps)
-{
-  Stream st;
-  DeviceModel dm;
-  uploadModel(model, dm, st.get());
-  const int64_t n = nx * ny * nz;
-  DeviceBuffer<float> dy(n);
-  return medianMs(reps, st.get(), [&] { launchInference(dm, nullptr, nx, ny, nz, 0, 0, n, dy.get(), st.get()); });
-}
-
-namespace
-{
-template <typename Fn>
-double medianWallMs(int reps, Fn&& fn)
-{
-  std::vector<double> ts;
-  fn(); // warm-up
-  for (int r = 0; r < reps; ++r)
-  {
-    const auto a = std::chrono::steady_clock::now();
-    fn();
-    ts.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a).count());
-  }
-  std::sort(ts.begin(), ts.end());
-  return ts[ts.size() / 2];
-}
-} // namespace
-
-void copyToHost(const float* device, size_t n, float* host)
-{
-  NV_CUDA(cudaMemcpy(host, device, n * sizeof(float), cudaMemcpyDeviceToHost));
-}
-
-double benchSessionInfer(NetworkSession& session, int64_t n, int reps)
-{
-  DeviceBuffer<float> dx(3 * n, "points"), dy(n, "outputs");
-  randomPointsKernel<<<gridFor(n), 256>>>(dx.get(), n);
-  NV_CUDA_LAUNCH();
-  NV_CUDA(cudaDeviceSynchronize());
-  return medianWallMs(reps, [&] { session.inferPoints(dx.get(), n, dy.get(), Memory::Device); });
-}
-
-double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps)
-{
-  DeviceBuffer<float> dy(nx * ny * nz, "decoded grid");
-  return medianWallMs(reps, [&] { session.decodeGrid(nx, ny, nz, 0, nz, dy.get(), Memory::Device); });
 }
 
 } // namespace gpu

@@ -44,6 +44,7 @@ struct ForwardPlan
   bool shared = true; ///< weights in shared memory
   int bytes = 0;      ///< dynamic shared memory
   int blocksPerSm = 0;
+  int warps = 8;      ///< per block (4: width 128 whose 8-warp staging exceeds the GPU's shared memory, e.g. Turing)
 };
 
 /// The parameters in the form the kernels read: fp16 table, padded fp16 MLP, fp32 output row.
@@ -68,9 +69,21 @@ void packParams(const float* dParams, DeviceModel& dm, cudaStream_t stream);
 /// Upload a host model.
 void uploadModel(const Model& model, DeviceModel& dm, cudaStream_t stream);
 
-/// Shared-memory plan for kernel fn: weights in shared memory and the largest tile that fit (else weights through
-/// L1); blocksPerSm receives its occupancy.
-SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int* blocksPerSm);
+/// Bits per axis of the Morton bins that inference on m random points uses (0: no binning); forced >= 0
+/// (KernelOptions::binBitsPerAxis) overrides.
+int inferenceBinBits(int64_t m, int forced);
+
+/// Dynamic shared memory per block the kernels may use: the device's opt-in maximum, or options.sharedMemoryLimit
+/// when smaller.
+int sharedMemoryLimit(const KernelOptions& options);
+
+/// Shared-memory plan for kernel fn within `limit` bytes: weights in shared memory and the largest tile that fit
+/// (else weights through L1); blocksPerSm receives its occupancy.
+SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int limit, int* blocksPerSm);
+
+/// Kernel, shared memory and occupancy of the forward kernel for a model (pre: two-pass, encodings precomputed),
+/// chosen once per model within sharedMemoryLimit(dm.options).
+const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre);
 
 /// The forward kernel (GpuForward.cu) on points or grid slices; see launchInference.
 void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,

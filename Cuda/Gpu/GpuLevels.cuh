@@ -73,14 +73,10 @@ __device__ __forceinline__ void scatterCorners(G* __restrict__ grad, const Level
       if constexpr (!kHalf)
         ;
       else if constexpr (F == 2)
-        asm volatile("red.global.add.noftz.v2.f16x2 [%0], {%1, %2};\n" ::"l"(p), "r"(halves2(wl * d[0], wl * d[1])),
-          "r"(halves2(wh * d[0], wh * d[1]))
-                     : "memory");
+        reduceHalfPairs2(p, halves2(wl * d[0], wl * d[1]), halves2(wh * d[0], wh * d[1]));
       else if constexpr (F == 4)
-        asm volatile("red.global.add.noftz.v4.f16x2 [%0], {%1, %2, %3, %4};\n" ::"l"(p),
-          "r"(halves2(wl * d[0], wl * d[1])), "r"(halves2(wl * d[2], wl * d[3])), "r"(halves2(wh * d[0], wh * d[1])),
-          "r"(halves2(wh * d[2], wh * d[3]))
-                     : "memory");
+        reduceHalfPairs4(p, halves2(wl * d[0], wl * d[1]), halves2(wl * d[2], wl * d[3]), halves2(wh * d[0], wh * d[1]),
+          halves2(wh * d[2], wh * d[3]));
     }
     else
     {

@@ -6,6 +6,7 @@
 #include "Core/HashGridMath.h"
 #include "Core/Model.h"
 #include "GpuCommon.cuh"
+#include "GpuAtomics.cuh"
 #include "GpuFixedPoint.cuh"
 
 #include <mma.h>
@@ -256,13 +257,13 @@ __device__ __forceinline__ void atomicAddVec(float* p, const float* v)
   }
   else if constexpr (F == 2)
   {
-    atomicAdd(reinterpret_cast<float2*>(p), make_float2(v[0], v[1]));
+    atomicAddPair(p, v[0], v[1]);
   }
   else
   {
 #pragma unroll
     for (int q = 0; q < F / 4; ++q)
-      atomicAdd(reinterpret_cast<float4*>(p) + q, make_float4(v[4 * q], v[4 * q + 1], v[4 * q + 2], v[4 * q + 3]));
+      atomicAddQuad(p + 4 * q, v[4 * q], v[4 * q + 1], v[4 * q + 2], v[4 * q + 3]);
   }
 }
 
@@ -272,8 +273,8 @@ __device__ __forceinline__ uint32_t halves2(float x, float y)
   return *reinterpret_cast<const uint32_t*>(&h);
 }
 
-/// p[0..F) += v for an fp16 gradient table: packed f16x2 vector reductions (sm_90), one instruction per entry for
-/// F <= 8 (half the L2 atomic work of fp32 float4 reductions).
+/// p[0..F) += v for an fp16 gradient table: packed f16x2 reductions (on sm_90+ one vector instruction per entry for
+/// F <= 8: half the L2 atomic work of fp32 float4 reductions).
 template <int F>
 __device__ __forceinline__ void atomicAddVec(__half* p, const float* v)
 {
@@ -283,19 +284,15 @@ __device__ __forceinline__ void atomicAddVec(__half* p, const float* v)
   }
   else if constexpr (F == 2)
   {
-    asm volatile("red.global.add.noftz.f16x2 [%0], %1;\n" ::"l"(p), "r"(halves2(v[0], v[1])) : "memory");
+    reduceHalfPair(p, halves2(v[0], v[1]));
   }
   else if constexpr (F == 4)
   {
-    asm volatile("red.global.add.noftz.v2.f16x2 [%0], {%1, %2};\n" ::"l"(p), "r"(halves2(v[0], v[1])),
-      "r"(halves2(v[2], v[3]))
-                 : "memory");
+    reduceHalfPairs2(p, halves2(v[0], v[1]), halves2(v[2], v[3]));
   }
   else
   {
-    asm volatile("red.global.add.noftz.v4.f16x2 [%0], {%1, %2, %3, %4};\n" ::"l"(p), "r"(halves2(v[0], v[1])),
-      "r"(halves2(v[2], v[3])), "r"(halves2(v[4], v[5])), "r"(halves2(v[6], v[7]))
-                 : "memory");
+    reduceHalfPairs4(p, halves2(v[0], v[1]), halves2(v[2], v[3]), halves2(v[4], v[5]), halves2(v[6], v[7]));
   }
 }
 

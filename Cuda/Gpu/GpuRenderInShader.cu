@@ -157,20 +157,14 @@ InShaderFn pickInShader(int W, int F, bool half, bool shared)
 
 } // namespace
 
-void launchInShader(const DeviceModel& dm, InShaderArgs& a, cudaStream_t stream, int* blocksUsed)
+namespace
 {
-  constexpr int warps = 8;
-  const bool shared = dm.shape.W <= 64;
-  const InShaderFn fn = pickInShader(dm.shape.W, dm.grid.features, dm.options.inShaderHalfAccumulate, shared);
-  NV_CHECK(fn != nullptr, "this network shape cannot be rendered In-Shader on the GPU");
-  a.grid = dm.grid;
-  a.shape = dm.shape;
-  a.table16 = dm.table16.get();
-  a.w16 = dm.w16.get();
-  a.wout = dm.wout.get();
-  // Shared memory: weights (when shared), output row, per warp: encodings (16 rows), queries and values.
+/// Shared-memory layout of the In-Shader kernel for `warps` warps per block: weights (when shared), output row, per
+/// warp: encodings (16 rows), queries and values. Returns the bytes.
+int inShaderLayout(const MlpShape& s, int warps, bool shared, InShaderArgs& a)
+{
   FwdArgs f{};
-  size_t o = static_cast<size_t>(fwdLayout(dm.shape, warps, shared, f)) - size_t(warps) * 16 * f.ldE * 2;
+  size_t o = static_cast<size_t>(fwdLayout(s, warps, shared, f)) - size_t(warps) * 16 * f.ldE * 2;
   for (int l = 0; l < kMaxHidden; ++l)
     a.wOff[l] = f.wOff[l];
   a.woutOff = f.woutOff;
@@ -181,13 +175,41 @@ void launchInShader(const DeviceModel& dm, InShaderArgs& a, cudaStream_t stream,
   o = roundUp128(o + size_t(warps) * 32 * ray::kMaxQueriesPerStep * 3 * sizeof(float));
   a.vOff = static_cast<int>(o);
   o += size_t(warps) * 32 * ray::kMaxQueriesPerStep * sizeof(float);
-  const int bytes = static_cast<int>(o);
-  NV_CHECK(bytes <= deviceInfo().maxSmemOptin, "the network is too large for In-Shader rendering on this GPU");
+  return static_cast<int>(o);
+}
+} // namespace
+
+void launchInShader(const DeviceModel& dm, InShaderArgs& a, cudaStream_t stream, int* blocksUsed)
+{
+  const bool shared = dm.shape.W <= 64;
+  const InShaderFn fn = pickInShader(dm.shape.W, dm.grid.features, dm.options.inShaderHalfAccumulate, shared);
+  NV_CHECK(fn != nullptr, "this network shape cannot be rendered In-Shader on the GPU");
+  a.grid = dm.grid;
+  a.shape = dm.shape;
+  a.table16 = dm.table16.get();
+  a.w16 = dm.w16.get();
+  a.wout = dm.wout.get();
+  // The most warps per block whose staging fits the GPU's shared memory (8 on Hopper and Ampere; fewer on a GPU
+  // with less shared memory per block, e.g. a large network on Turing's 64 KiB).
+  const int limit = sharedMemoryLimit(dm.options);
   const void* fp = reinterpret_cast<const void*>(fn);
-  NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, bytes));
-  int perSm = 0;
-  NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, warps * 32, bytes));
-  NV_CHECK(perSm >= 1, "In-Shader rendering: the kernel does not fit on a multiprocessor");
+  int warps = 0, bytes = 0, perSm = 0;
+  for (int w : { 8, 4, 2, 1 })
+  {
+    const int b = inShaderLayout(dm.shape, w, shared, a);
+    if (b > limit)
+      continue;
+    NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, b));
+    NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, w * 32, b));
+    if (perSm >= 1)
+    {
+      warps = w;
+      bytes = b;
+      break;
+    }
+  }
+  NV_CHECK(warps > 0, "the network is too large for In-Shader rendering on this GPU (" + std::to_string(limit / 1024) +
+    " KiB of shared memory per block); use Sample Streaming");
   const int64_t needed = (int64_t(a.total) + warps * 32 - 1) / (warps * 32);
   const int blocks = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(needed, int64_t(perSm) * deviceInfo().sms)));
   fn<<<blocks, warps * 32, bytes, stream>>>(a);

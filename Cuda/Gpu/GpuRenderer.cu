@@ -125,13 +125,12 @@ void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
   if (q.grid)
   {
     // The reference grid, normalised like the network's output (non-finite values stay NaN: transparent).
-    const double lo = model.source.valueMin, range = model.source.valueMax - model.source.valueMin;
-    const double inv = range > 0.0 ? 1.0 / range : 0.0;
+    const ValueRange range = model.valueRange(); // ValueRange.h: also for ranges wider than the largest double
     std::vector<float> h(static_cast<size_t>(n));
     for (int64_t i = 0; i < n; ++i)
     {
       const double v = q.grid->at(i);
-      h[size_t(i)] = std::isfinite(v) ? static_cast<float>((v - lo) * inv) : std::nanf("");
+      h[size_t(i)] = std::isfinite(v) ? static_cast<float>(range.normalize(v)) : std::nanf("");
     }
     NV_CUDA(cudaMemcpyAsync(GridLinear.get(), h.data(), n * sizeof(float), cudaMemcpyHostToDevice, St));
     NV_CUDA(cudaStreamSynchronize(St)); // h goes out of scope

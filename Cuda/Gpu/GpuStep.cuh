@@ -4,6 +4,7 @@
 #pragma once
 
 #include "Core/TrainingPoints.h"
+#include "Core/ValueRange.h"
 #include "Cpu/CpuSampler.h"
 #include "GpuImportance.cuh"
 #include "GpuNetwork.cuh"
@@ -53,7 +54,7 @@ __device__ __forceinline__ void addValid(int local, Counters* counters)
 /// Targets of step `step` at randomPoint's uniform points, or (imp.cdf set) at the importance draw's points, whose
 /// positions then go to imp.xyz for the training kernel.
 template <typename T>
-__global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, double lo, double inv,
+__global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, ValueRange range,
   uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters, ImportanceDraw imp)
 {
   const int64_t dims[3] = { d0, d1, d2 };
@@ -72,7 +73,7 @@ __global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, 
     {
       randomPoint(seed, step, static_cast<uint64_t>(i), x);
     }
-    auto get = [&](int64_t k) { return static_cast<float>((static_cast<double>(vol[k]) - lo) * inv); };
+    auto get = [&](int64_t k) { return static_cast<float>(range.normalize(static_cast<double>(vol[k]))); };
     float t = 0.0f;
     const bool ok = sampleTrilinear(get, dims, 0.0f, 1.0f, x, t);
     targets[i] = ok ? t : __int_as_float(0x7fc00000);

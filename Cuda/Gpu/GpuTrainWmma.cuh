@@ -207,9 +207,11 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
       return;
     }
     const float4* src = reinterpret_cast<const float4*>(slot);
-    float4* dst = reinterpret_cast<float4*>(a.gradPad);
     for (int i = threadIdx.x; i < s.total / 4; i += blockDim.x)
-      atomicAdd(dst + i, src[i]);
+    {
+      const float4 v = src[i];
+      atomicAddQuad(a.gradPad + 4 * i, v.x, v.y, v.z, v.w);
+    }
   }
 }
 

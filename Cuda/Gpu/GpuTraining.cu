@@ -12,7 +12,6 @@
 #include "GpuEngine.h"
 #include "GpuBackward.cuh"
 #include "GpuInternal.cuh"
-#include "GpuTesting.h"
 #include "GpuTrainWmma.cuh"
 
 #include <algorithm>
@@ -81,7 +80,7 @@ class GpuTrainer final : public Trainer
 {
 public:
   GpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
-    const KernelOptions& options, PublishFn publish, bool forTest)
+    const KernelOptions& options, PublishFn publish)
     : Config(model.config())
     , Train(config)
     , Volume(volume)
@@ -132,11 +131,6 @@ public:
     if (Reg.warps > 0)
       Dm.table16.release(); // the register-resident kernel encodes from the fp32 parameters
 
-    if (forTest)
-    {
-      Strategy = TrainingStrategy::GpuResident;
-      return;
-    }
     if (points.count > 0)
     {
       // A bank of points: uploaded once; each step gathers its batch on the GPU.
@@ -262,6 +256,13 @@ public:
   {
     return Train.optimizer.learningRateAt(Steps + 1) * Plateau.scale();
   }
+  void setPlannedSteps(double steps) override
+  {
+    TrainConfig changed = Train;
+    changed.optimizer.plannedSteps = steps;
+    validate(changed); // finite, >= 0; > 0 for an explicitly annealed schedule
+    Train.optimizer.plannedSteps = steps; // the rate of each queued step is computed at its launch
+  }
   Device device() const override { return Device::Cuda; }
 
   void syncTo(Model& model) const override
@@ -286,11 +287,15 @@ public:
   }
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
-    std::vector<float>& grad)
+    std::vector<float>& grad) override
   {
     NV_CHECK(n >= 1 && n <= Train.batchSize, "lossAndGradient: 1..batch size samples");
+    if (Next.valid())
+      Next.wait(); // host-sampled: the next batch's preparation does not touch the buffers used here
     cudaStream_t st = St.get();
-    Xyz.allocate(3 * n, "points");
+    St.sync();
+    DeviceBuffer<float> points;
+    points.allocate(size_t(3 * n), "points");
     std::vector<float> t(n);
     int nValid = 0;
     for (int64_t i = 0; i < n; ++i)
@@ -300,10 +305,10 @@ public:
     }
     Counters c{};
     c.nValid = nValid;
-    NV_CUDA(cudaMemcpyAsync(Xyz.get(), xyz, 3 * n * sizeof(float), cudaMemcpyHostToDevice, st));
+    NV_CUDA(cudaMemcpyAsync(points.get(), xyz, 3 * n * sizeof(float), cudaMemcpyHostToDevice, st));
     NV_CUDA(cudaMemcpyAsync(Targets.get(), t.data(), n * sizeof(float), cudaMemcpyHostToDevice, st));
     NV_CUDA(cudaMemcpyAsync(slot(1), &c, sizeof(c), cudaMemcpyHostToDevice, st));
-    launchTrain(Xyz.get(), n, 1);
+    launchTrain(points.get(), n, 1);
     std::vector<__half> gt(NEnc);
     std::vector<float> gp(Dm.shape.total);
     NV_CUDA(cudaMemcpyAsync(gt.data(), G.get(), G.bytes(), cudaMemcpyDeviceToHost, st));
@@ -369,8 +374,7 @@ private:
   void launchSample(int64_t s)
   {
     const int64_t B = Train.batchSize;
-    const double range = Volume.valueMax - Volume.valueMin;
-    const double inv = range > 0.0 ? 1.0 / range : 0.0;
+    const ValueRange range(Volume.valueMin, Volume.valueMax); // (v - min) / (max - min), safe when max - min overflows
     const int blocks = gridFor(B);
     const int64_t* d = Volume.dims;
     cudaStream_t st = St.get();
@@ -380,7 +384,7 @@ private:
 #define NV_SAMPLE(E, T)                                                                            \
   case ScalarType::E:                                                                              \
     sampleKernel<T><<<blocks, 256, 0, st>>>(reinterpret_cast<const T*>(Vol.get()), d[0], d[1], d[2],           \
-      Volume.valueMin, inv, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s), draw);\
+      range, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s), draw);\
     break;
       NV_SAMPLE(Int8, int8_t)
       NV_SAMPLE(UInt8, uint8_t)
@@ -416,7 +420,8 @@ private:
   /// Register-resident kernel when the shape and shared memory allow, else the WMMA kernel.
   void chooseKernel(bool two, int64_t B)
   {
-    const int maxSmem = deviceInfo().maxSmemOptin - 1024; // static shared memory of the kernel
+    const int limit = sharedMemoryLimit(Options);
+    const int maxSmem = limit - 1024; // static shared memory of the kernel
     Reg = makeRegPlan(Dm.shape, kRegWarps, !two);
     Fn = Options.trainRegisterResident && Reg.warps > 0 && Reg.total <= maxSmem
       ? pickReg(Dm.shape.W, Dm.grid.features, two)
@@ -436,7 +441,7 @@ private:
     }
     Reg = RegPlan{};
     Fn = pickTrain(Dm.shape.W, Dm.grid.features, two);
-    Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), &perSm);
+    Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), limit, &perSm);
     const int64_t tiles = (B + Plan.T - 1) / Plan.T;
     Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
     Slots.allocate(size_t(Blocks) * Dm.shape.total, "per-block MLP gradients");
@@ -634,27 +639,14 @@ std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& vol
   const KernelOptions& options, PublishFn publish)
 {
   return std::unique_ptr<Trainer>(
-    new GpuTrainer(model, volume, TrainingPoints(), config, options, std::move(publish), false));
+    new GpuTrainer(model, volume, TrainingPoints(), config, options, std::move(publish)));
 }
 
 std::unique_ptr<Trainer> createTrainer(const Model& model, const TrainingPoints& points, const TrainConfig& config,
   const KernelOptions& options, PublishFn publish)
 {
   return std::unique_ptr<Trainer>(
-    new GpuTrainer(model, VolumeView(), points, config, options, std::move(publish), false));
-}
-
-float testLossAndGradient(const Model& model, const TrainConfig& config, const float* xyz, const float* targets,
-  const uint8_t* valid, int64_t n, std::vector<float>& grad, const KernelOptions& kernels)
-{
-  const float dummy[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
-  VolumeView v;
-  v.data = dummy;
-  v.dims[0] = v.dims[1] = v.dims[2] = 2;
-  TrainConfig c = config;
-  c.batchSize = static_cast<int>(std::max<int64_t>(n, 1));
-  GpuTrainer t(model, v, TrainingPoints(), c, kernels, nullptr, true);
-  return t.lossAndGradient(xyz, targets, valid, n, grad);
+    new GpuTrainer(model, VolumeView(), points, config, options, std::move(publish)));
 }
 
 } // namespace gpu

@@ -37,21 +37,40 @@ __device__ __forceinline__ void ldsm4(uint32_t (&r)[4], const void* p)
                  : "memory");
 }
 
-/// C += A . B, fp32 accumulators (c: rows g / g + 8, columns 2t, 2t + 1).
+/// C += A . B, fp32 accumulators (c: rows g / g + 8, columns 2t, 2t + 1). Ampere and newer: one m16n8k16; Turing:
+/// two m16n8k8 over k 0..7 (a[0], a[1], b0) and k 8..15 (a[2], a[3], b1), the same fragments split in half.
 __device__ __forceinline__ void mma16816(float (&c)[4], const uint32_t (&a)[4], uint32_t b0, uint32_t b1)
 {
+#if !defined(__CUDA_ARCH__) || __CUDA_ARCH__ >= 800
   asm("mma.sync.aligned.m16n8k16.row.col.f32.f16.f16.f32 {%0,%1,%2,%3}, {%4,%5,%6,%7}, {%8,%9}, "
       "{%0,%1,%2,%3};\n"
       : "+f"(c[0]), "+f"(c[1]), "+f"(c[2]), "+f"(c[3])
       : "r"(a[0]), "r"(a[1]), "r"(a[2]), "r"(a[3]), "r"(b0), "r"(b1));
+#else
+  asm("mma.sync.aligned.m16n8k8.row.col.f32.f16.f16.f32 {%0,%1,%2,%3}, {%4,%5}, {%6}, {%0,%1,%2,%3};\n"
+      : "+f"(c[0]), "+f"(c[1]), "+f"(c[2]), "+f"(c[3])
+      : "r"(a[0]), "r"(a[1]), "r"(b0));
+  asm("mma.sync.aligned.m16n8k8.row.col.f32.f16.f16.f32 {%0,%1,%2,%3}, {%4,%5}, {%6}, {%0,%1,%2,%3};\n"
+      : "+f"(c[0]), "+f"(c[1]), "+f"(c[2]), "+f"(c[3])
+      : "r"(a[2]), "r"(a[3]), "r"(b1));
+#endif
 }
 
-/// C += A . B, fp16 accumulators (c[0]: row g, c[1]: row g + 8; columns 2t, 2t + 1 packed).
+/// C += A . B, fp16 accumulators (c[0]: row g, c[1]: row g + 8; columns 2t, 2t + 1 packed); split as above on Turing.
 __device__ __forceinline__ void mma16816(uint32_t (&c)[2], const uint32_t (&a)[4], uint32_t b0, uint32_t b1)
 {
+#if !defined(__CUDA_ARCH__) || __CUDA_ARCH__ >= 800
   asm("mma.sync.aligned.m16n8k16.row.col.f16.f16.f16.f16 {%0,%1}, {%2,%3,%4,%5}, {%6,%7}, {%0,%1};\n"
       : "+r"(c[0]), "+r"(c[1])
       : "r"(a[0]), "r"(a[1]), "r"(a[2]), "r"(a[3]), "r"(b0), "r"(b1));
+#else
+  asm("mma.sync.aligned.m16n8k8.row.col.f16.f16.f16.f16 {%0,%1}, {%2,%3}, {%4}, {%0,%1};\n"
+      : "+r"(c[0]), "+r"(c[1])
+      : "r"(a[0]), "r"(a[1]), "r"(b0));
+  asm("mma.sync.aligned.m16n8k8.row.col.f16.f16.f16.f16 {%0,%1}, {%2,%3}, {%4}, {%0,%1};\n"
+      : "+r"(c[0]), "+r"(c[1])
+      : "r"(a[2]), "r"(a[3]), "r"(b1));
+#endif
 }
 
 __device__ __forceinline__ uint32_t packRelu(float x, float y)

@@ -1,5 +1,5 @@
-// NeuralVolume online benchmark: the Neural Compress filter's own training run (Filters/vtkNeuralTrainingRun, free of
-// VTK) on the engine, as the GUI drives it -- training in a background thread that publishes to the session the
+// NeuralVolume online benchmark: the Neural Compress filter's own training run (the engine's TrainingRun,
+// Core/TrainingRun.h), as the GUI drives it -- training in a background thread that publishes to the session the
 // renderer draws from.
 //   nvBenchOnline DEVICE live FILE.nhdr LOG2T [seconds=2] [W=1280] [H=720]
 //     -> training steps/s alone; for Decode and In-Shader ray marching, back to back and paced at 60 Hz: frames per
@@ -14,9 +14,9 @@
 #include "Core/Error.h"
 #include "Core/NetworkSession.h"
 #include "Core/Serialization.h"
+#include "Core/TrainingRun.h"
 #include "Nhdr.h"
 #include "RenderSetupBench.h"
-#include "vtkNeuralTrainingRun.h"
 
 #include <algorithm>
 #include <atomic>
@@ -28,7 +28,6 @@
 #include <vector>
 
 using namespace nv;
-namespace vi = vtkNeuralCompressInternals;
 using Clock = std::chrono::steady_clock;
 
 namespace
@@ -52,12 +51,12 @@ RenderRequest anchorRequest(const nvbench::RawVolume& raw, RenderPath p, int w, 
   return q;
 }
 
-std::shared_ptr<vi::TrainingData> dataOf(const nvbench::RawVolume& raw, bool probe)
+std::shared_ptr<TrainingData> dataOf(const nvbench::RawVolume& raw, bool probe)
 {
-  auto d = std::make_shared<vi::TrainingData>();
+  auto d = std::make_shared<TrainingData>();
   d->Field.View = raw.view;
   if (probe)
-    d->Probe.reset(new vi::PsnrProbe(raw.view, 11, 65536));
+    d->Probe.reset(new PsnrProbe(raw.view, 11, 65536));
   return d;
 }
 
@@ -75,9 +74,9 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
   auto d = dataOf(raw, false);
   {
     std::shared_ptr<NetworkSession> s = NetworkSession::create(device, nvbench::modelFor(raw, log2T, 1));
-    vi::RunLimits l;
+    RunLimits l;
     l.MaxSteps = 100000000;
-    vi::TrainingRun run(s, d, trainConfig(65536), l, nullptr);
+    TrainingRun run(s, d, trainConfig(65536), l, nullptr);
     run.StartInBackground();
     std::this_thread::sleep_for(std::chrono::milliseconds(300)); // trainer created, first chunks queued
     const int64_t s0 = run.Status().Steps;
@@ -91,10 +90,10 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
     for (double pace : { 0.0, 1.0 / 60.0 })
     {
       std::shared_ptr<NetworkSession> s = NetworkSession::create(device, nvbench::modelFor(raw, log2T, 1));
-      vi::RunLimits l;
+      RunLimits l;
       l.MaxSteps = 100000000;
       l.PublishSeconds = 0.1; // the filter's default: the view shows a new network at least 10 times a second
-      vi::TrainingRun run(s, d, trainConfig(65536), l, nullptr);
+      TrainingRun run(s, d, trainConfig(65536), l, nullptr);
       run.StartInBackground();
       RenderResult image;
       for (int f = 0; f < 3; ++f)
@@ -132,11 +131,11 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
 void toTarget(std::shared_ptr<NetworkSession> s, const nvbench::RawVolume& raw, double target, int64_t maxSteps,
   int batch, int64_t& steps, double& secs, double& psnr)
 {
-  vi::RunLimits l;
+  RunLimits l;
   l.MaxSteps = maxSteps;
   l.TargetPsnr = target;
   l.PsnrInterval = 10;
-  vi::TrainingRun run(s, dataOf(raw, true), trainConfig(batch), l, nullptr);
+  TrainingRun run(s, dataOf(raw, true), trainConfig(batch), l, nullptr);
   run.RunHere(nullptr, nullptr);
   steps = run.Status().Steps;
   secs = run.Status().Seconds;
@@ -156,13 +155,13 @@ int warm(Device device, const std::string& prefix, int first, int count, int log
     double coldTime = 0.0, coldPsnr = 0.0;
     int64_t coldDone = 0;
     {
-      vi::RunLimits l;
+      RunLimits l;
       l.MaxSteps = coldSteps;
-      vi::TrainingRun run(cold, dataOf(raw, false), trainConfig(batch), l, nullptr);
+      TrainingRun run(cold, dataOf(raw, false), trainConfig(batch), l, nullptr);
       run.RunHere(nullptr, nullptr);
       coldDone = run.Status().Steps;
       coldTime = run.Status().Seconds;
-      coldPsnr = vi::PsnrProbe(raw.view, 11, 65536).Estimate(*cold);
+      coldPsnr = PsnrProbe(raw.view, 11, 65536).Estimate(*cold);
     }
     if (!previous.empty())
     {
@@ -171,7 +170,7 @@ int warm(Device device, const std::string& prefix, int first, int count, int log
       std::shared_ptr<NetworkSession> w = NetworkSession::create(device, seeded);
       int64_t warmSteps = 0;
       double warmTime = 0.0, warmPsnr = 0.0;
-      const double atStart = vi::PsnrProbe(raw.view, 11, 65536).Estimate(*w);
+      const double atStart = PsnrProbe(raw.view, 11, 65536).Estimate(*w);
       toTarget(w, raw, coldPsnr, 4 * coldSteps, batch, warmSteps, warmTime, warmPsnr);
       // The cold start to the same target (probe every 10 steps), for the steps it needs.
       std::shared_ptr<NetworkSession> c2 = NetworkSession::create(device, nvbench::modelFor(raw, log2T, 1));
@@ -202,9 +201,9 @@ int restore(Device device, const std::string& file, int log2T, int steps, int w,
   std::vector<uint8_t> bytes;
   {
     std::shared_ptr<NetworkSession> s = NetworkSession::create(device, nvbench::modelFor(raw, log2T, 1));
-    vi::RunLimits l;
+    RunLimits l;
     l.MaxSteps = steps;
-    vi::TrainingRun run(s, dataOf(raw, false), trainConfig(65536), l, nullptr);
+    TrainingRun run(s, dataOf(raw, false), trainConfig(65536), l, nullptr);
     run.RunHere(nullptr, nullptr);
     Model m = s->currentModel();
     m.quantize(Precision::Float16);

@@ -1,15 +1,19 @@
 // nvBench tradeoff: run time against error for one volume and table size (Testing/Benchmarks/tradeoff.py).
 //   nvBench tradeoff DEVICE file.nhdr LOG2T STEPS[,..] [--batch=N] [--seed=N] [--threads=N] [--loss=l1|l2]
 //                    [--lr=X] [--decay=step|none] [--decay-interval=N] [--decay-factor=X] [--warmup=N] [--eps=X]
-//                    [--beta2=X] [--plateau=STEPS]
+//                    [--beta2=X] [--plateau=STEPS] [--schedule=step|exp|cos|auto] [--planned=STEPS]
+//                    [--final=X]
 //                    [--importance=CELLS] [--dump=DIR]
 // Trains the method's network (16x4 levels, finest 2x the largest dimension, 64x4 MLP, the filter's defaults) and, at
 // each step count, stores it as Neural Compress does (fp16), decodes the full grid and prints one line
 //   RESULT {"what":"tradeoff", ... "steps", "train_s", "decode_s", "psnr", "max_error", "ratio", "model_bytes"}
 // train_s: wall time of the training steps so far (setup excluded, the decode and the evaluation excluded); decode_s:
 // one decode of the whole grid into host memory; psnr and max_error over every voxel (values normalised by the range;
-// max_error in source units); ratio: source bytes / stored parameter bytes. --dump writes the decoded grid (float32,
-// source units, x fastest) to DIR/NAME_T<log2T>_S<steps>.f32 for the image metrics of the harness.
+// max_error in source units); ratio: source bytes / stored parameter bytes. --schedule: step (the default here, so that
+// old logs compare: the paper's step decay), exp or cos (anneal the rate to --final, default 0.01, of --lr at --planned
+// steps, default the last step count), auto (the engine's default for a run of known length). --dump writes the
+// decoded grid (float32, source units, x fastest) to DIR/NAME_T<log2T>_S<steps>.f32 for the image metrics of the
+// harness.
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "Nhdr.h"
@@ -58,6 +62,8 @@ int tradeoffBenchmark(int argc, char** argv)
   TrainConfig tc;
   SessionOptions options;
   std::string dumpDir;
+  bool plannedGiven = false;
+  tc.optimizer.schedule = LearningRateSchedule::StepDecay;
   for (int i = 2; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -86,6 +92,22 @@ int tradeoffBenchmark(int argc, char** argv)
       tc.optimizer.decayInterval = std::atoi(v.c_str());
     else if (option(a, "decay-factor", v))
       tc.optimizer.decayFactor = std::atof(v.c_str());
+    else if (option(a, "schedule", v))
+    {
+      if (v != "step" && v != "exp" && v != "cos" && v != "auto")
+        throw std::runtime_error("--schedule must be step, exp, cos or auto");
+      tc.optimizer.schedule = v == "exp" ? LearningRateSchedule::Exponential
+        : v == "cos"                     ? LearningRateSchedule::Cosine
+        : v == "auto"                    ? LearningRateSchedule::Auto
+                                         : LearningRateSchedule::StepDecay;
+    }
+    else if (option(a, "planned", v))
+    {
+      tc.optimizer.plannedSteps = std::atof(v.c_str());
+      plannedGiven = true;
+    }
+    else if (option(a, "final", v))
+      tc.optimizer.finalRateFraction = std::atof(v.c_str());
     else if (option(a, "importance", v))
       tc.importanceGrid = std::atoi(v.c_str());
     else if (option(a, "dump", v))
@@ -99,6 +121,8 @@ int tradeoffBenchmark(int argc, char** argv)
   const nvbench::RawVolume raw = nvbench::loadNhdr(positional[1]);
   const int log2T = std::atoi(positional[2].c_str());
   const std::vector<int> marks = nvbench::parseSteps(positional[3]);
+  if (!plannedGiven && !marks.empty())
+    tc.optimizer.plannedSteps = marks.back();
   Model m = nvbench::modelFor(raw, log2T, tc.seed);
   const auto session = NetworkSession::create(dev, m, options);
   Model stored = m;

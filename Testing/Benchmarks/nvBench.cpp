@@ -5,7 +5,9 @@
 //   nvBench decode DEVICE NX LOG2T FINEST                -> decode of an NX^3 grid
 //   nvBench budget DEVICE file.nhdr LOG2T SECONDS BATCH  -> PSNR after training for a wall-clock budget
 //   nvBench render PATH MODE W H [file.nhdr] [options]   -> CPU renderer frame times (RenderBench.cpp)
-//   nvBench tradeoff DEVICE file.nhdr LOG2T STEPS[,..] [options] -> time vs error of a stored network (TradeoffBench.cpp)
+//   nvBench tradeoff DEVICE file.nhdr LOG2T STEPS[,..] [options] -> time vs error of a stored network (TradeoffBench.cpp;
+//     learning-rate options --lr --decay --decay-interval --decay-factor --warmup --eps --beta2 --plateau --schedule
+//     --planned --final)
 // DEVICE: cpu | cuda. Kernel variants: flags of KernelFlags.h; --deterministic: TrainConfig::deterministic (step,
 // budget, curve); --points=PREFIX (curve): also the PSNR at the points of PREFIX.points.f32 (network coordinates,
 // float32 x 3) against PREFIX.values.f64 (a resampled source's own samples, anydataset_bench.py); --bank=PREFIX

@@ -7,7 +7,7 @@
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 #include "Gpu/GpuEngine.h"
-#include "Gpu/GpuTesting.h"
+#include "GpuTestHooks.h"
 #include "KernelFlags.h"
 #include "Nhdr.h"
 
@@ -58,7 +58,7 @@ int main(int argc, char** argv)
       const auto session = NetworkSession::create(Device::Cuda, m, options);
       if (mode == "infer")
       {
-        const double ms = gpu::benchInferKernel(m, size, 20);
+        const double ms = gpu::benchInferKernel(m, size, 20, options.kernels);
         const double api = gpu::benchSessionInfer(*session, size, 20);
         std::vector<float> xyz(static_cast<size_t>(size) * 3), out(static_cast<size_t>(size));
         for (size_t i = 0; i < xyz.size(); ++i)
@@ -75,7 +75,7 @@ int main(int argc, char** argv)
       }
       else
       {
-        const double ms = gpu::benchDecodeKernel(m, size, size, size, 5);
+        const double ms = gpu::benchDecodeKernel(m, size, size, size, 5, options.kernels);
         const double api = gpu::benchSessionDecode(*session, size, size, size, 5);
         std::vector<float> out(size_t(size) * size * size);
         session->decodeGrid(size, size, size, 0, size, out.data(), Memory::Host);

@@ -4,7 +4,7 @@
 # nvBenchRender nvTestGpuRender nvBenchOnline, optionally xz-compressed; data/: the data folders (stent/, walnut/, headsq/ with
 # .nhdr + .raw, as in ../shared/data; timeseries/ from export_timeseries.py); ref/: the PyTorch reference scripts). Usage:
 # run_gpu_bench.sh SECTION... with SECTION in
-#   parity | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
+#   parity | archs | memcheck | racecheck | step | infer | infervariants | quality | seeds | cpucurves | torch |
 #   online | deterministic | anydataset | probe | render | rendersweep | renderskip | rendertrain | renderlarge | renderimages | rendersanitize | renderparity
 # Logs go to $OUT (or ./gpu-bench-out).
 set -u
@@ -29,6 +29,24 @@ for s in "$@"; do
       # the WMMA training kernel (used for widths > 64 or shapes whose staging does not fit) on every test shape
       for t in gradients_match_cpu training_curve_matches_cpu; do
         $B/nvTestGpuParity $t --wmma; done 2>&1 | tee "$O/parity_wmma.log" ;;
+    archs)
+      # Every GPU from Turing on, on this one. (1) Every kernel limited to the shared memory per block of an
+      # sm_86/89/120 (99 KiB) and of an sm_75 (64 KiB): the suites against the CPU engine, and the step / inference
+      # cost of the tilings chosen there. (2) The Turing code itself: binaries in .devcarry/bin75 carry compute_75
+      # PTX only, which the driver compiles for this GPU (two m16n8k8 MMAs per m16n8k16, scalar gradient
+      # reductions), run at 64 KiB.
+      nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv | tee "$O/gpu.txt"
+      for l in 101376 65536; do echo "== shared memory limit $l bytes"
+        $B/nvTestGpuParity --smem-limit=$l; $B/nvTestGpuRender --smem-limit=$l; done 2>&1 | tee "$O/arch_limits.log"
+      for l in 0 101376 65536; do for t in 14 19; do $B/nvBench --smem-limit=$l step cuda 65536 $t 4096 200; done
+        $B/nvBenchGpu --smem-limit=$l infer 2097152 19 4096; $B/nvBenchGpu --smem-limit=$l decode 512 19 4096
+        done 2>&1 | sed 's/^/limit /' | tee "$O/arch_limits_bench.log"
+      if [ -d .devcarry/bin75 ]; then
+        for f in .devcarry/bin75/*.xz; do [ -e "$f" ] && xz -d -f "$f" && chmod +x "${f%.xz}"; done
+        ( time .devcarry/bin75/nvTestGpuParity --smem-limit=65536 ) 2>&1 | tee "$O/arch_turing_code.log"
+        ( time .devcarry/bin75/nvTestGpuRender --smem-limit=65536 ) 2>&1 | tee -a "$O/arch_turing_code.log"
+        for t in 14 19; do .devcarry/bin75/nvBench --smem-limit=65536 step cuda 65536 $t 4096 200; done 2>&1 | tee -a "$O/arch_turing_code.log"
+      fi ;;
     memcheck)
       compute-sanitizer --tool memcheck --leak-check full $B/nvTestGpuParity gradients_match_cpu 2>&1 | tail -25 | tee "$O/memcheck.log"
       compute-sanitizer --tool memcheck $B/nvTestGpuParity host_sampled_equals_gpu_resident 2>&1 | tail -6 | tee -a "$O/memcheck.log"

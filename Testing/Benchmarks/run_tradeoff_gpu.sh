@@ -11,6 +11,9 @@
 #   importance error-guided sampling on and off, 3 seeds, 2^19 (binary nvBenchImp)
 #   plateau   the loss-driven decay against the default schedule (collapses; every volume at 2^14/2^18)
 #   spread    six seeds at 2^16 on a 256^3 volume and on stent, 4000 steps
+#   anneal    annealed learning-rate schedules (--schedule=exp|cos, to 1/100 or 1/30 of the rate at the last step)
+#             against the step decay, every volume and the smooth 48^3 field, L1 and L2, 4000 steps, PSNR every 50
+#             (summary: Testing/Benchmarks/summarize_schedule.py anneal.log)
 # Results go to $OUT (or ./tradeoff-out).
 set -u
 B=.devcarry/bin
@@ -92,6 +95,20 @@ for s in "$@"; do
       for v in $VOLS; do for seed in 1 2 3; do for imp in 0 16; do
         $B/nvBenchImp tradeoff cuda $v 19 1000,2000,4000 --seed=$seed --importance=$imp | sed "s/^RESULT/imp=$imp RESULT/"
       done; done; done > "$O/importance.log" 2>&1 ;;
+    anneal)
+      nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
+      marks=$(seq -s, 50 50 4000)
+      for v in $D/synth/smooth48_float.nhdr $VOLS; do
+        for cfg in "l1 16" "l2 16" "l1 19"; do set -- $cfg
+          for variant in "base" "exp100 --schedule=exp --final=0.01" "cos100 --schedule=cos --final=0.01" \
+                         "cos30 --schedule=cos --final=0.0333"; do
+            name=${variant%% *}; opts=${variant#$name}
+            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
+            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
+          done
+        done
+      done > "$O/anneal.log" 2>&1
+      python3 Testing/Benchmarks/summarize_schedule.py "$O/anneal.log" > "$O/anneal.md" ;;
     spread)
       for v in $D/stent256/*.nhdr $D/stent/*.nhdr; do for seed in 1 2 3 4 5 6; do
         $B/nvBench tradeoff cuda $v 16 1000,4000 --seed=$seed; done; done 2>&1 | tee "$O/spread.log" ;;

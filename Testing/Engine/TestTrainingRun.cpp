@@ -1,10 +1,10 @@
-// The Neural Compress training run (Filters/vtkNeuralTrainingRun, free of VTK) on the CPU engine: background
+// The engine's training run (Core/TrainingRun.h, what the Neural Compress filter drives) on the CPU engine: background
 // training publishing to the session, pause / resume / continue / fast-forward step counts, stop latency, target
 // PSNR and time budget, bit-for-bit determinism, and warm start against cold start.
 #include "Core/Engine.h"
+#include "Core/TrainingRun.h"
 #include "SessionHelpers.h"
 #include "TestHarness.h"
-#include "vtkNeuralTrainingRun.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,7 +12,6 @@
 #include <vector>
 
 using namespace nv;
-namespace vi = vtkNeuralCompressInternals;
 using Clock = std::chrono::steady_clock;
 
 namespace
@@ -33,9 +32,9 @@ std::vector<float> analyticVolume(double phase)
   return v;
 }
 
-std::shared_ptr<vi::TrainingData> data(const std::vector<float>& values, bool probe = true)
+std::shared_ptr<TrainingData> data(const std::vector<float>& values, bool probe = true)
 {
-  auto d = std::make_shared<vi::TrainingData>();
+  auto d = std::make_shared<TrainingData>();
   VolumeView& vol = d->Field.View;
   vol.data = values.data();
   vol.type = ScalarType::Float32;
@@ -44,11 +43,11 @@ std::shared_ptr<vi::TrainingData> data(const std::vector<float>& values, bool pr
   vol.valueMin = s.min;
   vol.valueMax = s.max;
   if (probe)
-    d->Probe.reset(new vi::PsnrProbe(vol, 1, 8192));
+    d->Probe.reset(new PsnrProbe(vol, 1, 8192));
   return d;
 }
 
-Model model(const vi::TrainingData& d, uint64_t seed)
+Model model(const TrainingData& d, uint64_t seed)
 {
   ModelConfig c;
   c.encoding.levels = 6;
@@ -73,9 +72,9 @@ TrainConfig trainConfig()
   return t;
 }
 
-vi::RunLimits limits(int64_t steps, int psnrInterval = 0)
+RunLimits limits(int64_t steps, int psnrInterval = 0)
 {
-  vi::RunLimits l;
+  RunLimits l;
   l.MaxSteps = steps;
   l.PsnrInterval = psnrInterval;
   l.PublishSeconds = 0.02;
@@ -108,8 +107,8 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
   auto d = data(values);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
   int hookCalls = 0;
-  vi::TrainingRun run(s, d, trainConfig(), limits(400, 50),
-    [&](vi::TrainingRun&, const vi::RunStatus&) { ++hookCalls; });
+  TrainingRun run(s, d, trainConfig(), limits(400, 50),
+    [&](TrainingRun&, const RunStatus&) { ++hookCalls; });
   const uint64_t v0 = s->version();
   const auto t0 = Clock::now();
   run.StartInBackground();
@@ -120,9 +119,9 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
     const uint64_t v = s->version();
     if (versions.empty() || versions.back() != v)
       versions.push_back(v);
-    return run.Status().State == vi::RunState::Finished;
+    return run.Status().State == RunState::Finished;
   }, 120.0);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(run.Status().State == RunState::Finished);
   EXPECT_TRUE(versions.size() >= 3);
   EXPECT_TRUE(s->version() > v0);
   EXPECT_TRUE(run.Status().Steps == 400);
@@ -132,7 +131,7 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
   // Probes every 50 steps before the last: 7 PSNR values, finite and rising overall.
   int probes = 0;
   double first = 0, last = 0;
-  for (const vi::LogRow& r : run.Log())
+  for (const LogRow& r : run.Log())
     if (std::isfinite(r.PSNR))
     {
       first = probes == 0 ? r.PSNR : first;
@@ -148,11 +147,11 @@ NV_TEST(PauseResumeContinueFastForwardAreExact)
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-  vi::TrainingRun run(s, d, trainConfig(), limits(300), nullptr);
+  TrainingRun run(s, d, trainConfig(), limits(300), nullptr);
   run.StartInBackground();
   EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 20; }, 60.0));
   run.Pause();
-  EXPECT_TRUE(run.Status().State == vi::RunState::Paused);
+  EXPECT_TRUE(run.Status().State == RunState::Paused);
   // The step in flight completes; then nothing moves, and the session keeps its network.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   const int64_t paused = run.Status().Steps;
@@ -167,7 +166,7 @@ NV_TEST(PauseResumeContinueFastForwardAreExact)
   run.Extend(37, false);
   EXPECT_TRUE(run.Wait(60.0));
   EXPECT_TRUE(run.Status().Steps == 337);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(run.Status().State == RunState::Finished);
   const uint64_t beforeFast = s->version();
   run.Extend(50, true); // fast-forward: one publish at the end
   EXPECT_TRUE(run.Wait(60.0));
@@ -181,7 +180,7 @@ NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-  vi::TrainingRun run(s, d, trainConfig(), limits(1000000), nullptr);
+  TrainingRun run(s, d, trainConfig(), limits(1000000), nullptr);
   run.StartInBackground();
   EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 10; }, 60.0));
   const auto t0 = Clock::now();
@@ -190,7 +189,7 @@ NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
   const double latency = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf("  stop latency %.4f s\n", latency);
   EXPECT_TRUE(latency < 0.2);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Stopped);
+  EXPECT_TRUE(run.Status().State == RunState::Stopped);
   EXPECT_TRUE(run.Status().EndReason == "stopped");
   const uint64_t version = s->version();
   const int64_t steps = run.Status().Steps;
@@ -201,7 +200,7 @@ NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
   run.Extend(5, false);
   EXPECT_TRUE(run.Wait(30.0));
   EXPECT_TRUE(run.Status().Steps == steps + 5);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(run.Status().State == RunState::Finished);
 }
 
 NV_TEST(AbortInTheCallingThreadIsNotSticky)
@@ -209,14 +208,14 @@ NV_TEST(AbortInTheCallingThreadIsNotSticky)
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-  vi::TrainingRun run(s, d, trainConfig(), limits(100), nullptr);
+  TrainingRun run(s, d, trainConfig(), limits(100), nullptr);
   int polls = 0;
   run.RunHere([&]() { return ++polls > 10; }, nullptr);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Stopped);
+  EXPECT_TRUE(run.Status().State == RunState::Stopped);
   EXPECT_TRUE(run.Status().Steps == 10);
   run.Extend(20, false); // runs here again, without an abort
   EXPECT_TRUE(run.Status().Steps == 30);
-  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(run.Status().State == RunState::Finished);
 }
 
 NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
@@ -225,11 +224,11 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
   {
     auto d = data(values);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-    vi::RunLimits l = limits(5000, 10);
+    RunLimits l = limits(5000, 10);
     l.TargetPsnr = 25.0;
-    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
+    TrainingRun run(s, d, trainConfig(), l, nullptr);
     run.RunHere(nullptr, nullptr);
-    const vi::RunStatus st = run.Status();
+    const RunStatus st = run.Status();
     EXPECT_TRUE(st.EndReason == "target PSNR");
     EXPECT_TRUE(st.Steps < 5000 && st.Steps % 10 == 0);
     EXPECT_TRUE(st.Psnr >= 25.0);
@@ -237,21 +236,68 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
   {
     auto d = data(values, false);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-    vi::RunLimits l = limits(1000000);
+    RunLimits l = limits(1000000);
     l.TimeBudget = 0.5;
-    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
+    TrainingRun run(s, d, trainConfig(), l, nullptr);
     run.StartInBackground();
     // Paused time does not count against the budget.
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     run.Pause();
     std::this_thread::sleep_for(std::chrono::milliseconds(600));
-    EXPECT_TRUE(run.Status().State == vi::RunState::Paused);
+    EXPECT_TRUE(run.Status().State == RunState::Paused);
     run.Resume();
     EXPECT_TRUE(run.Wait(30.0));
-    const vi::RunStatus st = run.Status();
+    const RunStatus st = run.Status();
     EXPECT_TRUE(st.EndReason == "time budget");
     std::printf("  budget 0.5 s: %.3f s of training, %lld steps\n", st.Seconds, static_cast<long long>(st.Steps));
     EXPECT_TRUE(st.Seconds >= 0.5 && st.Seconds < 0.75);
+  }
+}
+
+NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
+{
+  // The default schedule (Auto) anneals over the phase: TrainingRun plans the trainer's steps, so the cosine reaches
+  // 1/100 of the rate exactly at the last step; a later Continue stays at that floor. Under a time budget the plan
+  // follows the measured step rate, so the last steps run near the floor too. An explicit step decay ignores plans.
+  const std::vector<float> values = analyticVolume(0.0);
+  const double lr = TrainConfig().optimizer.learningRate;
+  auto rateAt = [&](const std::vector<LogRow>& log, int64_t step) { return log[size_t(step - 1)].LearningRate; };
+  {
+    auto d = data(values, false);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    TrainingRun run(s, d, trainConfig(), limits(200), nullptr);
+    run.RunHere(nullptr, nullptr);
+    run.Extend(20, false);
+    const std::vector<LogRow> log = run.Log();
+    EXPECT_TRUE(log.size() == 220);
+    std::printf("  200 steps: rate %.6g at step 1, %.6g at 100, %.6g at 200, %.6g at 220 (continued)\n",
+      rateAt(log, 1), rateAt(log, 100), rateAt(log, 200), rateAt(log, 220));
+    EXPECT_TRUE(std::fabs(rateAt(log, 100) / lr - (0.01 + 0.99 * 0.5)) < 1e-12);
+    EXPECT_TRUE(std::fabs(rateAt(log, 200) / lr - 0.01) < 1e-12);
+    EXPECT_TRUE(std::fabs(rateAt(log, 220) / lr - 0.01) < 1e-12);
+    EXPECT_TRUE(rateAt(log, 1) > 0.999 * lr);
+  }
+  {
+    auto d = data(values, false);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    TrainConfig tc = trainConfig();
+    tc.optimizer.schedule = LearningRateSchedule::StepDecay;
+    TrainingRun run(s, d, tc, limits(200), nullptr);
+    run.RunHere(nullptr, nullptr);
+    EXPECT_TRUE(std::fabs(rateAt(run.Log(), 200) - lr) < 1e-15);
+  }
+  {
+    auto d = data(values, false);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    RunLimits l = limits(1000000);
+    l.TimeBudget = 0.5;
+    TrainingRun run(s, d, trainConfig(), l, nullptr);
+    run.RunHere(nullptr, nullptr);
+    const std::vector<LogRow> log = run.Log();
+    const double last = log.back().LearningRate / lr, first = log.front().LearningRate / lr;
+    std::printf("  0.5 s budget: %zu steps, rate %.4g x lr at the first step, %.4g x lr at the last\n", log.size(),
+      first, last);
+    EXPECT_TRUE(log.size() > 20 && first > 0.99 && last < 0.1);
   }
 }
 
@@ -263,9 +309,9 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
   {
     auto d = data(values, k == 2);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 3), Device::Cpu, 2);
-    vi::RunLimits l = limits(120, k == 2 ? 20 : 0);
+    RunLimits l = limits(120, k == 2 ? 20 : 0);
     l.KeepBest = false; // probes only watch here (KeepBestNetwork is tested below)
-    vi::TrainingRun run(s, d, trainConfig(), l, nullptr);
+    TrainingRun run(s, d, trainConfig(), l, nullptr);
     if (k == 0)
       run.RunHere(nullptr, nullptr);
     else
@@ -281,7 +327,7 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
   // A different seed is a different network (the comparison can fail).
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 4), Device::Cpu, 2);
-  vi::TrainingRun run(s, d, trainConfig(), limits(120), nullptr);
+  TrainingRun run(s, d, trainConfig(), limits(120), nullptr);
   run.RunHere(nullptr, nullptr);
   EXPECT_TRUE(s->currentModel().params() != params[0]);
 }
@@ -292,7 +338,7 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
   const std::vector<float> t0 = analyticVolume(0.0), t1 = analyticVolume(0.15);
   auto d0 = data(t0, false);
   std::shared_ptr<NetworkSession> s0 = nvtest::session(model(*d0, 1), Device::Cpu, 2);
-  vi::TrainingRun first(s0, d0, trainConfig(), limits(400), nullptr);
+  TrainingRun first(s0, d0, trainConfig(), limits(400), nullptr);
   first.RunHere(nullptr, nullptr);
 
   const int steps = 100;
@@ -302,8 +348,8 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
   seeded.params() = s0->currentModel().params();
   std::shared_ptr<NetworkSession> sw = nvtest::session(seeded, Device::Cpu, 2);
   const double warmAtStart = psnrOf(*sw, warm->Field.View);
-  vi::TrainingRun coldRun(sc, cold, trainConfig(), limits(steps), nullptr);
-  vi::TrainingRun warmRun(sw, warm, trainConfig(), limits(steps), nullptr);
+  TrainingRun coldRun(sc, cold, trainConfig(), limits(steps), nullptr);
+  TrainingRun warmRun(sw, warm, trainConfig(), limits(steps), nullptr);
   coldRun.RunHere(nullptr, nullptr);
   warmRun.RunHere(nullptr, nullptr);
   const double coldPsnr = psnrOf(*sc, cold->Field.View), warmPsnr = psnrOf(*sw, warm->Field.View);
@@ -323,12 +369,12 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 3), Device::Cpu, 2);
   TrainConfig tc = trainConfig();
   tc.optimizer.learningRate = 1e6;
-  vi::TrainingRun run(s, d, tc, limits(300, 20), nullptr);
+  TrainingRun run(s, d, tc, limits(300, 20), nullptr);
   run.RunHere(nullptr, nullptr);
-  const vi::RunStatus st = run.Status();
-  std::printf("  state %s, %lld steps, %zu warnings%s%s\n", vi::RunStateName(st.State), (long long)st.Steps,
+  const RunStatus st = run.Status();
+  std::printf("  state %s, %lld steps, %zu warnings%s%s\n", RunStateName(st.State), (long long)st.Steps,
     st.Warnings.size(), st.Warnings.empty() ? "" : "; last: ", st.Warnings.empty() ? "" : st.Warnings.back().c_str());
-  EXPECT_TRUE(st.State == vi::RunState::Finished);
+  EXPECT_TRUE(st.State == RunState::Finished);
   EXPECT_TRUE(st.Steps == 300);
   EXPECT_TRUE(!st.Warnings.empty() && st.Warnings.front().find("rolled back") != std::string::npos);
   bool finite = true;
@@ -336,7 +382,7 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   for (float p : current.params())
     finite = finite && std::isfinite(p);
   EXPECT_TRUE(finite);
-  for (const vi::LogRow& r : run.Log())
+  for (const LogRow& r : run.Log())
     EXPECT_TRUE(std::isfinite(r.Loss) && r.Loss <= 1e3);
   EXPECT_TRUE(run.Log().size() == 300);
   const double psnr = psnrOf(*s, d->Field.View);
@@ -361,12 +407,12 @@ NV_TEST(KeepsTheBestProbedNetwork)
   {
     auto d = data(values, true);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 5), Device::Cpu, 2);
-    vi::RunLimits l = limits(400, 10);
+    RunLimits l = limits(400, 10);
     l.KeepBest = keep == 1;
-    vi::TrainingRun run(s, d, tc, l, nullptr);
+    TrainingRun run(s, d, tc, l, nullptr);
     run.RunHere(nullptr, nullptr);
     bestInLog[keep] = -1e30;
-    for (const vi::LogRow& r : run.Log())
+    for (const LogRow& r : run.Log())
       if (std::isfinite(r.PSNR))
         bestInLog[keep] = std::max(bestInLog[keep], r.PSNR);
     finals[keep] = d->Probe->Estimate(*s);

@@ -1,14 +1,14 @@
-// The Neural Compress filter's training loop (Filters/vtkNeuralCompressTraining.cxx, free of VTK) on the CUDA
+// The Neural Compress filter's training loop (the engine's nv::TrainingRun, Cuda/Core/TrainingRun.h) on the CUDA
 // engine: chunked queued steps, PSNR probes on their steps, abort and time budget between chunks, progress, GPU
 // memory report, both training strategies. The pvbatch tests cover the same loop on the CPU (no GPU there).
 // Exits with 77 (SKIP_RETURN_CODE) when no usable GPU is present.
+#include "BlockingTraining.h"
 #include "Core/Engine.h"
 #include "Gpu/GpuEngine.h"
 #include "TestHarness.h"
 #include "RenderFixtures.h"
 #include "TestVolumeView.h"
-#include "vtkNeuralCompressInternals.h"
-#include "vtkNeuralTrainingRun.h"
+#include "Core/TrainingRun.h"
 
 #include "Core/NetworkSession.h"
 
@@ -21,7 +21,6 @@
 #include <vector>
 
 using namespace nv;
-namespace vi = vtkNeuralCompressInternals;
 
 namespace
 {
@@ -64,19 +63,19 @@ NV_TEST(filter_loop_on_gpu)
 {
   const auto data = smoothVolume();
   const VolumeView vol = floatCubeView(data, kN);
-  const vi::PsnrProbe probe(vol, 7, 20000);
+  const PsnrProbe probe(vol, 7, 20000);
   for (TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
   {
     const std::string tag = strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled";
     auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
     const double before = probe.Estimate(*session);
-    vi::TrainingRequest rq;
+    nvtest::TrainingRequest rq;
     rq.MaxSteps = 500;
     rq.PsnrInterval = 100; // splits the 64-step chunks: 64, 36, 64, 36, ...
     std::vector<double> progress;
     rq.Progress = [&](double f) { progress.push_back(f); };
     const uint64_t version = session->version();
-    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(strategy), rq, &probe);
+    const nvtest::TrainingResult r = nvtest::trainHere(*session, vol, trainConfig(strategy), rq, &probe);
     const double after = probe.Estimate(*session);
     EXPECT_TRUE(session->version() == version + 5); // 4 probes and the end published to the session
     std::printf("    %s: %lld steps in %.3f s, GPU memory %.1f MiB, PSNR %.2f -> %.2f dB (probe at 400: %.2f)\n",
@@ -88,7 +87,7 @@ NV_TEST(filter_loop_on_gpu)
     bool stepsInOrder = true, finite = true;
     for (size_t k = 0; k < r.Log.size(); ++k)
     {
-      const vi::LogRow& row = r.Log[k];
+      const LogRow& row = r.Log[k];
       stepsInOrder &= row.Step == int64_t(k + 1);
       finite &= std::isfinite(row.Loss) && row.Loss >= 0.0;
       const bool probed = !std::isnan(row.PSNR);
@@ -120,6 +119,51 @@ NV_TEST(filter_loop_on_gpu)
   }
 }
 
+NV_TEST(range_wider_than_the_largest_double_trains_on_gpu)
+{
+  // A float64 field from about -1.35e308 to +1.35e308 (max - min overflows a double) and the same field at +-1.35:
+  // the GPU samples both through Core/ValueRange.h, so the two runs see the same targets (up to rounding) and end
+  // at the same PSNR, finite, on both strategies. (Without Deterministic, float atomics alone spread such 300-step
+  // L1 runs by about 1.5 dB.)
+  const auto base = smoothVolume();
+  std::vector<double> small(base.size()), huge(base.size());
+  for (size_t i = 0; i < base.size(); ++i)
+  {
+    small[i] = double(base[i]);
+    huge[i] = double(base[i]) * 1e308;
+  }
+  auto view = [](const std::vector<double>& d) {
+    VolumeView v;
+    v.data = d.data();
+    v.type = ScalarType::Float64;
+    v.dims[0] = v.dims[1] = v.dims[2] = kN;
+    const VolumeStats st = computeStats(v);
+    v.valueMin = st.min;
+    v.valueMax = st.max;
+    return v;
+  };
+  const VolumeView vs = view(small), vh = view(huge);
+  EXPECT_TRUE(std::isinf(vh.valueMax - vh.valueMin));
+  for (TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
+  {
+    double psnr[2] = { 0.0, 0.0 };
+    for (int k = 0; k < 2; ++k)
+    {
+      const VolumeView& v = k == 0 ? vs : vh;
+      auto session = NetworkSession::create(Device::Cuda, smallModel(v));
+      TrainConfig tc = trainConfig(strategy);
+      tc.deterministic = true; // no atomics-order noise: the runs differ by the targets' rounding only
+      auto trainer = session->createTrainer(v, tc);
+      trainer->steps(300, nullptr);
+      trainer->publish();
+      psnr[k] = PsnrProbe(v, 7, 20000).Estimate(*session);
+    }
+    std::printf("    %s: +-1.35 %.3f dB, +-1.35e308 %.3f dB\n",
+      strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled", psnr[0], psnr[1]);
+    EXPECT_TRUE(std::isfinite(psnr[1]) && psnr[0] > 25.0 && std::fabs(psnr[0] - psnr[1]) < 1.0);
+  }
+}
+
 NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
 {
   const auto data = smoothVolume();
@@ -127,20 +171,20 @@ NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
   {
     // Abort is checked between chunks: the first check lets one chunk (64 queued steps) run, the second aborts.
     auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
-    vi::TrainingRequest rq;
+    nvtest::TrainingRequest rq;
     rq.MaxSteps = 100000;
     int checks = 0;
     rq.ShouldAbort = [&] { return ++checks >= 2; };
-    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
+    const nvtest::TrainingResult r = nvtest::trainHere(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
     std::printf("    abort: %lld steps, aborted %d\n", (long long)r.Steps, int(r.Aborted));
     EXPECT_TRUE(r.Aborted && r.Steps == 64 && r.Log.size() == 64);
   }
   {
     auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
-    vi::TrainingRequest rq;
+    nvtest::TrainingRequest rq;
     rq.MaxSteps = 10000000;
     rq.TimeBudget = 0.3;
-    const vi::TrainingResult r = vi::Train(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
+    const nvtest::TrainingResult r = nvtest::trainHere(*session, vol, trainConfig(TrainingStrategy::Auto), rq, nullptr);
     std::printf("    time budget 0.3 s: %lld steps in %.3f s, timed out %d\n", (long long)r.Steps, r.Seconds,
       int(r.TimedOut));
     EXPECT_TRUE(r.TimedOut && r.Steps > 64 && r.Steps < rq.MaxSteps && r.Steps % 64 == 0);
@@ -153,13 +197,13 @@ NV_TEST(background_run_while_rendering_on_gpu)
   // The online filter on the GPU: a background run trains and publishes while this thread renders; every few frames
   // show a newer network; pause holds it, stop ends it within 0.2 s with nothing published after.
   const auto data = smoothVolume();
-  auto d = std::make_shared<vi::TrainingData>();
+  auto d = std::make_shared<TrainingData>();
   d->Field.View = floatCubeView(data, kN);
   std::shared_ptr<NetworkSession> session = NetworkSession::create(Device::Cuda, smallModel(d->Field.View));
-  vi::RunLimits limits;
+  RunLimits limits;
   limits.MaxSteps = 3000;
   limits.PublishSeconds = 0.01;
-  vi::TrainingRun run(session, d, trainConfig(TrainingStrategy::Auto), limits, nullptr);
+  TrainingRun run(session, d, trainConfig(TrainingStrategy::Auto), limits, nullptr);
   RenderRequest q = nvtest::blobRequest(session->currentModel(), RenderPath::Decode, ShadingMode::RayMarch, 256,
     256);
   q.samplesPerPixel = 1;
@@ -197,7 +241,7 @@ NV_TEST(background_run_while_rendering_on_gpu)
   EXPECT_TRUE(session->version() == stoppedVersion);
   run.Extend(128, true);
   EXPECT_TRUE(run.Wait(30.0));
-  EXPECT_TRUE(run.Status().State == vi::RunState::Finished);
+  EXPECT_TRUE(run.Status().State == RunState::Finished);
 }
 
 NV_TEST(deterministic_run_on_gpu_is_bitwise_repeatable)
@@ -210,20 +254,20 @@ NV_TEST(deterministic_run_on_gpu_is_bitwise_repeatable)
   std::vector<std::vector<float>> params;
   for (int k = 0; k < 5; ++k)
   {
-    auto d = std::make_shared<vi::TrainingData>();
+    auto d = std::make_shared<TrainingData>();
     d->Field.View = floatCubeView(data, kN);
     const bool probes = k >= 2, background = k == 1 || k == 3;
     if (probes)
-      d->Probe.reset(new vi::PsnrProbe(d->Field.View, 7, 20000));
+      d->Probe.reset(new PsnrProbe(d->Field.View, 7, 20000));
     std::shared_ptr<NetworkSession> session = NetworkSession::create(Device::Cuda, smallModel(d->Field.View));
     TrainConfig tc = trainConfig(k == 1 ? TrainingStrategy::GpuResident : TrainingStrategy::Auto);
     tc.deterministic = true;
-    vi::RunLimits limits;
+    RunLimits limits;
     limits.MaxSteps = 700;
     limits.PublishSeconds = 0.005;
     limits.PsnrInterval = probes ? 50 : 0;
     limits.KeepBest = k >= 3;
-    vi::TrainingRun run(session, d, tc, limits, nullptr);
+    TrainingRun run(session, d, tc, limits, nullptr);
     if (!background)
       run.RunHere(nullptr, nullptr);
     else

@@ -6,7 +6,7 @@
 #include "Cpu/CpuSampler.h"
 #include "Cpu/CpuTrainer.h"
 #include "Gpu/GpuEngine.h"
-#include "Gpu/GpuTesting.h"
+#include "GpuTestHooks.h"
 #include "KernelFlags.h"
 #include "SessionHelpers.h"
 #include "TestHarness.h"
@@ -185,15 +185,17 @@ NV_TEST(binned_inference_equals_unbinned)
   inferPoints(m, xyz.data(), n, cpu.data(), Device::Cpu);
   auto binnedSession = [&](int bits) {
     SessionOptions o;
+    o.kernels = nvtest::kernelOptions();
     o.kernels.binBitsPerAxis = bits;
     return NetworkSession::create(Device::Cuda, m, o);
   };
   binnedSession(0)->inferPoints(xyz.data(), n, plain.data(), Memory::Host);
-  EXPECT_TRUE(gpu::lastInferenceBinning() == 0);
+  EXPECT_TRUE(gpu::inferenceBinning(n, 0) == 0);
+  EXPECT_TRUE(gpu::inferenceBinning((int64_t(1) << 18) - 1, -1) == 0); // automatic: none below 2^18 points
   for (int bits : { -1, 3, 7 })
   {
     binnedSession(bits)->inferPoints(xyz.data(), n, binned.data(), Memory::Host);
-    EXPECT_TRUE(gpu::lastInferenceBinning() == (bits < 0 ? 4 : bits)); // automatic: ~32 points per bin
+    EXPECT_TRUE(gpu::inferenceBinning(n, bits) == (bits < 0 ? 4 : bits)); // automatic: ~32 points per bin
     int64_t differ = 0;
     for (int64_t i = 0; i < n; ++i)
       differ += std::memcmp(&plain[i], &binned[i], sizeof(float)) == 0 ? 0 : 1;

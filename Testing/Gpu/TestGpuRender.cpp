@@ -8,7 +8,7 @@
 #include "Cpu/CpuRenderer.h"
 #include "Cpu/ThreadPool.h"
 #include "Gpu/GpuEngine.h"
-#include "Gpu/GpuTesting.h"
+#include "GpuTestHooks.h"
 #include "KernelFlags.h"
 #include "Nhdr.h"
 #include "RenderFixtures.h"
@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <array>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -125,6 +126,46 @@ NV_TEST(gpu_matches_cpu_every_path_and_mode)
         EXPECT_TRUE(db32 >= (m >= 3 ? minPt : 45.0));
       }
     }
+}
+
+NV_TEST(gpu_in_shader_fits_smaller_shared_memory)
+{
+  // A network whose In-Shader staging at 8 warps per block exceeds Turing's 64 KiB of shared memory per block.
+  // Forced to that limit (KernelOptions::sharedMemoryLimit), the kernel runs fewer warps per block; every ray is
+  // evaluated by its own lane either way, so the picture is the same bit for bit. At 16 KiB nothing fits: a clear
+  // error naming the other paths.
+  ModelConfig c = smallRenderConfig();
+  c.network.width = 64;
+  c.network.hiddenLayers = 5;
+  const Model m = trainModel(scene().volume, c, 200, 4096, 3, 0);
+  const RenderRequest q = blobRequest(m, RenderPath::InShader, ShadingMode(0), 64, 64);
+  auto session = [&](int limit) {
+    SessionOptions o;
+    o.kernels = kernels();
+    o.kernels.sharedMemoryLimit = limit;
+    return NetworkSession::create(Device::Cuda, m, o);
+  };
+  RenderResult full, turing, cpu;
+  session(0)->render(q, full, Memory::Host);
+  session(65536)->render(q, turing, Memory::Host);
+  oracle(2).render(m, 1, q, cpu);
+  const double db = psnr(full.rgba, cpu.rgba);
+  std::printf("    In-Shader, width 64 x 5 layers: GPU vs CPU %.1f dB; 64 KiB limit identical: %s\n", db,
+    full.rgba == turing.rgba ? "yes" : "no");
+  EXPECT_TRUE(allFinite(full.rgba) && db >= 38.0);
+  EXPECT_TRUE(full.rgba == turing.rgba);
+  bool clear = false;
+  try
+  {
+    RenderResult none;
+    session(16384)->render(q, none, Memory::Host);
+  }
+  catch (const std::exception& e)
+  {
+    clear = std::strstr(e.what(), "too large for In-Shader rendering") != nullptr;
+    std::printf("    16 KiB: %s\n", e.what());
+  }
+  EXPECT_TRUE(clear);
 }
 
 NV_TEST(gpu_draws_nothing_outside_the_domain)

@@ -1,0 +1,78 @@
+// NeuralVolume engine: a training run's time budget and plan: the cap of its batch (BudgetedBatch, ResizeBatch) and the planned
+// steps of its annealed learning-rate schedule (PlanSchedule); see TrainingRun.h.
+#include "TrainingRun.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <sstream>
+
+namespace nv
+{
+
+int TrainingRun::BudgetedBatch(double stepSeconds, int batch) const
+{
+  if (stepSeconds <= 0.0 || batch <= 0)
+    return batch;
+  const double share = stepSeconds / this->PhaseBudget;
+  if (!this->Calibrating && share <= 2.0 * kStepShare)
+    return batch;
+  // Seconds per sample of this step: an upper bound for a larger batch (the fixed cost of a step is shared by more
+  // samples), so the cap errs on the safe side.
+  const double perSample = stepSeconds / static_cast<double>(batch);
+  const double fits = std::floor(kStepShare * this->PhaseBudget / perSample);
+  const double floor = std::min(kCalibrationBatch, this->RequestedBatch);
+  return static_cast<int>(std::max(floor, std::min(fits, static_cast<double>(this->RequestedBatch))));
+}
+
+void TrainingRun::ResizeBatch(int batch, double stepSeconds)
+{
+  this->Calibrating = false;
+  const int previous = this->Config.batchSize;
+  std::unique_ptr<nv::Trainer> trainer;
+  if (batch != previous) // else the calibration batch is the one to keep
+  {
+    this->Publish(); // the new trainer starts from the network trained so far
+    this->Trainer.reset();
+    this->Config.batchSize = batch;
+    this->StepSeconds = stepSeconds * static_cast<double>(batch) / static_cast<double>(previous); // until measured
+    trainer = this->CreateTrainer();
+  }
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  if (trainer)
+  {
+    this->Trainer = std::move(trainer);
+    this->ScheduleStart = this->Current.Steps;
+    this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
+  }
+  if (batch < this->RequestedBatch)
+  {
+    std::ostringstream s;
+    s.precision(3);
+    s << "BatchSize " << this->RequestedBatch << " capped to " << batch << " so that one step ("
+      << "measured: " << stepSeconds << " s for " << previous << " samples) stays within "
+      << static_cast<int>(kStepShare * 100.0) << "% of the " << this->PhaseBudget << " s TimeBudget";
+    if (this->Current.Warnings.empty() || this->Current.Warnings.back().compare(0, 9, "BatchSize") != 0)
+      this->Current.Warnings.push_back(s.str());
+  }
+  ++this->Current.Serial;
+}
+
+void TrainingRun::PlanSchedule(double phaseSeconds)
+{
+  OptimizerConfig& o = this->Config.optimizer;
+  if (!this->PlanOpen || o.schedule == LearningRateSchedule::StepDecay)
+    return;
+  const double done = static_cast<double>(this->Current.Steps - this->ScheduleStart);
+  double planned = static_cast<double>(this->Current.TargetSteps - this->ScheduleStart);
+  if (this->PhaseBudget > 0.0 && this->StepSeconds > 0.0 && !this->Config.deterministic)
+    planned = std::min(planned, done + std::max(0.0, this->PhaseBudget - phaseSeconds) / this->StepSeconds);
+  planned = std::max(planned, done + 1.0);
+  if (planned == o.plannedSteps)
+    return;
+  this->Trainer->setPlannedSteps(planned);
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  o.plannedSteps = planned; // the log's learning rates
+}
+
+} // namespace nv
