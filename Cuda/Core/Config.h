@@ -51,7 +51,7 @@ enum class LearningRateSchedule : int
   Cosine = 2,      ///< half a cosine from learningRate down to learningRate * finalRateFraction at plannedSteps
   /// The default: Cosine when plannedSteps > 0 (a run of known length), else StepDecay. Measured
   /// (Testing/Benchmarks/results/tradeoff_2026-11-24/anneal_cpu.md, anneal_gpu.md): the cosine to 1/100 ends within
-  /// 0.4 dB of its best probe on every real volume, where the step decay ended up to 11 dB below it.
+  /// 0.7 dB of its best probe on every real volume, where the step decay ended up to 11 dB below it.
   Auto = 3
 };
 

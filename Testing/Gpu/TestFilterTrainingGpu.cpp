@@ -8,11 +8,14 @@
 #include "TestHarness.h"
 #include "RenderFixtures.h"
 #include "TestVolumeView.h"
+#include "Core/ResourceEstimate.h"
 #include "Core/TrainingRun.h"
 
 #include "Core/NetworkSession.h"
 
 #include <chrono>
+#include <cstdint>
+#include <exception>
 #include <cmath>
 #include <set>
 #include <thread>
@@ -162,6 +165,57 @@ NV_TEST(range_wider_than_the_largest_double_trains_on_gpu)
       strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled", psnr[0], psnr[1]);
     EXPECT_TRUE(std::isfinite(psnr[1]) && psnr[0] > 25.0 && std::fabs(psnr[0] - psnr[1]) < 1.0);
   }
+}
+
+NV_TEST(memory_estimates_against_the_gpu)
+{
+  // The GPU branch of Core/ResourceEstimate: the free memory the runtime reports; a run that fits is accepted and
+  // its estimate is not below what its trainer then holds; a table no GPU holds is refused with the GPU's figures
+  // before anything is allocated.
+  int64_t freeBytes = -1, totalBytes = 0;
+  EXPECT_TRUE(deviceMemoryInfo(freeBytes, totalBytes) && freeBytes > 0 && totalBytes >= freeBytes);
+  const auto data = smoothVolume();
+  const VolumeView vol = floatCubeView(data, kN);
+  const Model m = smallModel(vol);
+  TrainConfig tc = trainConfig(TrainingStrategy::GpuResident);
+  const MemoryEstimate fits = trainingMemory(m.config(), tc, Device::Cuda, vol.bytes());
+  bool accepted = true;
+  try
+  {
+    checkMemory(fits, "training this network", "lower Log2TableSize", freeBytes, INT64_MAX);
+  }
+  catch (const std::exception&)
+  {
+    accepted = false;
+  }
+  auto session = NetworkSession::create(Device::Cuda, m);
+  auto trainer = session->createTrainer(vol, tc);
+  const int64_t held = trainer->deviceMemoryBytes();
+  std::printf("    GPU %.0f of %.0f MiB free; small run: estimate %.1f MiB, trainer holds %.1f MiB\n",
+    freeBytes / 1048576.0, totalBytes / 1048576.0, fits.deviceBytes / 1048576.0, held / 1048576.0);
+  EXPECT_TRUE(accepted && held > 0 && held <= fits.deviceBytes);
+  // 2^24 x 4 x 16 table, width 128 x 8 layers, batch 2^24: about 86 GB on a GPU, more than any H100's 80 GB.
+  ModelConfig huge = m.config();
+  huge.encoding.levels = 16;
+  huge.encoding.featuresPerLevel = 4;
+  huge.encoding.log2TableSize = 24;
+  huge.encoding.finestResolution = 8192;
+  huge.network.width = 128;
+  huge.network.hiddenLayers = 8;
+  TrainConfig hugeBatch = tc;
+  hugeBatch.batchSize = 1 << 24;
+  const MemoryEstimate tooBig = trainingMemory(huge, hugeBatch, Device::Cuda, vol.bytes());
+  std::string message;
+  try
+  {
+    checkMemory(tooBig, "training this network", "lower Log2TableSize", freeBytes, INT64_MAX);
+  }
+  catch (const std::exception& e)
+  {
+    message = e.what();
+  }
+  std::printf("    %.1f GB run: %s\n", tooBig.deviceBytes / 1e9, message.c_str());
+  EXPECT_TRUE(message.find("of GPU memory") != std::string::npos && message.find("free on the GPU") != std::string::npos);
 }
 
 NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
