@@ -136,10 +136,9 @@ static nv::ErrorStats SourceError(
       xyz[3 * i + size_t(a)] = static_cast<float>(std::min(1.0, std::max(0.0, u)));
     }
   session.inferPoints(xyz.data(), static_cast<int64_t>(n), out.data(), nv::Memory::Host);
-  // Errors in units of the range (a constant field: in source units). A range wider than the largest double
-  // (ValueRange.h) takes the difference of the normalised values, which stays finite.
+  // Errors in units of the range (a constant field: in source units), as nv::compareDecoded measures them: the
+  // difference of the normalised values stays finite for every range (ValueRange.h).
   const nv::ValueRange range(lo, hi);
-  const double width = range.spans() ? range.width() : 1.0;
   double se = 0.0;
   for (size_t i = 0; i < n; ++i)
   {
@@ -153,9 +152,9 @@ static nv::ErrorStats SourceError(
       ++e.nonFinite; // a diverged network: never a score (see nv::ErrorStats)
       continue;
     }
-    const double dn = range.halved() ? range.normalize(v) - range.normalize(src) : (v - src) / width;
+    const double dn = range.spans() ? range.normalize(v) - range.normalize(src) : v - src;
     se += dn * dn;
-    e.maxAbsError = std::max(e.maxAbsError, range.halved() ? std::fabs(range.span(dn)) : std::fabs(v - src));
+    e.maxAbsError = std::max(e.maxAbsError, std::fabs(range.spans() ? range.span(dn) : dn));
   }
   if (e.nonFinite > 0)
   {

@@ -137,8 +137,7 @@ void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::Transf
   const nv::ValueRange range(lo, hi);
   for (int i = 0; i < entries; ++i)
   {
-    const double v = range.halved() ? range.denormalize(static_cast<double>(i) / static_cast<double>(entries - 1))
-                                    : lo + (hi - lo) * static_cast<double>(i) / static_cast<double>(entries - 1);
+    const double v = range.denormalize(static_cast<double>(i) / static_cast<double>(entries - 1));
     double rgb[3] = { 1.0, 1.0, 1.0 };
     if (color)
       color->GetColor(v, rgb);

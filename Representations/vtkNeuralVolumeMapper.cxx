@@ -1,5 +1,7 @@
 #include "vtkNeuralVolumeMapper.h"
 
+#include "Core/ValueRange.h"
+
 #include "vtkNeuralImageCompositor.h"
 #include "vtkNeuralNetworkArray.h"
 #include "vtkNeuralRenderRequest.h"
@@ -249,6 +251,18 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       return;
     }
 
+    // ParaView 5.11's colour maps (a vtkLookupTable under the discretized colour function) abort on a value range
+    // whose width overflows a double, as a Surface coloured by such a field does: refuse before evaluating them.
+    const nv::SourceInfo& src = session.model().source;
+    if (nv::ValueRange(src.valueMin, src.valueMax).halved())
+    {
+      std::ostringstream os;
+      os << "the values span " << src.valueMin << " to " << src.valueMax << ", a range wider than the largest "
+         << "double; ParaView's colour maps cannot map it (VTK aborts). Scale the field first (e.g. with the "
+            "Calculator) to draw it.";
+      fail(os.str(), true);
+      return;
+    }
     vtkVolumeProperty* property = vol->GetProperty();
     if (property != in.TfProperty || property->GetMTime() != in.TfTime)
     {

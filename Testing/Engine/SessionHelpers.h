@@ -6,17 +6,20 @@
 #include "Core/NetworkSession.h"
 
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 namespace nvtest
 {
 
-/// A float32 n^3 volume over v with its own value range.
-inline nv::VolumeView cubeView(const std::vector<float>& v, int n)
+/// An n^3 volume over v (float32 or float64) with its own value range.
+template <typename T>
+nv::VolumeView cubeView(const std::vector<T>& v, int n)
 {
+  static_assert(std::is_same<T, float>::value || std::is_same<T, double>::value, "float32 or float64 volumes");
   nv::VolumeView vol;
   vol.data = v.data();
-  vol.type = nv::ScalarType::Float32;
+  vol.type = std::is_same<T, float>::value ? nv::ScalarType::Float32 : nv::ScalarType::Float64;
   vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
   const nv::VolumeStats s = nv::computeStats(vol);
   vol.valueMin = s.min;

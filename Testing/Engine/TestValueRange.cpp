@@ -42,18 +42,6 @@ std::vector<double> field(int n, double scale)
   return v;
 }
 
-VolumeView view(const std::vector<double>& v, int n)
-{
-  VolumeView vol;
-  vol.data = v.data();
-  vol.type = ScalarType::Float64;
-  vol.dims[0] = vol.dims[1] = vol.dims[2] = n;
-  const VolumeStats s = computeStats(vol);
-  vol.valueMin = s.min;
-  vol.valueMax = s.max;
-  return vol;
-}
-
 Model trainOn(const VolumeView& vol, int steps)
 {
   Model m(nvtest::smallModelConfig(14));
@@ -155,7 +143,7 @@ NV_TEST(a_field_wider_than_the_largest_double_trains_decodes_and_measures)
   // precision, so the same PSNR; figures finite, decoded values finite and in range.
   const int n = 24, steps = 150;
   const std::vector<double> smallData = field(n, 1.0), bigData = field(n, kHuge);
-  const VolumeView smallVol = view(smallData, n), bigVol = view(bigData, n);
+  const VolumeView smallVol = nvtest::cubeView(smallData, n), bigVol = nvtest::cubeView(bigData, n);
   EXPECT_TRUE(std::isinf(bigVol.valueMax - bigVol.valueMin));
   const Model ms = trainOn(smallVol, steps), mb = trainOn(bigVol, steps);
   const ErrorStats es = nvtest::compareToSource(ms, smallVol, Device::Cpu, 2);
@@ -205,7 +193,7 @@ NV_TEST(a_range_wider_than_the_largest_double_renders)
   // same transfer-function mapping and the same pictures.
   const int n = 24;
   const std::vector<double> data = field(n, 1.0);
-  const Model small = trainOn(view(data, n), 40);
+  const Model small = trainOn(nvtest::cubeView(data, n), 40);
   Model big = small;
   big.source.valueMin = small.source.valueMin * kHuge;
   big.source.valueMax = small.source.valueMax * kHuge;

@@ -7,6 +7,7 @@
 #include "Gpu/GpuEngine.h"
 #include "TestHarness.h"
 #include "RenderFixtures.h"
+#include "SessionHelpers.h"
 #include "TestVolumeView.h"
 #include "Core/ResourceEstimate.h"
 #include "Core/TrainingRun.h"
@@ -135,17 +136,7 @@ NV_TEST(range_wider_than_the_largest_double_trains_on_gpu)
     small[i] = double(base[i]);
     huge[i] = double(base[i]) * 1e308;
   }
-  auto view = [](const std::vector<double>& d) {
-    VolumeView v;
-    v.data = d.data();
-    v.type = ScalarType::Float64;
-    v.dims[0] = v.dims[1] = v.dims[2] = kN;
-    const VolumeStats st = computeStats(v);
-    v.valueMin = st.min;
-    v.valueMax = st.max;
-    return v;
-  };
-  const VolumeView vs = view(small), vh = view(huge);
+  const VolumeView vs = nvtest::cubeView(small, kN), vh = nvtest::cubeView(huge, kN);
   EXPECT_TRUE(std::isinf(vh.valueMax - vh.valueMin));
   for (TrainingStrategy strategy : { TrainingStrategy::GpuResident, TrainingStrategy::HostSampled })
   {

@@ -121,5 +121,21 @@ display.ScalarOpacityUnitDistance = 0.2
 nvtest.set_camera(view, [0.5, 0.5, 80.0], up=[0.0, 1.0, 0.0])
 text, pixels = render_and_capture("flat")
 check("ERROR" not in text and not nvtest.is_uniform(pixels), "a one-slice network renders (%r)" % text)
+Hide(flat, view)
+
+# --- a field wider than the largest double: ParaView's colour maps abort on such a range (a Surface coloured by it
+# aborts too), so the representation refuses it with an error instead of evaluating them ----------------------------
+huge_field = Calculator(Input=Wavelet(WholeExtent=[-15, 16, -15, 16, -15, 16]), ResultArrayName="Huge",
+                        Function="(RTData-157)*1.2e306", ResultArrayType="Double")
+huge = NeuralCompress(Input=huge_field, SelectInputScalars=["POINTS", "Huge"],
+                      **dict(nvtest.WAVELET_NETWORK, TrainingSteps=60))
+display = Show(huge, view)  # not ColorBy: ParaView 5.11 aborts rescaling a colour map to such a range by itself
+display.SetRepresentationType("Neural Volume")
+display.SetScalarBarVisibility(view, False)
+text, pixels = render_and_capture("huge_range")
+check("wider than the largest double" in text and text.count("ERROR") == 1,
+      "a range wider than the largest double is refused once (%r)" % text)
+check(nvtest.is_uniform(pixels), "it draws nothing")
+Hide(huge, view)
 
 nvtest.finish()
