@@ -455,8 +455,8 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     record.M.Ratio < this->TargetCompressionRatio)
   {
     std::string advice;
-    if (this->StoragePrecision != FLOAT16)
-      advice += ", Float16 storage";
+    if (this->StoragePrecision != QUANTIZED8)
+      advice += ", 8-bit (entropy coded) storage";
     if (this->Levels > 8)
       advice += ", fewer Levels";
     if (this->FeaturesPerLevel > 1)

@@ -97,12 +97,13 @@ public:
   {
     STEP_DECAY = 0,
     CONSTANT = 1,
-    ANNEALED = 2 ///< cosine to 1/100 over the run (nv::LearningRateSchedule::Cosine)
+    ANNEALED = 2 ///< the default: 500 steps at the full rate, then a cosine to 1/100 (nv::LearningRateSchedule::Auto)
   };
   enum Precisions
   {
     FLOAT32 = 0,
-    FLOAT16 = 1
+    FLOAT16 = 1,
+    QUANTIZED8 = 2 ///< hash table as 8-bit codes, entropy coded; MLP fp16 (nv::Precision::Quantized8)
   };
   enum Devices
   {
@@ -178,8 +179,8 @@ public:
   ///@}
 
   ///@{
-  /// Precision of the stored parameters (FLOAT32 or FLOAT16).
-  vtkSetClampMacro(StoragePrecision, int, FLOAT32, FLOAT16);
+  /// Precision of the stored parameters (FLOAT32, FLOAT16 or QUANTIZED8).
+  vtkSetClampMacro(StoragePrecision, int, FLOAT32, QUANTIZED8);
   vtkGetMacro(StoragePrecision, int);
   ///@}
 
@@ -358,7 +359,7 @@ protected:
   double LearningRate = 0.01;
   int Seed = 1;
   int Loss = LOSS_L1;
-  int LearningRateSchedule = STEP_DECAY;
+  int LearningRateSchedule = ANNEALED;
   double TargetCompressionRatio = 0.0;
   int Levels = 16;
   int FeaturesPerLevel = 4;

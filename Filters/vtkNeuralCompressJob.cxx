@@ -346,7 +346,9 @@ NetworkRecord Job::Snapshot()
   if (this->LiveBytes.empty() || now - this->LiveBytesTime > std::chrono::seconds(1))
   {
     nv::Model model = this->Session->currentModel();
-    model.quantize(this->Storage);
+    // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
+    // 8-bit network is coded once, when training ends (Finalize).
+    model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
     model.stats.steps = status.Steps;
     model.stats.seconds = status.Seconds;
     model.stats.device = nv::deviceName(this->Session->device());

@@ -202,7 +202,7 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
   }
   s << "; model "
     << FormatBytes(static_cast<double>(m.ModelBytes)) << " (2^" << config.encoding.log2TableSize << " table, "
-    << (job.Storage == nv::Precision::Float16 ? "fp16" : "fp32") << "), ratio " << m.Ratio << ":1";
+    << nv::precisionName(job.Storage) << "), ratio " << m.Ratio << ":1";
   if (targetRatio > 0.0)
     s << " (target " << targetRatio << ")";
   else if (m.Ratio < 1.0)

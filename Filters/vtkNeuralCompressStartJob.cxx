@@ -61,7 +61,9 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->S = settings;
   job->Data = data;
   job->OutputMode = this->OutputMode;
-  job->Storage = this->StoragePrecision == FLOAT16 ? nv::Precision::Float16 : nv::Precision::Float32;
+  job->Storage = this->StoragePrecision == QUANTIZED8 ? nv::Precision::Quantized8
+    : this->StoragePrecision == FLOAT16              ? nv::Precision::Float16
+                                                     : nv::Precision::Float32;
   in.SummaryPrinted = false;
   in.NotesPrinted = in.WarningsPrinted = 0;
   in.DecodeRequested = false;

@@ -35,7 +35,10 @@ double OptimizerConfig::learningRateAt(int64_t step) const
   const LearningRateSchedule s = effectiveSchedule();
   if (s == LearningRateSchedule::Exponential || s == LearningRateSchedule::Cosine)
   {
-    const double t = std::min(std::max(static_cast<double>(step), 0.0) / plannedSteps, 1.0);
+    const double hold = static_cast<double>(holdSteps);
+    if (plannedSteps <= hold)
+      return learningRate * warm; // a run no longer than the hold: the full rate throughout
+    const double t = std::min(std::max(static_cast<double>(step) - hold, 0.0) / (plannedSteps - hold), 1.0);
     const double f = s == LearningRateSchedule::Exponential
       ? std::pow(finalRateFraction, t)
       : finalRateFraction + (1.0 - finalRateFraction) * 0.5 * (1.0 + std::cos(3.14159265358979323846 * t));
@@ -112,6 +115,7 @@ void validate(const TrainConfig& c)
   {
     NV_CHECK(std::isfinite(o.finalRateFraction) && o.finalRateFraction > 0.0 && o.finalRateFraction <= 1.0,
       "the final learning-rate fraction must be in (0, 1], got " + std::to_string(o.finalRateFraction));
+    NV_CHECK(o.holdSteps >= 0, "the steps before the rate anneals must be >= 0, got " + std::to_string(o.holdSteps));
   }
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
   NV_CHECK(c.importanceGrid == 0 || (c.importanceGrid >= 2 && c.importanceGrid <= 64),

@@ -49,6 +49,7 @@ enum class LearningRateSchedule : int
   StepDecay = 0,   ///< x decayFactor every decayInterval steps (the paper's; stepDecay false: constant)
   Exponential = 1, ///< learningRate * finalRateFraction^(step / plannedSteps), then constant past plannedSteps
   Cosine = 2,      ///< half a cosine from learningRate down to learningRate * finalRateFraction at plannedSteps
+                   ///< (both annealed schedules start after holdSteps)
   /// The default: Cosine when plannedSteps > 0 (a run of known length), else StepDecay. Measured
   /// (Testing/Benchmarks/results/tradeoff_2026-11-24/anneal_cpu.md, anneal_gpu.md): the cosine to 1/100 ends within
   /// 0.7 dB of its best probe on every real volume, where the step decay ended up to 11 dB below it.
@@ -78,6 +79,11 @@ struct OptimizerConfig
   /// it will take; a time-budget run an estimate (from its measured step rate). 0: not known (Auto: StepDecay).
   double plannedSteps = 0.0;
   double finalRateFraction = 0.01; ///< annealed schedules: the rate at plannedSteps / learningRate, in (0, 1]
+  /// Annealed schedules: the rate stays learningRate for the first holdSteps steps (for all of a run planned no
+  /// longer), then anneals over the rest of plannedSteps (>= 0). A short run trains at the full rate as with the step
+  /// decay (annealed from its first step, a 300-step run on a 99.9% empty field stayed at the zero field: 34.4 dB
+  /// against 41.1); a long one anneals over most of it (Testing/Benchmarks/results/tradeoff_2026-11-25).
+  int holdSteps = 500;
 
   /// The schedule in effect (Auto resolved: never Auto).
   LearningRateSchedule effectiveSchedule() const;

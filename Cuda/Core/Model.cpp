@@ -3,6 +3,8 @@
 #include "DomainMask.h"
 #include "Macrocells.h"
 #include "Error.h"
+#include "GridQuantizer.h"
+#include "QuantizedParameters.h"
 
 #include <cmath>
 #include <cstring>
@@ -111,10 +113,23 @@ void Model::initialize(uint64_t seed)
     }
   }
   Storage = Precision::Float32;
+  clearQuantizedState();
+}
+
+const char* precisionName(Precision p)
+{
+  return p == Precision::Float16 ? "fp16" : p == Precision::Quantized8 ? "q8" : "fp32";
 }
 
 void Model::quantize(Precision p)
 {
+  NV_CHECK(p == Precision::Float32 || p == Precision::Float16 || p == Precision::Quantized8,
+    "unknown storage precision " + std::to_string(int(p)));
+  if (p == Precision::Quantized8 && codedParameters())
+  {
+    return; // quantised already, and unchanged since
+  }
+  const bool wasQuantized = Storage == Precision::Quantized8 && int(LevelSteps.size()) == Layout.levels;
   Storage = p;
   if (p == Precision::Float16)
   {
@@ -123,10 +138,104 @@ void Model::quantize(Precision p)
       v = halfToFloat(floatToHalf(v));
     }
   }
+  if (p != Precision::Quantized8)
+  {
+    clearQuantizedState();
+    return;
+  }
+  std::vector<float> steps(size_t(Layout.levels));
+  for (int l = 0; l < Layout.levels; ++l)
+  {
+    float* w = Params.data() + size_t(Layout.level[l].offset) * Layout.features;
+    const size_t n = size_t(Layout.level[l].entries) * Layout.features;
+    const float old = wasQuantized ? LevelSteps[size_t(l)] : 0.0f;
+    const float step = wasQuantized && GridQuantizer::onGrid(w, n, old) ? old : GridQuantizer::chooseStep(w, n);
+    steps[size_t(l)] = step;
+    for (size_t i = 0; i < n; ++i)
+    {
+      w[i] = GridQuantizer::value(GridQuantizer::code(w[i], step), step);
+    }
+  }
+  for (size_t i = encodingParamCount(); i < Params.size(); ++i)
+  {
+    Params[i] = halfToFloat(floatToHalf(Params[i]));
+  }
+  LevelSteps = std::move(steps);
+  CodedBlock.reset();
+  auto block = std::make_shared<const std::vector<uint8_t>>(encodeQuantizedParameters(*this));
+  CodedBytes = static_cast<int64_t>(block->size());
+  CodedFingerprint = fingerprint();
+  CodedBlock = std::move(block);
+}
+
+void Model::clearQuantizedState()
+{
+  LevelSteps.clear();
+  CodedBytes = 0;
+  CodedBlock.reset();
+  CodedFingerprint = 0;
+}
+
+uint64_t Model::fingerprint() const
+{
+  // Four independent multiply-xor lanes over the parameters' and steps' bits (memory bound: about 10 ms for 2^24
+  // parameters).
+  uint64_t lane[4] = { 0x9E3779B97F4A7C15ull, 0xC2B2AE3D27D4EB4Full, 0x165667B19E3779F9ull, 0x27D4EB2F165667C5ull };
+  const size_t words = Params.size() / 2;
+  const uint8_t* bytes = reinterpret_cast<const uint8_t*>(Params.data());
+  size_t i = 0;
+  for (; i + 4 <= words; i += 4)
+    for (int k = 0; k < 4; ++k)
+    {
+      uint64_t w;
+      std::memcpy(&w, bytes + 8 * (i + size_t(k)), 8);
+      lane[k] = (lane[k] ^ w) * 0x100000001B3ull;
+    }
+  uint64_t h = Params.size();
+  for (int k = 0; k < 4; ++k)
+    h = mix64(h ^ lane[k]);
+  for (size_t j = 8 * i; j < Params.size() * 4; ++j)
+    h = mix64(h ^ bytes[j]);
+  for (float s : LevelSteps)
+  {
+    uint32_t b;
+    std::memcpy(&b, &s, 4);
+    h = mix64(h ^ b);
+  }
+  return h;
+}
+
+const std::vector<uint8_t>* Model::codedParameters() const
+{
+  if (Storage != Precision::Quantized8 || !CodedBlock || fingerprint() != CodedFingerprint)
+    return nullptr;
+  return CodedBlock.get();
+}
+
+void Model::setStoragePrecision(Precision p)
+{
+  NV_CHECK(p == Precision::Float32 || p == Precision::Float16,
+    "setStoragePrecision() records fp32 or fp16 parameters (Quantized8: setQuantizedState())");
+  Storage = p;
+  clearQuantizedState();
+}
+
+void Model::setQuantizedState(std::vector<float> levelSteps, int64_t codedBytes)
+{
+  NV_CHECK(int(levelSteps.size()) == Layout.levels, "one quantisation step per level");
+  NV_CHECK(codedBytes > 0, "coded parameter bytes");
+  clearQuantizedState();
+  Storage = Precision::Quantized8;
+  LevelSteps = std::move(levelSteps);
+  CodedBytes = codedBytes;
 }
 
 int64_t Model::parameterBytes() const
 {
+  if (Storage == Precision::Quantized8)
+  {
+    return CodedBytes;
+  }
   return static_cast<int64_t>(Params.size()) * (Storage == Precision::Float16 ? 2 : 4);
 }
 
@@ -147,7 +256,9 @@ int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio
       mlp += static_cast<size_t>(in) * out;
     }
     const double params = static_cast<double>(g.totalEntries) * g.features + static_cast<double>(mlp);
-    const double bytes = params * (storage == Precision::Float16 ? 2.0 : 4.0);
+    const double bytes = storage == Precision::Quantized8
+      ? static_cast<double>(g.totalEntries) * g.features + 2.0 * static_cast<double>(mlp)
+      : params * (storage == Precision::Float16 ? 2.0 : 4.0);
     if (static_cast<double>(rawBytes) / bytes >= targetRatio)
     {
       best = l;

@@ -6,6 +6,7 @@
 #include "ValueRange.h"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -68,11 +69,18 @@ struct TrainingStats
   std::string device;
 };
 
+/// How a model's parameters are stored (serialized, and so decoded: Model::quantize()).
 enum class Precision : int
 {
   Float32 = 0,
-  Float16 = 1
+  Float16 = 1,
+  /// Hash-table entries as 8-bit codes with one step per level, entropy coded (GridQuantizer.h, RansCoder.h); MLP
+  /// weights fp16. Format version 4 (Serialization.h).
+  Quantized8 = 2
 };
+
+/// A precision's short name: "fp32", "fp16" or "q8".
+const char* precisionName(Precision p);
 
 /// Layout of the parameter vector: hash table (entries x features), then MLP layers (row-major [out][in]).
 class Model
@@ -99,13 +107,23 @@ public:
   void initialize(uint64_t seed);
 
   /// Round every parameter to the storage precision (so the model decodes exactly as it will be stored).
+  /// Quantized8: each level's entries to its step's grid (a level already on the grid of its step in levelSteps()
+  /// keeps that step, so quantising again changes nothing), the MLP to fp16; the coded size is computed once here.
   void quantize(Precision p);
   /// Record the storage precision of parameters that already hold such values (a deserialized fp16 network):
-  /// quantize() without its rounding pass.
-  void setStoragePrecision(Precision p) { Storage = p; }
+  /// quantize() without its rounding pass. Not for Quantized8 (see setQuantizedState()).
+  void setStoragePrecision(Precision p);
+  /// Record a deserialized Quantized8 network: its per-level steps and the bytes of its coded parameters.
+  void setQuantizedState(std::vector<float> levelSteps, int64_t codedBytes);
   Precision storagePrecision() const { return Storage; }
-  /// Bytes the parameters take in the serialized form.
+  /// Quantized8: the quantisation step of each hash-grid level (empty otherwise).
+  const std::vector<float>& levelSteps() const { return LevelSteps; }
+  /// Bytes the parameters take in the serialized form (Quantized8: the coded block, as of the last quantize()).
   int64_t parameterBytes() const;
+  /// Quantized8: the coded block (QuantizedParameters.h) the last quantize() computed, while the parameters and
+  /// steps are still those it was computed from (a fingerprint of them is compared: one pass, no coding); null
+  /// otherwise. serialize() writes it instead of coding the parameters again.
+  const std::vector<uint8_t>* codedParameters() const;
 
   SourceInfo source;
   TrainingStats stats;
@@ -120,12 +138,20 @@ private:
   GridLayout Layout{};
   std::vector<float> Params;
   Precision Storage = Precision::Float32;
+  std::vector<float> LevelSteps; ///< Quantized8 only
+  int64_t CodedBytes = 0;        ///< Quantized8 only
+  std::shared_ptr<const std::vector<uint8_t>> CodedBlock; ///< Quantized8 only: see codedParameters()
+  uint64_t CodedFingerprint = 0;
+  uint64_t fingerprint() const;
+  void clearQuantizedState();
 };
 
 /// Level table for an encoding configuration (validates it).
 GridLayout makeGridLayout(const EncodingConfig& config);
 
 /// Choose the largest log2 table size (in [minLog2, maxLog2]) whose model keeps raw/model >= targetRatio.
+/// Quantized8 counts 1 byte per table feature and 2 per MLP weight: the size of uniformly spread codes (trained tables
+/// code to about 6.5 to 7 bits a feature, so the ratio reported after training is higher; see Model::parameterBytes()).
 int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio, Precision storage,
   int minLog2 = 10, int maxLog2 = 24);
 

@@ -2,6 +2,7 @@
 
 #include "Error.h"
 #include "Macrocells.h"
+#include "QuantizedParameters.h"
 #include "ResourceEstimate.h"
 
 #include <cmath>
@@ -183,14 +184,30 @@ std::vector<uint8_t> serialize(const Model& model)
   h.putString(t.device);
 
   const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
+  const bool quantized = model.storagePrecision() == Precision::Quantized8;
   Writer w;
   w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.put<uint32_t>(occupancy ? kFormatVersion : mask ? kFormatVersionDomain : kFormatVersionNoMask);
+  w.put<uint32_t>(quantized ? kFormatVersionQuantized
+      : occupancy           ? kFormatVersionOccupancy
+      : mask                ? kFormatVersionDomain
+                            : kFormatVersionNoMask);
   w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
   w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
   const std::vector<float>& p = model.params();
   w.put<uint64_t>(p.size());
-  if (model.storagePrecision() == Precision::Float16)
+  if (quantized)
+  {
+    std::vector<uint8_t> coded;
+    const std::vector<uint8_t>* block = model.codedParameters(); // quantize()'s, unless the parameters changed since
+    if (!block)
+    {
+      coded = encodeQuantizedParameters(model);
+      block = &coded;
+    }
+    w.put<uint64_t>(block->size());
+    w.bytes.insert(w.bytes.end(), block->begin(), block->end());
+  }
+  else if (model.storagePrecision() == Precision::Float16)
   {
     const size_t at = w.bytes.size();
     w.bytes.resize(at + p.size() * sizeof(uint16_t));
@@ -225,8 +242,8 @@ std::vector<uint8_t> serialize(const Model& model)
     for (uint32_t r : runs)
       w.put<uint32_t>(r);
   };
-  if (occupancy)
-    w.put<uint32_t>((mask ? 1u : 0u) | 2u);
+  if (occupancy || quantized)
+    w.put<uint32_t>((mask ? 1u : 0u) | (occupancy ? 2u : 0u));
   if (mask)
   {
     const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
@@ -330,7 +347,7 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   Reader r(data, size);
   r.skip(8);
   info.version = r.get<uint32_t>("version");
-  if (info.version != kFormatVersion && info.version != kFormatVersionDomain && info.version != kFormatVersionNoMask)
+  if (info.version < kFormatVersionNoMask || info.version > kFormatVersion)
   {
     NV_THROW("unsupported NeuralVolume model version " + std::to_string(info.version) + " (this build reads versions 1 to " +
       std::to_string(kFormatVersion) + ")");
@@ -359,8 +376,11 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   c.network.width = h.get<int32_t>("width");
   c.network.hiddenLayers = h.get<int32_t>("hidden layers");
   const int32_t precision = h.get<int32_t>("precision");
-  if (precision != 0 && precision != 1)
+  if (precision != 0 && precision != 1 && precision != 2)
     corrupt("unknown parameter precision " + std::to_string(precision));
+  if ((precision == 2) != (info.version == kFormatVersionQuantized))
+    corrupt("parameter precision " + std::to_string(precision) + " in version " + std::to_string(info.version) +
+      " (8-bit quantised parameters are version 4, and version 4 holds only those)");
   info.precision = static_cast<Precision>(precision);
   uint64_t expected = 0;
   checkField("configuration", [&] { expected = uint64_t(parameterCount(c)); }); // <= 2^31 + 2^17
@@ -397,15 +417,35 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   if (info.parameterCount != expected)
     corrupt(std::to_string(info.parameterCount) + " parameters stored, the configuration needs " +
       std::to_string(expected));
-  const size_t bytesPer = info.precision == Precision::Float16 ? 2 : 4;
-  r.need(size_t(expected) * bytesPer, "parameters"); // expected <= 2^31 + 2^17: no overflow
-  info.parametersAt = r.pos();
-  r.skip(size_t(expected) * bytesPer);
+  if (info.precision == Precision::Quantized8)
+  {
+    const uint64_t blockBytes = r.get<uint64_t>("quantised parameter bytes");
+    if (blockBytes > size)
+      corrupt("a quantised parameter block of " + std::to_string(blockBytes) + " bytes in a file of " +
+        std::to_string(size));
+    r.need(size_t(blockBytes), "quantised parameters");
+    info.parametersAt = r.pos();
+    info.parameterBytes = size_t(blockBytes);
+    size_t used = 0;
+    checkField(nullptr, [&] { used = inspectQuantizedParameters(r.here(), size_t(blockBytes), c); });
+    if (used != blockBytes)
+      corrupt("the quantised parameters take " + std::to_string(used) + " of the " + std::to_string(blockBytes) +
+        " bytes stated");
+    r.skip(size_t(blockBytes));
+  }
+  else
+  {
+    const size_t bytesPer = info.precision == Precision::Float16 ? 2 : 4;
+    r.need(size_t(expected) * bytesPer, "parameters"); // expected <= 2^31 + 2^17: no overflow
+    info.parametersAt = r.pos();
+    info.parameterBytes = size_t(expected) * bytesPer;
+    r.skip(size_t(expected) * bytesPer);
+  }
   info.hostBytes = expected * 4;
 
-  // Version 2: a domain mask; version 3: flags saying which masks follow.
+  // Version 2: a domain mask; versions 3 and 4: flags saying which masks follow (version 3: an occupancy mask always).
   const uint32_t flags = info.version >= 3 ? r.get<uint32_t>("mask flags") : info.version == 2 ? 1u : 0u;
-  if (flags > 3u || (info.version >= 3 && !(flags & 2u)))
+  if (flags > 3u || (info.version == 3 && !(flags & 2u)))
     corrupt("mask flags " + std::to_string(flags) + " in version " + std::to_string(info.version));
   info.hasDomain = (flags & 1u) != 0;
   info.hasOccupancy = (flags & 2u) != 0;
@@ -442,7 +482,18 @@ Model deserialize(const uint8_t* data, size_t size)
   m.stats = info.stats;
   std::vector<float>& p = m.params();
   const uint8_t* src = data + info.parametersAt;
-  if (info.precision == Precision::Float16)
+  if (info.precision == Precision::Quantized8)
+  {
+    try
+    {
+      decodeQuantizedParameters(src, info.parameterBytes, m);
+    }
+    catch (const Error& e)
+    {
+      corrupt(e.what());
+    }
+  }
+  else if (info.precision == Precision::Float16)
   {
     const float* table = halfTable();
     for (size_t i = 0; i < p.size(); ++i)

@@ -6,7 +6,10 @@
 // starting with outside], [version 3: u32 flags (1: a domain mask follows as in version 2, 2: an occupancy mask
 // follows -- u64 run count, u32 run lengths over the macrocells, alternately empty and occupied, then f64 background)],
 // u32 CRC-32 of everything before it. Models without a domain mask are written as version 1 (byte for byte as
-// before), with one only as version 2, with an occupancy mask as version 3; all are read. Reading checks magic,
+// before), with one only as version 2, with an occupancy mask as version 3; all are read. Version 4 holds a
+// Quantized8 model (and only such): after the parameter count, u64 block bytes and the block of
+// QuantizedParameters.h (per level a step and an entropy-coded stream of 8-bit codes, then the MLP as fp16) in place
+// of the parameters, then u32 mask flags (0 to 3, as in version 3) and the masks they name. Reading checks magic,
 // version, the checksum, then every field against the bytes present and the bounds of Model.h (source grids of at
 // most 2^20 samples per axis and 2^34 in all, finite geometry, positive spacing) before it allocates anything.
 #pragma once
@@ -20,7 +23,9 @@
 namespace nv
 {
 
-constexpr uint32_t kFormatVersion = 3;     ///< the newest version this build reads and writes
+constexpr uint32_t kFormatVersion = 4;     ///< the newest version this build reads and writes
+constexpr uint32_t kFormatVersionQuantized = 4; ///< written for Quantized8 models (with or without masks)
+constexpr uint32_t kFormatVersionOccupancy = 3; ///< written for fp32/fp16 models with an occupancy mask
 constexpr uint32_t kFormatVersionDomain = 2; ///< written for models with a domain mask only
 constexpr uint32_t kFormatVersionNoMask = 1; ///< written for models without a domain mask
 
@@ -37,10 +42,13 @@ struct ModelFileInfo
   uint64_t parameterCount = 0;
   bool hasDomain = false;
   bool hasOccupancy = false;
-  /// Host bytes of the model deserialize() builds: 4 per parameter (at most twice the file's parameter bytes) and
-  /// the masks' bits (a domain mask at most 512 MiB: kMaxDomainSamples; an occupancy mask at most 2^34 / 8 bits).
+  /// Host bytes of the model deserialize() builds: 4 per parameter (fp16: at most twice the file's parameter bytes;
+  /// Quantized8: at most 4 x 1024 times its coded streams' bytes, RansCoder::kMaxSymbolsPerByte) and the masks' bits
+  /// (a domain mask at most 512 MiB: kMaxDomainSamples; an occupancy mask at most 2^34 / 8 bits). A Quantized8
+  /// model's level steps (at most 32 floats) are not counted.
   uint64_t hostBytes = 0;
-  size_t parametersAt = 0;    ///< offset of the stored parameters
+  size_t parametersAt = 0;    ///< offset of the stored parameters (Quantized8: of the coded block)
+  size_t parameterBytes = 0;  ///< bytes of the stored parameters (Quantized8: of the coded block)
   size_t domainRunsAt = 0;    ///< offset of the domain mask's first run length
   uint64_t domainRuns = 0;
   size_t occupancyRunsAt = 0; ///< offset of the occupancy mask's first run length

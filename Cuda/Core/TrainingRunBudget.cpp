@@ -65,8 +65,11 @@ void TrainingRun::PlanSchedule(double phaseSeconds)
     return;
   const double done = static_cast<double>(this->Current.Steps - this->ScheduleStart);
   double planned = static_cast<double>(this->Current.TargetSteps - this->ScheduleStart);
-  if (this->PhaseBudget > 0.0 && this->StepSeconds > 0.0 && !this->Config.deterministic)
-    planned = std::min(planned, done + std::max(0.0, this->PhaseBudget - phaseSeconds) / this->StepSeconds);
+  // The phase's mean time per step so far (the last chunk's while none is done): one slow chunk on a busy machine
+  // does not pull the planned end, and with it the rate, down early.
+  const double perStep = done >= 1.0 && phaseSeconds > 0.0 ? phaseSeconds / done : this->StepSeconds;
+  if (this->PhaseBudget > 0.0 && perStep > 0.0 && !this->Config.deterministic)
+    planned = std::min(planned, done + std::max(0.0, this->PhaseBudget - phaseSeconds) / perStep);
   planned = std::max(planned, done + 1.0);
   if (planned == o.plannedSteps)
     return;

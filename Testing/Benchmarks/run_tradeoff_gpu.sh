@@ -11,6 +11,13 @@
 #   importance error-guided sampling on and off, 3 seeds, 2^19 (binary nvBenchImp)
 #   plateau   the loss-driven decay against the default schedule (collapses; every volume at 2^14/2^18)
 #   spread    six seeds at 2^16 on a 256^3 volume and on stent, 4000 steps
+#   seeds     the engine and the PyTorch reference side by side over five seeds (torch_seeded.py), the small volumes
+#             at 2^14, 4000 steps; the engine also with the annealed schedules (cos, hold 0.5)
+#             (summary: Testing/Benchmarks/summarize_seeds.py seeds_engine.log seeds_torch.log)
+#   seeds2    the same for the larger volumes: stent, walnut and headsq at 2^14, stent and walnut at 2^18, three seeds
+#             (step decay and cosine; the reference with torch_seeded.py)
+#   hold      the cosine held at the full rate for the first 500 steps (the default), half or three quarters of the
+#             run (--hold) against the step decay and the plain cosine, every volume and the smooth field, L1 and L2 at 2^16, 4000 steps
 #   anneal    annealed learning-rate schedules (--schedule=exp|cos, to 1/100 or 1/30 of the rate at the last step)
 #             against the step decay, every volume and the smooth 48^3 field, L1 and L2, 4000 steps, PSNR every 50
 #             (summary: Testing/Benchmarks/summarize_schedule.py anneal.log)
@@ -25,6 +32,14 @@ for f in $D/*/*.raw.xz; do [ -e "$f" ] && xz -d -f -T0 "$f"; done
 export PYTHONPATH=$PWD/.devcarry/py${PYTHONPATH:+:$PYTHONPATH}
 VOLS=$(ls $D/{nucleon,neghip,bucky,ironprot,walnut,stent,headsq}/*.nhdr 2>/dev/null)
 T="python3 Testing/Benchmarks/tradeoff.py"
+# nvBench options of the schedules compared by the seeds sections (cos: the cosine from the first step; hold500: the
+# default annealed schedule, full rate for 500 steps first; hold50: the cosine over the second half of 4000 steps)
+variant_options() {
+  case $1 in
+    step) echo "--schedule=step" ;; cos) echo "--schedule=cos --hold=0" ;;
+    hold50) echo "--schedule=cos --hold=2000" ;; hold500) echo "--schedule=cos --hold=500" ;;
+  esac
+}
 for s in "$@"; do
   case $s in
     schedule)
@@ -100,8 +115,8 @@ for s in "$@"; do
       marks=$(seq -s, 50 50 4000)
       for v in $D/synth/smooth48_float.nhdr $VOLS; do
         for cfg in "l1 16" "l2 16" "l1 19"; do set -- $cfg
-          for variant in "base" "exp100 --schedule=exp --final=0.01" "cos100 --schedule=cos --final=0.01" \
-                         "cos30 --schedule=cos --final=0.0333"; do
+          for variant in "base" "exp100 --schedule=exp --final=0.01 --hold=0" "cos100 --schedule=cos --final=0.01 --hold=0" \
+                         "cos30 --schedule=cos --final=0.0333 --hold=0"; do
             name=${variant%% *}; opts=${variant#$name}
             echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
             $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
@@ -109,6 +124,48 @@ for s in "$@"; do
         done
       done > "$O/anneal.log" 2>&1
       python3 Testing/Benchmarks/summarize_schedule.py "$O/anneal.log" > "$O/anneal.md" ;;
+    seeds)
+      # 2026-11-25 first run: SEED_VARIANTS="step cos hold50" (cos: --hold=0; hold50: --hold=2000); then "hold500"
+      SEED_VARIANTS=${SEED_VARIANTS:-"step cos hold50 hold500"}
+      small="$D/nucleon/*.nhdr $D/bucky/*.nhdr $D/ironprot/*.nhdr $D/neghip/*.nhdr"
+      for seed in 1 2 3 4 5; do for v in $small; do
+        for variant in $SEED_VARIANTS; do
+          opts=$(variant_options $variant)
+          $B/nvBench tradeoff cuda $v 14 250,500,1000,2000,4000 --seed=$seed $opts | sed "s/^RESULT/VARIANT $variant RESULT/"
+        done
+      done; done > "$O/seeds_engine.log" 2>&1
+      [ -n "${SKIP_TORCH:-}" ] && continue
+      for seed in 1 2 3 4 5; do
+        timeout 150 python3 Testing/Benchmarks/torch_seeded.py $seed .devcarry/ref/quality_torch.py \
+          .devcarry/ref/bench_torch.py 4000 14 $small | sed "s/^RESULT/SEED $seed RESULT/"
+      done > "$O/seeds_torch.log" 2>&1 ;;
+    seeds2)
+      for seed in 1 2 3; do for run in "$D/stent/*.nhdr 14" "$D/walnut/*.nhdr 14" "$D/headsq/*.nhdr 14" \
+                                       "$D/stent/*.nhdr 18" "$D/walnut/*.nhdr 18"; do set -- $run
+        for variant in step cos hold500; do
+          $B/nvBench tradeoff cuda $1 $2 1000,2000,4000 --seed=$seed $(variant_options $variant) | sed "s/^RESULT/VARIANT $variant RESULT/"
+        done
+      done; done > "$O/seeds2_engine.log" 2>&1
+      for seed in 1 2 3; do
+        timeout 120 python3 Testing/Benchmarks/torch_seeded.py $seed .devcarry/ref/quality_torch.py \
+          .devcarry/ref/bench_torch.py 4000 14 $D/stent/*.nhdr $D/walnut/*.nhdr $D/headsq/*.nhdr | sed "s/^RESULT/SEED $seed RESULT/"
+        timeout 90 python3 Testing/Benchmarks/torch_seeded.py $seed .devcarry/ref/quality_torch.py \
+          .devcarry/ref/bench_torch.py 4000 18 $D/stent/*.nhdr $D/walnut/*.nhdr | sed "s/^RESULT/SEED $seed RESULT/"
+      done > "$O/seeds2_torch.log" 2>&1 ;;
+    hold)
+      marks=$(seq -s, 50 50 4000)
+      for v in $D/synth/smooth48_float.nhdr $VOLS; do
+        for cfg in "l1 16" "l2 16"; do set -- $cfg
+          for variant in "base" "cos100 --schedule=cos --hold=0" "hold50 --schedule=cos --hold=2000" \
+                         "hold75 --schedule=cos --hold=3000" "hold500 --schedule=cos --hold=500"; do
+            name=${variant%% *}; opts=${variant#$name}
+            [ -n "${HOLD_ONLY:-}" ] && [ "$name" != "$HOLD_ONLY" ] && continue # e.g. HOLD_ONLY=hold500
+            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
+            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
+          done
+        done
+      done > "$O/hold.log" 2>&1
+      python3 Testing/Benchmarks/summarize_schedule.py "$O/hold.log" > "$O/hold.md" ;;
     spread)
       for v in $D/stent256/*.nhdr $D/stent/*.nhdr; do for seed in 1 2 3 4 5 6; do
         $B/nvBench tradeoff cuda $v 16 1000,4000 --seed=$seed; done; done 2>&1 | tee "$O/spread.log" ;;

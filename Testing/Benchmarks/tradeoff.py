@@ -4,7 +4,7 @@ method in PyTorch. One command runs the whole sweep and writes CSV + plots:
 
   tradeoff.py run --nvbench BUILD/Testing/Benchmarks/nvBench --out DIR [--device cuda,cpu] [--volumes a.nhdr ..]
                   [--tables 12,14,16,18,20] [--steps 250,500,1000,2000,4000,8000] [--cpu-tables 14,18]
-                  [--cpu-steps 250,500,1000] [--torch REFERENCE_DIR] [--tiny]
+                  [--cpu-steps 250,500,1000] [--storage fp16,q8] [--torch REFERENCE_DIR] [--tiny]
 
 Without --volumes: every regular-grid volume of ../shared/data (*.nhdr). --tiny: two synthetic 32^3 volumes, two
 table sizes, few steps (the CI run). Sub-commands used by `run`, also usable alone:
@@ -12,8 +12,10 @@ table sizes, few steps (the CI run). Sub-commands used by `run`, also usable alo
   tradeoff.py check CSV   (every column present, every metric finite)
 Rows: date, machine, gpu, commit, volume, dims, source_bytes, method, setting, steps, ratio, compress_s, decompress_s,
 psnr, max_error, ssim. compress_s is the training time for the neural rows (setup excluded), decompress_s the decode
-of the whole grid into host memory. Ratios are source bytes (the volume's own type) over stored bytes (fp16 network,
-ZFP/SZ3 stream)."""
+of the whole grid into host memory. Ratios are source bytes (the volume's own type) over stored bytes (the network as
+stored, ZFP/SZ3 stream). --storage (the neural sweep; default both): fp16 rows are the methods neural-gpu / neural-cpu,
+8-bit entropy-coded rows (Neural Compress's StoragePrecision "8-bit (entropy coded)") neural-gpu-q8 / neural-cpu-q8;
+both come from the same training run (nvBench tradeoff --storage), so their compress_s are the same."""
 import argparse
 import csv
 import datetime
@@ -37,6 +39,18 @@ COLUMNS = ["date", "machine", "gpu", "commit", "volume", "dims", "source_bytes",
 # Columns a method does not measure (the PyTorch reference prints PSNR and training time only).
 NOT_MEASURED = {"pytorch-ref": {"ratio", "decompress_s", "max_error", "ssim"}}
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+STORAGES = ("fp16", "q8")
+# Plot styles of the 8-bit rows (tradeoff_plot.py styles the others).
+Q8_STYLE = {"neural-gpu-q8": ("darkred", "P", "Neural 8-bit (GPU)"),
+            "neural-cpu-q8": ("saddlebrown", "X", "Neural 8-bit (CPU)")}
+
+
+def neural_method(device, storage):
+    return "neural-" + ("gpu" if device == "cuda" else "cpu") + ("-q8" if storage == "q8" else "")
+
+
+def storage_option(storages):
+    return "both" if len(storages) == 2 else storages[0]
 
 
 def context():
@@ -99,8 +113,13 @@ def run_neural(args, ctx, writer, volumes, device, tables, steps):
     for path in volumes:
         original = tm.load_nhdr(path)
         metric = tm.ImageMetric(original)
-        for log2t in tables:
-            cmd = [args.nvbench, "tradeoff", device, path, str(log2t), ",".join(map(str, steps)), "--dump=" + tmp]
+        # The filter's default schedule anneals to the run's last step: one run per step count. The step decay does
+        # not depend on the run's length: one run per table, measured at every step count.
+        runs = [[n] for n in steps] if args.schedule == "annealed" else [steps]
+        for log2t, marks in [(t, m) for t in tables for m in runs]:
+            cmd = [args.nvbench, "tradeoff", device, path, str(log2t), ",".join(map(str, marks)), "--dump=" + tmp,
+                   "--storage=" + storage_option(args.storage)]
+            cmd += ["--schedule=cos", "--hold=500"] if args.schedule == "annealed" else ["--schedule=step"]
             if args.threads:
                 cmd.append("--threads=%d" % args.threads)
             if args.batch:
@@ -114,7 +133,7 @@ def run_neural(args, ctx, writer, volumes, device, tables, steps):
                 os.remove(r["dump"])
                 psnr, max_error = tm.errors(original, decoded)
                 row = volume_row(ctx, path, original)
-                row.update(method="neural-" + ("gpu" if device == "cuda" else "cpu"), setting="2^%d" % log2t,
+                row.update(method=neural_method(device, r.get("storage", "fp16")), setting="2^%d" % log2t,
                            steps=r["steps"], ratio=r["ratio"], compress_s=r["train_s"], decompress_s=r["decode_s"],
                            psnr=psnr, max_error=max_error, ssim=metric(decoded))
                 writer.add(row)
@@ -221,6 +240,33 @@ def check(path):
     return rows
 
 
+def check_q8(rows):
+    """Each 8-bit row against the fp16 row of the same training (volume, device, table, steps): a larger ratio (the
+    coded network is smaller), the same training time."""
+    fp16 = {(r["volume"], r["method"], r["setting"], r["steps"]): r for r in rows
+            if r["method"] in ("neural-gpu", "neural-cpu")}
+    bad = []
+    for r in rows:
+        if not r["method"].endswith("-q8"):
+            continue
+        f = fp16.get((r["volume"], r["method"][:-3], r["setting"], r["steps"]))
+        if f is None:
+            continue
+        if not float(r["ratio"]) > float(f["ratio"]) or r["compress_s"] != f["compress_s"]:
+            bad.append("%s %s %s %s: ratio %s (fp16 %s), compress_s %s (fp16 %s)" % (
+                r["volume"], r["method"], r["setting"], r["steps"], r["ratio"], f["ratio"], r["compress_s"],
+                f["compress_s"]))
+    if bad:
+        raise SystemExit("check: 8-bit rows not smaller than their fp16 rows:\n  " + "\n  ".join(bad))
+
+
+def plot(paths, out):
+    import tradeoff_plot
+    for method, style in Q8_STYLE.items():
+        tradeoff_plot.STYLE.setdefault(method, style)
+    tradeoff_plot.plot(paths, out)
+
+
 def ints(s):
     return [int(v) for v in s.split(",") if v]
 
@@ -237,6 +283,12 @@ def main():
     p.add_argument("--steps", default="250,500,1000,2000,4000,8000")
     p.add_argument("--cpu-tables", default="14,18")
     p.add_argument("--cpu-steps", default="250,500,1000")
+    p.add_argument("--storage", default="fp16,q8",
+                   help="how the neural rows store the network: fp16, q8 or fp16,q8 (default: both)")
+    p.add_argument("--schedule", choices=["annealed", "step"], default="annealed",
+                   help="learning-rate schedule of the neural runs: annealed (Neural Compress's default: 500 steps at "
+                        "the full rate, then a cosine to 1/100 at the run's last step; one run per step count) or "
+                        "step (the paper's step decay; one run per table)")
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--batch", type=int, default=0, help="training batch (default: the engine's, 65536)")
     p.add_argument("--ratios", default="2,4,8,16,32,64,128,256")
@@ -249,14 +301,16 @@ def main():
     args = p.parse_args()
     args.ratios = [float(v) for v in args.ratios.split(",")]
     args.bounds = [float(v) for v in args.bounds.split(",")]
+    args.storage = [s for s in STORAGES if s in args.storage.replace("both", "fp16,q8").split(",")]
+    if not args.storage:
+        raise SystemExit("--storage: fp16, q8 or fp16,q8")
 
     if args.command == "check":
         for c in args.csv:
             check(c)
         return
     if args.command == "plot":
-        import tradeoff_plot
-        tradeoff_plot.plot(args.csv, args.out)
+        plot(args.csv, args.out)
         return
 
     os.makedirs(args.out, exist_ok=True)
@@ -273,6 +327,8 @@ def main():
         raise SystemExit("no volumes (../shared/data absent: pass --volumes or --tiny)")
     ctx = context()
     csv_path = os.path.join(args.out, "tradeoff.csv")
+    if args.tiny and os.path.exists(csv_path):
+        os.remove(csv_path)  # the tiny run checks its own rows (other runs append to one CSV)
     writer = Writer(csv_path)
     devices = args.device.split(",") if args.device else []
     if args.command in ("run", "neural"):
@@ -287,18 +343,19 @@ def main():
     if args.command == "run":
         rows = check(csv_path)
         if args.tiny:
-            # Every volume has every method's rows: 2 volumes x (2 tables x 2 marks neural, 3 ZFP rates unless below
-            # its floor, 3 ZFP accuracies, 3 SZ3 bounds).
+            # Every volume has every method's rows: 2 volumes x (2 tables x 2 marks neural per storage, 3 ZFP rates
+            # unless below its floor, 3 ZFP accuracies, 3 SZ3 bounds).
             have = {(r["volume"], r["method"]) for r in rows}
+            neural_methods = [neural_method(d, s) for d in devices for s in args.storage]
             want = {(v, m) for v in ("marschnerlobb", "noise") for m in
-                    ["neural-" + ("gpu" if d == "cuda" else "cpu") for d in devices] + ["zfp-rate", "zfp-accuracy", "sz3-abs"]}
+                    neural_methods + ["zfp-rate", "zfp-accuracy", "sz3-abs"]}
             if want - have:
                 raise SystemExit("check: missing rows for " + ", ".join("%s/%s" % k for k in sorted(want - have)))
             neural = [r for r in rows if r["method"].startswith("neural")]
-            if len(neural) != 8 * len(devices):
-                raise SystemExit("check: %d neural rows, expected %d" % (len(neural), 8 * len(devices)))
-        import tradeoff_plot
-        tradeoff_plot.plot([csv_path], args.out)
+            if len(neural) != 8 * len(neural_methods):
+                raise SystemExit("check: %d neural rows, expected %d" % (len(neural), 8 * len(neural_methods)))
+            check_q8(rows)
+        plot([csv_path], args.out)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ OptimizerConfig annealed(LearningRateSchedule s, double planned, double fraction
   o.schedule = s;
   o.plannedSteps = planned;
   o.finalRateFraction = fraction;
+  o.holdSteps = 0; // annealed from the first step
   return o;
 }
 
@@ -129,19 +130,47 @@ NV_TEST(cosine_schedule_rates)
   EXPECT_NEAR_REL(s.learningRateAt(1001), 8e-3, 1e-12, 0);
 }
 
+NV_TEST(held_cosine_keeps_the_rate_then_anneals_over_the_rest)
+{
+  // holdSteps 1000 of 2000 planned: the full rate to step 1000, then the cosine of a 1000-step run.
+  OptimizerConfig o = annealed(LearningRateSchedule::Cosine, 2000, 0.01);
+  o.holdSteps = 1000;
+  EXPECT_NEAR_REL(o.learningRateAt(1), 1e-2, 1e-12, 0);
+  EXPECT_NEAR_REL(o.learningRateAt(1000), 1e-2, 1e-12, 0);
+  EXPECT_NEAR_REL(o.learningRateAt(1500), 1e-2 * (0.01 + 0.99 * 0.5), 1e-12, 0);
+  EXPECT_NEAR_REL(o.learningRateAt(2000), 1e-4, 1e-12, 0);
+  const OptimizerConfig plain = annealed(LearningRateSchedule::Cosine, 1000, 0.01);
+  for (int step = 1001; step <= 2000; step += 37)
+    EXPECT_NEAR_REL(o.learningRateAt(step), plain.learningRateAt(step - 1000), 1e-12, 0);
+  // A run planned no longer than the hold trains at the full rate throughout (as the step decay before its first
+  // decay), for the exponential schedule too.
+  o.plannedSteps = 300;
+  for (int step : { 1, 150, 300, 301, 5000 })
+    EXPECT_NEAR_REL(o.learningRateAt(step), 1e-2, 1e-12, 0);
+  o.schedule = LearningRateSchedule::Exponential;
+  o.plannedSteps = 1500;
+  EXPECT_NEAR_REL(o.learningRateAt(1000), 1e-2, 1e-12, 0);
+  EXPECT_NEAR_REL(o.learningRateAt(1250), 1e-3, 1e-12, 0);
+  EXPECT_NEAR_REL(o.learningRateAt(1500), 1e-4, 1e-12, 0);
+  o.holdSteps = -1;
+  EXPECT_THROW_MSG(validate(withOptimizer(o)), "steps before the rate anneals must be >= 0");
+}
+
 NV_TEST(default_schedule_anneals_a_run_of_known_length)
 {
   OptimizerConfig d; // Auto: the step decay while the length is not known
-  EXPECT_TRUE(d.schedule == LearningRateSchedule::Auto && d.plannedSteps == 0.0);
+  EXPECT_TRUE(d.schedule == LearningRateSchedule::Auto && d.plannedSteps == 0.0 && d.holdSteps == 500);
   EXPECT_TRUE(d.effectiveSchedule() == LearningRateSchedule::StepDecay);
   EXPECT_NEAR_REL(d.learningRateAt(1000), 1e-2, 1e-12, 0);
   EXPECT_NEAR_REL(d.learningRateAt(1001), 8e-3, 1e-12, 0);
   validate(withOptimizer(d));
-  d.plannedSteps = 2000; // a run of 2000 steps: the cosine to 1/100
+  d.plannedSteps = 2000; // a run of 2000 steps: the full rate for 500 steps, then the cosine to 1/100
   EXPECT_TRUE(d.effectiveSchedule() == LearningRateSchedule::Cosine);
-  const OptimizerConfig c = annealed(LearningRateSchedule::Cosine, 2000, 0.01);
-  for (int64_t step : { 0, 1, 700, 1000, 1999, 2000, 5000 })
-    EXPECT_TRUE(d.learningRateAt(step) == c.learningRateAt(step));
+  OptimizerConfig c = annealed(LearningRateSchedule::Cosine, 1500, 0.01);
+  for (int64_t step : { 0, 1, 500 })
+    EXPECT_TRUE(d.learningRateAt(step) == 1e-2);
+  for (int64_t step : { 501, 700, 1250, 1999, 2000, 5000 })
+    EXPECT_NEAR_REL(d.learningRateAt(step), c.learningRateAt(step - 500), 1e-12, 0);
   EXPECT_NEAR_REL(d.learningRateAt(2000), 1e-4, 1e-12, 0);
   d.finalRateFraction = 0; // checked once the annealing applies
   EXPECT_THROW_MSG(validate(withOptimizer(d)), "final learning-rate fraction");

@@ -4,6 +4,7 @@
 #include "Core/Error.h"
 #include "Core/Macrocells.h"
 #include "Core/Serialization.h"
+#include "CraftedModelFiles.h"
 #include "TestHarness.h"
 
 #include <atomic>
@@ -14,36 +15,6 @@
 #include <random>
 
 using namespace nv;
-
-// Every allocation of this process goes through these (the engine's too, static or shared): while armed they record
-// the largest single request.
-namespace
-{
-std::atomic<bool> gTrackAllocations{ false };
-std::atomic<size_t> gLargestAllocation{ 0 };
-} // namespace
-
-void* operator new(size_t n)
-{
-  if (gTrackAllocations.load(std::memory_order_relaxed))
-  {
-    size_t seen = gLargestAllocation.load();
-    while (n > seen && !gLargestAllocation.compare_exchange_weak(seen, n))
-    {
-    }
-  }
-  if (void* p = std::malloc(n ? n : 1))
-    return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept
-{
-  std::free(p);
-}
-void operator delete(void* p, size_t) noexcept
-{
-  std::free(p);
-}
 
 namespace
 {
@@ -237,99 +208,11 @@ NV_TEST(half_conversion)
 
 // ---- Crafted files: every field of a model that passes its checksum is checked against the bytes present and the
 // bounds of Model.h before anything large is allocated.
-namespace
-{
-/// The reader of a crafted file may allocate the header's strings and its error message, nothing like a table:
-/// every case below must throw before any single allocation above this.
-constexpr size_t kCraftedAllocationCap = 64 * 1024;
-
-// Offsets in a serialized model: magic (8), version (4), header size (4), then the header's fields.
-constexpr size_t kAtVersion = 8, kAtHeaderBytes = 12, kAtLevels = 16, kAtFeatures = 20, kAtLog2Table = 24,
-                 kAtPerLevelScale = 32, kAtFinest = 40, kAtDims = 56, kAtOrigin = 80, kAtSpacing = 104,
-                 kAtBounds = 128, kAtValueMin = 176, kAtAssociation = 192, kAtNameLength = 204;
-
-/// A small network (about 17 KB stored in fp16) on a 64 x 32 x 7 grid.
-Model smallModel()
-{
-  ModelConfig c;
-  c.encoding.levels = 4;
-  c.encoding.featuresPerLevel = 2;
-  c.encoding.log2TableSize = 10;
-  c.encoding.finestResolution = 64;
-  c.network.width = 16;
-  c.network.hiddenLayers = 2;
-  Model m(c);
-  m.initialize(7);
-  m.source.dims[0] = 64;
-  m.source.dims[1] = 32;
-  m.source.dims[2] = 7;
-  m.source.spacing[0] = 0.5;
-  for (int a = 0; a < 3; ++a)
-    m.source.bounds[2 * a + 1] = (m.source.dims[a] - 1) * m.source.spacing[a];
-  m.source.arrayName = "rho";
-  m.quantize(Precision::Float16);
-  return m;
-}
-
-template <typename T>
-void patch(std::vector<uint8_t>& b, size_t at, T v)
-{
-  std::memcpy(b.data() + at, &v, sizeof(T));
-}
-
-template <typename T>
-T peek(const std::vector<uint8_t>& b, size_t at)
-{
-  T v;
-  std::memcpy(&v, b.data() + at, sizeof(T));
-  return v;
-}
-
-/// Recompute the checksum, so that the reader's field checks (not the checksum) meet the crafted content.
-void fixChecksum(std::vector<uint8_t>& b)
-{
-  patch<uint32_t>(b, b.size() - 4, crc32(b.data(), b.size() - 4));
-}
-
-size_t parameterCountAt(const std::vector<uint8_t>& b)
-{
-  return 16 + peek<uint32_t>(b, kAtHeaderBytes);
-}
-
-/// Deserializes `bytes` expecting an nv::Error containing `message`; fails when a single allocation above
-/// kCraftedAllocationCap happened first (the message names the case).
-void expectRefused(const std::vector<uint8_t>& bytes, const std::string& message, const char* what)
-{
-  gLargestAllocation = 0;
-  gTrackAllocations = true;
-  std::string got = "(no error)";
-  bool nvError = false;
-  try
-  {
-    deserialize(bytes);
-  }
-  catch (const Error& e)
-  {
-    nvError = true;
-    got = e.what();
-  }
-  catch (const std::exception& e)
-  {
-    got = std::string("not an nv::Error: ") + e.what();
-  }
-  gTrackAllocations = false;
-  const size_t largest = gLargestAllocation;
-  if (!nvError || got.find(message) == std::string::npos)
-    nvtest::fail(__FILE__, __LINE__, std::string(what) + ": expected '" + message + "', got '" + got + "'");
-  if (largest > kCraftedAllocationCap)
-    nvtest::fail(__FILE__, __LINE__, std::string(what) + ": allocated " + std::to_string(largest) + " bytes at once");
-}
-} // namespace
 
 NV_TEST(crafted_offsets_match_the_writer)
 {
   // The test's offsets are those of the format (else every crafted case below would patch the wrong field).
-  const Model m = smallModel();
+  const Model m = craftedModel(Precision::Float16);
   const auto b = serialize(m);
   EXPECT_TRUE(peek<uint32_t>(b, kAtVersion) == 1 && peek<int32_t>(b, kAtLevels) == 4);
   EXPECT_TRUE(peek<int32_t>(b, kAtFeatures) == 2 && peek<int32_t>(b, kAtLog2Table) == 10);
@@ -344,7 +227,7 @@ NV_TEST(crafted_offsets_match_the_writer)
 
 NV_TEST(crafted_source_grids_are_refused_before_allocating)
 {
-  const auto good = serialize(smallModel());
+  const auto good = serialize(craftedModel(Precision::Float16));
   struct Dims
   {
     int64_t d[3];
@@ -385,7 +268,7 @@ NV_TEST(crafted_source_grids_are_refused_before_allocating)
 
 NV_TEST(crafted_geometry_and_ranges_are_refused)
 {
-  const auto good = serialize(smallModel());
+  const auto good = serialize(craftedModel(Precision::Float16));
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   struct Field
   {
@@ -416,17 +299,17 @@ NV_TEST(crafted_geometry_and_ranges_are_refused)
   fixChecksum(association);
   expectRefused(association, "source association 7", "association");
   // The writer refuses the same: every model it writes reads back.
-  Model m = smallModel();
+  Model m = craftedModel(Precision::Float16);
   m.source.origin[1] = nan;
   EXPECT_THROW_MSG(serialize(m), "source origin 1 is not finite");
-  m = smallModel();
+  m = craftedModel(Precision::Float16);
   m.source.spacing[2] = -1.0;
   EXPECT_THROW_MSG(serialize(m), "source spacing 2 is -1.000000");
 }
 
 NV_TEST(crafted_tables_and_counts_are_refused_before_allocating)
 {
-  const auto good = serialize(smallModel());
+  const auto good = serialize(craftedModel(Precision::Float16));
   // A 17 KB model declaring a 2^24 table over 16 levels of 4 features (about 2^30 parameters, 4.3 GB as fp32):
   // refused by comparing counts before the parameters are allocated, whether or not the stored count agrees.
   auto huge = good;
@@ -489,7 +372,7 @@ NV_TEST(crafted_masks_are_refused_before_allocating)
 {
   // A domain mask stated for a grid too large for one, and run counts beyond the bytes present: refused by
   // scanning, before the bits are allocated.
-  Model m = smallModel();
+  Model m = craftedModel(Precision::Float16);
   m.source.domain.assign(size_t(domainWords(m.source.dims)), 0x0F0F0F0Fu);
   const auto v2 = serialize(m);
   const size_t countAt = parameterCountAt(v2) + 8 + 8592 * 2;
@@ -508,7 +391,7 @@ NV_TEST(crafted_masks_are_refused_before_allocating)
     expectRefused(bad, "", "domain run count"); // too many runs, or more than the bytes hold, or none
   }
   // A grid of 2^20 x 2^14 samples with one run of zeros as its domain: 2^34 bits is beyond a domain mask.
-  Model one = smallModel();
+  Model one = craftedModel(Precision::Float16);
   one.source.domain.assign(size_t(domainWords(one.source.dims)), 0u);
   auto single = serialize(one);
   const size_t at = parameterCountAt(single) + 8 + 8592 * 2;
@@ -532,7 +415,7 @@ NV_TEST(crafted_masks_are_refused_before_allocating)
   const ModelFileInfo info = inspectModel(valid.data(), valid.size());
   EXPECT_TRUE(info.hasDomain && info.domainRuns == 1 && info.hostBytes == 8592u * 4 + (uint64_t(1) << 28));
   // Version 3 flags and an occupancy run count beyond the bytes.
-  Model s = smallModel();
+  Model s = craftedModel(Precision::Float16);
   s.source.occupancy.assign(size_t(occupancyWords(s.source.dims)), 0x5u);
   s.source.background = 1.5;
   const auto v3 = serialize(s);

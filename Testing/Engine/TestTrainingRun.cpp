@@ -256,16 +256,18 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
 
 NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
 {
-  // The default schedule (Auto) anneals over the phase: TrainingRun plans the trainer's steps, so the cosine reaches
-  // 1/100 of the rate exactly at the last step; a later Continue stays at that floor. Under a time budget the plan
+  // The default schedule (Auto) anneals over the phase after its hold: TrainingRun plans the trainer's steps, so the
+  // cosine reaches 1/100 of the rate exactly at the last step; a later Continue stays at that floor. Under a time budget the plan
   // follows the measured step rate, so the last steps run near the floor too. An explicit step decay ignores plans.
   const std::vector<float> values = analyticVolume(0.0);
   const double lr = TrainConfig().optimizer.learningRate;
   auto rateAt = [&](const std::vector<LogRow>& log, int64_t step) { return log[size_t(step - 1)].LearningRate; };
+  TrainConfig fromFirstStep = trainConfig();
+  fromFirstStep.optimizer.holdSteps = 0; // the default holds the full rate for 500 steps: checked below
   {
     auto d = data(values, false);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
-    TrainingRun run(s, d, trainConfig(), limits(200), nullptr);
+    TrainingRun run(s, d, fromFirstStep, limits(200), nullptr);
     run.RunHere(nullptr, nullptr);
     run.Extend(20, false);
     const std::vector<LogRow> log = run.Log();
@@ -287,11 +289,28 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
     EXPECT_TRUE(std::fabs(rateAt(run.Log(), 200) - lr) < 1e-15);
   }
   {
+    // The default: a 200-step run is shorter than the 500-step hold, so it trains at the full rate throughout; a
+    // 700-step run holds 500 steps and then anneals to the floor at its last.
+    auto d = data(values, false);
+    std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+    TrainingRun run(s, d, trainConfig(), limits(200), nullptr);
+    run.RunHere(nullptr, nullptr);
+    for (int64_t step : { 1, 100, 200 })
+      EXPECT_TRUE(std::fabs(rateAt(run.Log(), step) - lr) < 1e-15);
+    auto d2 = data(values, false);
+    std::shared_ptr<NetworkSession> s2 = nvtest::session(model(*d2, 1), Device::Cpu, 2);
+    TrainingRun longer(s2, d2, trainConfig(), limits(700), nullptr);
+    longer.RunHere(nullptr, nullptr);
+    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 500) - lr) < 1e-15);
+    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 600) / lr - (0.01 + 0.99 * 0.5)) < 1e-12);
+    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 700) / lr - 0.01) < 1e-12);
+  }
+  {
     auto d = data(values, false);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
     RunLimits l = limits(1000000);
     l.TimeBudget = 0.5;
-    TrainingRun run(s, d, trainConfig(), l, nullptr);
+    TrainingRun run(s, d, fromFirstStep, l, nullptr);
     run.RunHere(nullptr, nullptr);
     const std::vector<LogRow> log = run.Log();
     const double last = log.back().LearningRate / lr, first = log.front().LearningRate / lr;

@@ -1,5 +1,6 @@
 // Seed corpus of the model fuzzer: valid models of small configurations in every format version (1: no mask,
-// 2: a domain mask, 3: an occupancy mask with or without a domain mask), fp32 and fp16, written to a folder.
+// 2: a domain mask, 3: an occupancy mask with or without a domain mask, 4: 8-bit entropy-coded parameters with any
+// masks), fp32, fp16 and Quantized8, written to a folder.
 // Usage: nvFuzzCorpus OUTPUT_FOLDER   (prints the number of files and their largest size)
 #include "Core/Engine.h"
 #include "Core/Error.h"
@@ -89,7 +90,7 @@ int main(int argc, char** argv)
     std::fprintf(stderr, "usage: %s OUTPUT_FOLDER\n", argv[0]);
     return 2;
   }
-  const nv::Precision f32 = nv::Precision::Float32, f16 = nv::Precision::Float16;
+  const nv::Precision f32 = nv::Precision::Float32, f16 = nv::Precision::Float16, q8 = nv::Precision::Quantized8;
   // Dense levels only (resolutions of a few vertices): files of a few KB, so that the fuzzer mutates headers,
   // counts and masks rather than parameters.
   const Seed seeds[] = {
@@ -104,6 +105,11 @@ int main(int argc, char** argv)
     { "v3_occupancy", 2, 2, 10, 2, 4, 0.0, 16, 1, f16, { 33, 20, 17 }, false, true, 0 },
     { "v3_both", 2, 1, 10, 2, 3, 0.0, 16, 2, f16, { 25, 18, 9 }, true, true, 0 },
     { "v3_flat", 1, 4, 10, 2, 2, 0.0, 16, 1, f32, { 64, 64, 1 }, false, true, 1 },
+    { "v4_q8", 2, 2, 10, 2, 4, 0.0, 16, 1, q8, { 5, 4, 3 }, false, false, 0 },
+    { "v4_q8_scale", 3, 1, 10, 2, 0, 1.5, 16, 1, q8, { 17, 9, 2 }, false, false, 1 },
+    { "v4_q8_hashed", 2, 1, 10, 4, 16, 0.0, 16, 1, q8, { 6, 6, 6 }, false, false, 0 },
+    { "v4_q8_domain", 2, 2, 10, 2, 4, 0.0, 16, 1, q8, { 11, 7, 5 }, true, false, 1 },
+    { "v4_q8_both", 2, 1, 10, 2, 3, 0.0, 16, 2, q8, { 25, 18, 9 }, true, true, 0 },
   };
   try
   {

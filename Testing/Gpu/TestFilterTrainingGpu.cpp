@@ -59,6 +59,9 @@ TrainConfig trainConfig(TrainingStrategy strategy)
   tc.batchSize = 16384;
   tc.seed = 5;
   tc.strategy = strategy;
+  // Annealed from the first step (the default holds the rate for 500 steps, all of these runs): the run ends at its
+  // best probe, so the versions counted below are the probes' and the end's only (no KeepBestNetwork restore).
+  tc.optimizer.holdSteps = 0;
   return tc;
 }
 } // namespace
