@@ -55,14 +55,21 @@ Model::Model(const ModelConfig& config)
   Params.assign(encodingParamCount() + mlpParamCount(), 0.0f);
 }
 
-size_t Model::mlpParamCount() const
+size_t mlpParameterCount(const ModelConfig& config)
 {
   size_t n = 0;
-  for (int l = 0; l <= Config.network.hiddenLayers; ++l)
+  for (int l = 0; l <= config.network.hiddenLayers; ++l)
   {
-    n += static_cast<size_t>(layerInputs(l)) * layerOutputs(l);
+    const size_t in = l == 0 ? static_cast<size_t>(config.encoding.outputDims()) : size_t(config.network.width);
+    const size_t out = l == config.network.hiddenLayers ? 1 : size_t(config.network.width);
+    n += in * out;
   }
   return n;
+}
+
+size_t Model::mlpParamCount() const
+{
+  return mlpParameterCount(Config);
 }
 
 int Model::layerInputs(int l) const

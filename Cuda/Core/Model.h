@@ -146,6 +146,10 @@ private:
   void clearQuantizedState();
 };
 
+/// MLP weights of a network of this configuration (no biases): inputs x width, width x width per further hidden
+/// layer, width x 1.
+size_t mlpParameterCount(const ModelConfig& config);
+
 /// Level table for an encoding configuration (validates it).
 GridLayout makeGridLayout(const EncodingConfig& config);
 

@@ -16,18 +16,6 @@ namespace
   throw Error("quantised parameters: " + what);
 }
 
-size_t mlpCount(const ModelConfig& c)
-{
-  size_t n = 0;
-  for (int k = 0; k <= c.network.hiddenLayers; ++k)
-  {
-    const size_t in = k == 0 ? size_t(c.encoding.outputDims()) : size_t(c.network.width);
-    const size_t out = k == c.network.hiddenLayers ? 1 : size_t(c.network.width);
-    n += in * out;
-  }
-  return n;
-}
-
 /// Reads a level's step at data[pos] (4 bytes checked by the caller's bounds) and validates it.
 float readStep(const uint8_t* data, size_t size, size_t pos, int level)
 {
@@ -91,7 +79,7 @@ size_t inspectQuantizedParameters(const uint8_t* data, size_t size, const ModelC
       corrupt("level " + std::to_string(l) + ": " + e.what());
     }
   }
-  const size_t mlpBytes = 2 * mlpCount(config); // at most 2 * 2^17
+  const size_t mlpBytes = 2 * mlpParameterCount(config); // at most 2 * 2^17
   if (size - pos < mlpBytes)
     corrupt("the block ends inside the MLP weights (" + std::to_string(size - pos) + " of " +
       std::to_string(mlpBytes) + " bytes)");

@@ -105,8 +105,7 @@ int64_t parameterCount(const ModelConfig& config)
 {
   validate(config);
   const GridLayout layout = makeGridLayout(config.encoding);
-  const int64_t d = config.encoding.outputDims(), w = config.network.width, l = config.network.hiddenLayers;
-  const int64_t mlp = d * w + (l - 1) * w * w + w;
+  const int64_t mlp = static_cast<int64_t>(mlpParameterCount(config));
   return saturatingAdd(saturatingMul(static_cast<int64_t>(layout.totalEntries), layout.features), mlp);
 }
 

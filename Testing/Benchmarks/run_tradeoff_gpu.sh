@@ -40,20 +40,27 @@ variant_options() {
     hold50) echo "--schedule=cos --hold=2000" ;; hold500) echo "--schedule=cos --hold=500" ;;
   esac
 }
+# Schedule comparisons: for every volume of VOLUMES, loss:table of CFGS and variant ("name --nvBench-options"), one
+# nvBench tradeoff run with PSNR at MARKS, after a line "VARIANT name loss L log2T T volume" (summarize_schedule.py
+# reads them). ONLY_VARIANT=name runs that variant only. Usage: compare_schedules MARKS "VOLUMES" "CFGS" VARIANT...
+compare_schedules() {
+  local marks=$1 vols=$2 cfgs=$3 v cfg variant name
+  shift 3
+  for v in $vols; do for cfg in $cfgs; do for variant in "$@"; do
+    name=${variant%% *}
+    [ -n "${ONLY_VARIANT:-}" ] && [ "$name" != "$ONLY_VARIANT" ] && continue
+    echo "VARIANT $name loss ${cfg%:*} log2T ${cfg#*:} $(basename $v)"
+    $B/nvBench tradeoff cuda $v ${cfg#*:} $marks --loss=${cfg%:*} ${variant#"$name"}
+  done; done; done
+}
 for s in "$@"; do
   case $s in
     schedule)
       nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
-      marks=$(seq -s, 50 50 4000)
-      for v in $D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr; do
-        for cfg in "l2 16" "l2 19" "l1 19"; do set -- $cfg
-          for variant in "base" "warm200 --warmup=200" "eps1e-10 --eps=1e-10" "fast --warmup=200 --decay-interval=500 --decay-factor=0.7" "lr3e-3 --warmup=200 --lr=3e-3"; do
-            name=${variant%% *}; opts=${variant#$name}
-            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
-            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
-          done
-        done
-      done > "$O/schedule.log" 2>&1 ;;
+      compare_schedules "$(seq -s, 50 50 4000)" "$D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr" "l2:16 l2:19 l1:19" \
+        "base" "warm200 --warmup=200" "eps1e-10 --eps=1e-10" \
+        "fast --warmup=200 --decay-interval=500 --decay-factor=0.7" "lr3e-3 --warmup=200 --lr=3e-3" \
+        > "$O/schedule.log" 2>&1 ;;
     schedule2)
       # Adam's second-moment decay and epsilon against the periodic collapses the schedule section showed.
       marks=$(seq -s, 50 50 3000)
@@ -71,16 +78,8 @@ for s in "$@"; do
     plateau)
       # The loss-driven decay (OptimizerConfig::plateauWindow) against the default schedule, PSNR every 100 steps,
       # then every volume at 2^14 and 2^18.
-      marks=$(seq -s, 100 100 4000)
-      for v in $D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr; do
-        for cfg in "l2 16" "l2 19" "l1 19"; do set -- $cfg
-          for variant in "base" "plateau100 --plateau=100" "plateau50 --plateau=50"; do
-            name=${variant%% *}; opts=${variant#$name}
-            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
-            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
-          done
-        done
-      done > "$O/plateau.log" 2>&1
+      compare_schedules "$(seq -s, 100 100 4000)" "$D/synth/smooth48_float.nhdr $D/neghip/*.nhdr $D/headsq/*.nhdr $D/walnut/*.nhdr $D/stent/*.nhdr" "l2:16 l2:19 l1:19" \
+        "base" "plateau100 --plateau=100" "plateau50 --plateau=50" > "$O/plateau.log" 2>&1
       for v in $VOLS; do for t in 14 18; do for p in 0 100; do
         echo "VARIANT plateau$p loss l1 log2T $t $(basename $v)"
         $B/nvBench tradeoff cuda $v $t 1000,2000,4000 --plateau=$p
@@ -112,17 +111,9 @@ for s in "$@"; do
       done; done; done > "$O/importance.log" 2>&1 ;;
     anneal)
       nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$O/gpu.txt"
-      marks=$(seq -s, 50 50 4000)
-      for v in $D/synth/smooth48_float.nhdr $VOLS; do
-        for cfg in "l1 16" "l2 16" "l1 19"; do set -- $cfg
-          for variant in "base" "exp100 --schedule=exp --final=0.01 --hold=0" "cos100 --schedule=cos --final=0.01 --hold=0" \
-                         "cos30 --schedule=cos --final=0.0333 --hold=0"; do
-            name=${variant%% *}; opts=${variant#$name}
-            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
-            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
-          done
-        done
-      done > "$O/anneal.log" 2>&1
+      compare_schedules "$(seq -s, 50 50 4000)" "$D/synth/smooth48_float.nhdr $VOLS" "l1:16 l2:16 l1:19" \
+        "base" "exp100 --schedule=exp --final=0.01 --hold=0" "cos100 --schedule=cos --final=0.01 --hold=0" \
+        "cos30 --schedule=cos --final=0.0333 --hold=0" > "$O/anneal.log" 2>&1
       python3 Testing/Benchmarks/summarize_schedule.py "$O/anneal.log" > "$O/anneal.md" ;;
     seeds)
       # 2026-11-25 first run: SEED_VARIANTS="step cos hold50" (cos: --hold=0; hold50: --hold=2000); then "hold500"
@@ -153,18 +144,9 @@ for s in "$@"; do
           .devcarry/ref/bench_torch.py 4000 18 $D/stent/*.nhdr $D/walnut/*.nhdr | sed "s/^RESULT/SEED $seed RESULT/"
       done > "$O/seeds2_torch.log" 2>&1 ;;
     hold)
-      marks=$(seq -s, 50 50 4000)
-      for v in $D/synth/smooth48_float.nhdr $VOLS; do
-        for cfg in "l1 16" "l2 16"; do set -- $cfg
-          for variant in "base" "cos100 --schedule=cos --hold=0" "hold50 --schedule=cos --hold=2000" \
-                         "hold75 --schedule=cos --hold=3000" "hold500 --schedule=cos --hold=500"; do
-            name=${variant%% *}; opts=${variant#$name}
-            [ -n "${HOLD_ONLY:-}" ] && [ "$name" != "$HOLD_ONLY" ] && continue # e.g. HOLD_ONLY=hold500
-            echo "VARIANT $name loss $1 log2T $2 $(basename $v)"
-            $B/nvBench tradeoff cuda $v $2 $marks --loss=$1 $opts
-          done
-        done
-      done > "$O/hold.log" 2>&1
+      compare_schedules "$(seq -s, 50 50 4000)" "$D/synth/smooth48_float.nhdr $VOLS" "l1:16 l2:16" \
+        "base" "cos100 --schedule=cos --hold=0" "hold50 --schedule=cos --hold=2000" \
+        "hold75 --schedule=cos --hold=3000" "hold500 --schedule=cos --hold=500" > "$O/hold.log" 2>&1
       python3 Testing/Benchmarks/summarize_schedule.py "$O/hold.log" > "$O/hold.md" ;;
     spread)
       for v in $D/stent256/*.nhdr $D/stent/*.nhdr; do for seed in 1 2 3 4 5 6; do

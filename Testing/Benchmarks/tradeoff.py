@@ -41,10 +41,6 @@ NOT_MEASURED = {"pytorch-ref": {"ratio", "decompress_s", "max_error", "ssim"}}
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 STORAGES = ("fp16", "q8")
 # Plot styles of the 8-bit rows (tradeoff_plot.py styles the others).
-Q8_STYLE = {"neural-gpu-q8": ("darkred", "P", "Neural 8-bit (GPU)"),
-            "neural-cpu-q8": ("saddlebrown", "X", "Neural 8-bit (CPU)")}
-
-
 def neural_method(device, storage):
     return "neural-" + ("gpu" if device == "cuda" else "cpu") + ("-q8" if storage == "q8" else "")
 
@@ -262,8 +258,6 @@ def check_q8(rows):
 
 def plot(paths, out):
     import tradeoff_plot
-    for method, style in Q8_STYLE.items():
-        tradeoff_plot.STYLE.setdefault(method, style)
     tradeoff_plot.plot(paths, out)
 
 

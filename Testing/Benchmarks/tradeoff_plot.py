@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 STYLE = {"neural-gpu": ("tab:red", "o", "Neural (GPU)"), "neural-cpu": ("tab:orange", "s", "Neural (CPU)"),
+         "neural-gpu-q8": ("darkred", "P", "Neural 8-bit (GPU)"), "neural-cpu-q8": ("saddlebrown", "X", "Neural 8-bit (CPU)"),
          "pytorch-ref": ("tab:purple", "^", "Paper's method, PyTorch (GPU)"),
          "zfp-rate": ("tab:blue", "v", "ZFP fixed rate"), "zfp-accuracy": ("tab:cyan", "<", "ZFP fixed accuracy"),
          "sz3-abs": ("tab:green", "D", "SZ3 (abs. error bound)")}

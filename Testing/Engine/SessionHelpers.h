@@ -27,6 +27,29 @@ nv::VolumeView cubeView(const std::vector<T>& v, int n)
   return vol;
 }
 
+/// An n^3 float32 volume of f(X, Y, Z) at the samples, X, Y, Z in [0, 1] (x fastest).
+template <typename F>
+std::vector<float> sampledCube(int n, F f)
+{
+  std::vector<float> v(size_t(n) * n * n);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        v[(size_t(z) * n + y) * n + x] =
+          static_cast<float>(f(double(x) / (n - 1), double(y) / (n - 1), double(z) / (n - 1)));
+  return v;
+}
+
+/// An initialised (untrained) network of `config` for `vol`'s value range.
+inline nv::Model untrainedModel(const nv::ModelConfig& config, const nv::VolumeView& vol, uint64_t seed)
+{
+  nv::Model m(config);
+  m.initialize(seed);
+  m.source.valueMin = vol.valueMin;
+  m.source.valueMax = vol.valueMax;
+  return m;
+}
+
 /// A small network for fast CPU tests: 8 levels x 2 features, finest 64, MLP 32 x 2.
 inline nv::ModelConfig smallModelConfig(int log2TableSize)
 {

@@ -20,18 +20,10 @@ namespace
 /// n^3 volume, zero except a detailed blob in a sphere of radius 0.22 around (0.3, 0.35, 0.4): ~5% of the voxels.
 std::vector<float> mostlyEmptyVolume(int n)
 {
-  std::vector<float> v(size_t(n) * n * n, 0.0f);
-  for (int z = 0; z < n; ++z)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-      {
-        const double X = double(x) / (n - 1), Y = double(y) / (n - 1), Z = double(z) / (n - 1);
-        const double r2 = (X - .3) * (X - .3) + (Y - .35) * (Y - .35) + (Z - .4) * (Z - .4);
-        if (r2 < 0.22 * 0.22)
-          v[(size_t(z) * n + y) * n + x] =
-            float(50.0 + 40.0 * std::sin(23 * X) * std::cos(19 * Y) * std::sin(17 * Z + 1.0));
-      }
-  return v;
+  return nvtest::sampledCube(n, [](double X, double Y, double Z) {
+    const double r2 = (X - .3) * (X - .3) + (Y - .35) * (Y - .35) + (Z - .4) * (Z - .4);
+    return r2 < 0.22 * 0.22 ? 50.0 + 40.0 * std::sin(23 * X) * std::cos(19 * Y) * std::sin(17 * Z + 1.0) : 0.0;
+  });
 }
 
 VolumeView view(const std::vector<float>& v, int n)
@@ -46,10 +38,7 @@ ModelConfig smallConfig()
 
 Model train(const VolumeView& vol, int steps, int importance, uint64_t seed = 5)
 {
-  Model m(smallConfig());
-  m.initialize(seed);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(smallConfig(), vol, seed);
   TrainConfig tc;
   tc.batchSize = 4096;
   tc.seed = seed;

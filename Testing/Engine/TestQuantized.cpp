@@ -66,17 +66,10 @@ double entropyBytes(const std::vector<uint8_t>& symbols)
 /// A smooth field with a sphere: the kind of volume the network fits well.
 std::vector<float> smoothField(int n)
 {
-  std::vector<float> v(size_t(n) * n * n);
-  for (int z = 0; z < n; ++z)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-      {
-        const double X = double(x) / (n - 1), Y = double(y) / (n - 1), Z = double(z) / (n - 1);
-        const double r2 = (X - .4) * (X - .4) + (Y - .55) * (Y - .55) + (Z - .5) * (Z - .5);
-        v[(size_t(z) * n + y) * n + x] =
-          float(50.0 * std::sin(5 * X) * std::cos(4 * Y) + 30.0 * std::sin(6 * Z) + (r2 < 0.06 ? 40.0 : 0.0));
-      }
-  return v;
+  return nvtest::sampledCube(n, [](double X, double Y, double Z) {
+    const double r2 = (X - .4) * (X - .4) + (Y - .55) * (Y - .55) + (Z - .5) * (Z - .5);
+    return 50.0 * std::sin(5 * X) * std::cos(4 * Y) + 30.0 * std::sin(6 * Z) + (r2 < 0.06 ? 40.0 : 0.0);
+  });
 }
 
 
@@ -416,10 +409,7 @@ NV_TEST(trained_network_costs_little_psnr_for_a_much_smaller_model)
   c.encoding.finestResolution = 64;
   c.network.width = 32;
   c.network.hiddenLayers = 2;
-  Model m(c);
-  m.initialize(5);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(c, vol, 5);
   m.source.dims[0] = m.source.dims[1] = m.source.dims[2] = n;
   for (int a = 0; a < 3; ++a)
     m.source.bounds[2 * a + 1] = n - 1;

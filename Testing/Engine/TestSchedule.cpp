@@ -37,15 +37,8 @@ TrainConfig withOptimizer(const OptimizerConfig& o)
 /// A smooth field: the run below learns it to ~42.6 dB by step 325, then the step decay's constant rate drifts away.
 std::vector<float> smoothField(int n)
 {
-  std::vector<float> v(size_t(n) * n * n);
-  for (int z = 0; z < n; ++z)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-      {
-        const double X = double(x) / (n - 1), Y = double(y) / (n - 1), Z = double(z) / (n - 1);
-        v[(size_t(z) * n + y) * n + x] = float(std::sin(3 * X) * std::cos(2 * Y) + 0.5 * std::sin(4 * Z) + X * Y);
-      }
-  return v;
+  return nvtest::sampledCube(
+    n, [](double X, double Y, double Z) { return std::sin(3 * X) * std::cos(2 * Y) + 0.5 * std::sin(4 * Z) + X * Y; });
 }
 
 struct Trace
@@ -61,10 +54,7 @@ Trace train(const OptimizerConfig& o)
   const int n = 32, steps = 600, probe = 25;
   const std::vector<float> data = smoothField(n);
   const VolumeView vol = nvtest::cubeView(data, n);
-  Model m(nvtest::smallModelConfig(14));
-  m.initialize(3);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(nvtest::smallModelConfig(14), vol, 3);
   TrainConfig tc;
   tc.batchSize = 4096;
   tc.seed = 3;

@@ -21,17 +21,10 @@ namespace
 {
 std::vector<float> analyticVolume(int n, double offset = 0.0)
 {
-  std::vector<float> v(size_t(n) * n * n);
-  for (int z = 0; z < n; ++z)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-      {
-        const double X = double(x) / (n - 1), Y = double(y) / (n - 1), Z = double(z) / (n - 1);
-        const double r2 = (X - .5) * (X - .5) + (Y - .5) * (Y - .5) + (Z - .5) * (Z - .5);
-        v[(size_t(z) * n + y) * n + x] =
-          float(100.0 * (std::sin(6 * X) * std::cos(5 * Y) + 0.5 * std::sin(7 * Z) + (r2 < 0.09 ? 0.8 : 0.0)) + offset);
-      }
-  return v;
+  return nvtest::sampledCube(n, [offset](double X, double Y, double Z) {
+    const double r2 = (X - .5) * (X - .5) + (Y - .5) * (Y - .5) + (Z - .5) * (Z - .5);
+    return 100.0 * (std::sin(6 * X) * std::cos(5 * Y) + 0.5 * std::sin(7 * Z) + (r2 < 0.09 ? 0.8 : 0.0)) + offset;
+  });
 }
 
 VolumeView view(const std::vector<float>& v, int n)
@@ -46,10 +39,7 @@ ModelConfig smallConfig()
 
 Model train(const VolumeView& vol, int steps, int threads, uint64_t seed, std::vector<float>* losses = nullptr)
 {
-  Model m(smallConfig());
-  m.initialize(seed);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(smallConfig(), vol, seed);
   TrainConfig tc;
   tc.batchSize = 8192;
   tc.seed = seed;
@@ -103,10 +93,7 @@ NV_TEST(steps_equal_repeated_step)
   const int n = 16;
   const auto data = analyticVolume(n);
   const VolumeView vol = view(data, n);
-  Model m(smallConfig());
-  m.initialize(5);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(smallConfig(), vol, 5);
   TrainConfig tc;
   tc.batchSize = 2048;
   tc.threads = 2;
@@ -272,10 +259,7 @@ NV_TEST(trains_from_a_bank_of_points)
   const auto data = analyticVolume(n);
   const VolumeView vol = view(data, n);
   const Bank bank = analyticBank(int64_t(1) << 17, vol.valueMin, vol.valueMax, 97);
-  Model m(smallConfig());
-  m.initialize(1);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(smallConfig(), vol, 1);
   TrainConfig tc;
   tc.batchSize = 8192;
   tc.seed = 1;
@@ -380,10 +364,7 @@ NV_TEST(plateau_schedule_halves_the_rate_on_a_plateau_only)
   const auto data = analyticVolume(n);
   const VolumeView vol = view(data, n);
   auto run = [&](int window, double* rate) {
-    Model m(smallConfig());
-    m.initialize(3);
-    m.source.valueMin = vol.valueMin;
-    m.source.valueMax = vol.valueMax;
+    Model m = nvtest::untrainedModel(smallConfig(), vol, 3);
     TrainConfig tc;
     tc.batchSize = 4096;
     tc.seed = 3;

@@ -44,10 +44,7 @@ std::vector<double> field(int n, double scale)
 
 Model trainOn(const VolumeView& vol, int steps)
 {
-  Model m(nvtest::smallModelConfig(14));
-  m.initialize(5);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(nvtest::smallModelConfig(14), vol, 5);
   for (int a = 0; a < 3; ++a)
     m.source.dims[a] = vol.dims[a];
   TrainConfig tc;

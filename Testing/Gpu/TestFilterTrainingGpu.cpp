@@ -46,10 +46,7 @@ Model smallModel(const VolumeView& vol)
   ModelConfig c;
   c.encoding.log2TableSize = 14;
   c.encoding.finestResolution = 96;
-  Model m(c);
-  m.initialize(3);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(c, vol, 3);
   return m;
 }
 

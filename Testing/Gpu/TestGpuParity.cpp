@@ -315,10 +315,7 @@ Model curveModel(const VolumeView& vol, uint64_t seed)
   ModelConfig c;
   c.encoding.log2TableSize = 14;
   c.encoding.finestResolution = 80;
-  Model m(c);
-  m.initialize(seed);
-  m.source.valueMin = vol.valueMin;
-  m.source.valueMax = vol.valueMax;
+  Model m = nvtest::untrainedModel(c, vol, seed);
   return m;
 }
 } // namespace

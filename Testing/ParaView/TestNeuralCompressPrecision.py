@@ -14,8 +14,7 @@ import nvtest  # noqa: E402
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
-from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 
 nvtest.load_plugin(globals())
 check, log = nvtest.check, nvtest.log
@@ -24,20 +23,9 @@ Z, Y, X = np.meshgrid(*(np.linspace(-1, 1, N),) * 3, indexing="ij")
 BASE = np.sin(3 * X) * np.cos(2 * Y) + 0.5 * Z
 
 
-def source(values):
-    img = vtkImageData()
-    img.SetDimensions(N, N, N)
-    a = numpy_to_vtk(values.ravel(), deep=True)
-    a.SetName("f")
-    img.GetPointData().AddArray(a)
-    src = TrivialProducer()
-    src.GetClientSideObject().SetOutput(img)
-    return src
-
-
 def compress(values, mode):
     with nvtest.captured_messages() as messages:
-        nc = NeuralCompress(Input=source(values), SelectInputScalars=["POINTS", "f"], TrainingSteps=200, Device="CPU",
+        nc = NeuralCompress(Input=nvtest.point_image(values, (N, N, N)), SelectInputScalars=["POINTS", "f"], TrainingSteps=200, Device="CPU",
                             Threads=2, TrainInBackground=0, OutputMode=mode, Log2TableSize=14, BatchSize=16384,
                             Deterministic=1)
         nc.UpdatePipeline()

@@ -18,8 +18,7 @@ import nvtest  # noqa: E402
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
-from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 from vtkmodules.util import vtkConstants as C  # noqa: E402
 
 nvtest.load_plugin(globals())
@@ -50,21 +49,6 @@ def integers(dims, lo, hi, dtype):
     t = unit(dims)
     span = hi - lo
     return np.array([lo + int(round(float(x) * span)) if x < 1 else hi for x in t], dtype=dtype)
-
-
-def source(values, dims, vtk_type=None):
-    img = vtkImageData()
-    if dims is None:
-        img.SetExtent(0, -1, 0, -1, 0, -1)
-    else:
-        img.SetDimensions(*dims)
-    if values is not None:
-        a = numpy_to_vtk(np.ascontiguousarray(values), deep=True, array_type=vtk_type)
-        a.SetName("f")
-        img.GetPointData().AddArray(a)
-    src = TrivialProducer()
-    src.GetClientSideObject().SetOutput(img)
-    return src
 
 
 def measure(decoded, values):
@@ -107,7 +91,7 @@ rows = []
 def case(name, values, dims=(N, N, N), vtk_type=None, psnr=None, error=None, out_type=None, exact=False):
     """Run one case. psnr: the least PSNR (dB) by numpy; error: the expected message (then the output is empty);
     out_type: the expected output array type name; exact: the decoded values equal the input."""
-    producer = source(values, dims, vtk_type)
+    producer = nvtest.point_image(values, dims, vtk_type=vtk_type)
     in_array = producer.GetClientSideObject().GetOutputDataObject(0).GetPointData().GetArray("f")
     in_type = in_array.GetDataTypeAsString() if in_array is not None else "-"
     with nvtest.captured_messages() as messages:

@@ -228,6 +228,28 @@ def write_diff(diff, path):
     log("difference image written to " + path)
 
 
+def point_image(values, dims, name="f", vtk_type=None):
+    """A TrivialProducer of an image of `dims` samples (None: an empty extent) carrying `values` (a numpy array, 3-D
+    ones raveled x fastest; None: no array) as the point array `name`, of `vtk_type` when given."""
+    import numpy as np
+    from paraview.simple import TrivialProducer
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    image = vtkImageData()
+    if dims is None:
+        image.SetExtent(0, -1, 0, -1, 0, -1)
+    else:
+        image.SetDimensions(*dims)
+    if values is not None:
+        v = np.ascontiguousarray(values)
+        array = numpy_to_vtk(v.ravel() if v.ndim == 3 else v, deep=True, array_type=vtk_type)
+        array.SetName(name)
+        image.GetPointData().AddArray(array)
+    producer = TrivialProducer()
+    producer.GetClientSideObject().SetOutput(image)
+    return producer
+
+
 # --- rendering helpers of the Neural Volume tests ------------------------------------------------
 
 # A small network of the 64^3 Wavelet that trains in a few seconds on two cores (~38 dB).
