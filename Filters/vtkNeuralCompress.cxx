@@ -65,6 +65,7 @@ vtkNeuralCompress::vtkNeuralCompress()
 
 vtkNeuralCompress::~vtkNeuralCompress()
 {
+  this->Internals->Preparing.reset(); // its thread uses this filter
   this->Internals->Current.reset();
 }
 
@@ -248,7 +249,11 @@ int vtkNeuralCompress::RequestData(
   bool executed = false;
   try
   {
-    executed = role != nvi::DistributedRole::Failed && this->Execute(inputObject, inputVector, output, log, metrics, time);
+    // One process training in the background: the field is prepared in the background too. Under MPI the ranks
+    // take part in the gathering, so rank 0 prepares it here.
+    const bool background = this->TrainInBackground && role == nvi::DistributedRole::Serial;
+    executed = role != nvi::DistributedRole::Failed &&
+      this->Execute(inputObject, inputVector, output, log, metrics, time, background);
   }
   catch (...)
   {

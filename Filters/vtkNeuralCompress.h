@@ -73,6 +73,9 @@ class Job;
 struct FieldInfo;
 struct NetworkRecord;
 struct SelectedInput;
+struct InputRequest;
+struct InputIdentity;
+struct PreparedField;
 struct Settings;
 }
 
@@ -391,16 +394,40 @@ private:
   void operator=(const vtkNeuralCompress&) = delete;
 
   /// The input's field, a job training it when the input or the settings changed, the outputs; false after
-  /// reporting an error. Its steps (vtkNeuralCompressExecute.cxx) follow.
+  /// reporting an error. `background`: the field is prepared in a thread of its own (Apply returns at once). Its
+  /// steps (vtkNeuralCompressExecute.cxx) follow.
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-    vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
-  /// The image to train from (the input, or a dataset resampled onto one) and its selected array, checked.
-  bool SelectInput(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-    vtkNeuralCompressInternals::SelectedInput& input);
+    vtkImageData* output, vtkTable* log, vtkTable* metrics, double time, bool background);
+  /// What this execution reads from the pipeline (the input, its selected array or the name of the one to
+  /// resample); false after reporting an error.
+  bool RequestInput(vtkDataObject* inputObject, vtkInformationVector** inputVector,
+    vtkNeuralCompressInternals::InputRequest& request);
+  vtkNeuralCompressInternals::InputIdentity IdentityOf(
+    const vtkNeuralCompressInternals::InputRequest& request, const std::string& canonicalSettings, double time) const;
+  /// The current job trains this input (unchanged since) with these settings at this time.
+  bool IsCurrentTraining(const vtkNeuralCompressInternals::InputIdentity& identity) const;
+  /// The training field of the request (resampled, read, probed, hashed); in the filter's thread or a
+  /// preparation's (its messages then go through Report). False after reporting an error or when cancelled.
+  bool PrepareField(const vtkNeuralCompressInternals::InputRequest& request,
+    const vtkNeuralCompressInternals::Settings& settings, vtkNeuralCompressInternals::PreparedField& prepared);
+  /// Background: outputs of the current job while a preparation runs, a job from a preparation that ended, or a
+  /// new preparation for a new input, time or settings.
+  bool ExecuteInBackground(const vtkNeuralCompressInternals::InputRequest& request,
+    const vtkNeuralCompressInternals::Settings& settings, const vtkNeuralCompressInternals::InputIdentity& identity,
+    vtkImageData* output, vtkTable* log, vtkTable* metrics);
+  /// The ended preparation's messages printed and its field's job started; false after an error.
+  bool AdoptPreparation();
+  /// The previous network (or the promised geometry and no network) with the preparation's status line.
+  bool EmitWhilePreparing(vtkImageData* output, vtkTable* log, vtkTable* metrics);
+  /// An error (0), warning (1) or text (2) for the output window: printed here, or queued by a preparation's thread.
+  void Report(int level, const std::string& text);
   /// A dataset that is not an image, resampled onto one (vtkNeuralCompressResample.h) with its outside points.
-  bool ResampleInput(vtkDataObject* inputObject, vtkNeuralCompressInternals::SelectedInput& input);
-  /// The current job trains this array's content (unchanged since) with these settings at this time.
-  bool IsCurrentTraining(vtkDataArray* array, const std::string& canonicalSettings, double time) const;
+  bool ResampleInput(const vtkNeuralCompressInternals::InputRequest& request, double timeBudget,
+    vtkNeuralCompressInternals::SelectedInput& input);
+  /// Automatic sampling dimensions under a TimeBudget: `dims` lowered so that resampling takes at most a share of
+  /// it (the cost per sample measured on the input), the output keeping the announced ones; false after an error.
+  bool FitResamplingToBudget(const vtkNeuralCompressInternals::InputRequest& request, double timeBudget, int dims[3],
+    vtkNeuralCompressInternals::SelectedInput& input);
   /// The field's name, association and geometry; refuses an output the machine cannot hold, or no samples.
   bool DescribeField(
     const vtkNeuralCompressInternals::SelectedInput& input, vtkNeuralCompressInternals::FieldInfo& field);
@@ -411,9 +438,8 @@ private:
   bool ProbeTrainingPoints(
     vtkDataObject* inputObject, vtkNeuralCompressInternals::FieldInfo& field, nv::TrainingData& data);
   /// Records the training key; a new job (StartJob) when it or the time differs from the current job's.
-  void StartJobIfChanged(vtkDataArray* array, const vtkNeuralCompressInternals::FieldInfo& field,
-    std::shared_ptr<nv::TrainingData> data, const vtkNeuralCompressInternals::Settings& settings,
-    const std::string& canonicalSettings, double time);
+  void StartJobIfChanged(const vtkNeuralCompressInternals::InputIdentity& identity,
+    const vtkNeuralCompressInternals::PreparedField& prepared);
 
   /// The OpenVDB reader's sparse output (vtkNeuralCompressSparse.h): trained from its active voxels and background
   /// samples without a dense grid; false after reporting an error.

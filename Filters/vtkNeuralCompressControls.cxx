@@ -16,8 +16,13 @@
 bool vtkNeuralCompress::GetNeedsUpdate()
 {
   vtkInternals& in = *this->Internals;
-  if (in.Current && in.Current->Run && in.Current->Run->Status().Serial != in.Current->EmittedSerial)
+  // A preparation: its stage changed (the panel's status line) or it ended (its job starts at the next update).
+  const bool preparing = in.Preparing && !in.Preparing->Adopted && in.Preparing->Serial() != in.PreparingSerialShown;
+  if (preparing ||
+    (in.Current && in.Current->Run && in.Current->Run->Status().Serial != in.Current->EmittedSerial))
   {
+    if (in.Preparing)
+      in.PreparingSerialShown = in.Preparing->Serial();
     this->Modified();
     return true;
   }
@@ -104,6 +109,14 @@ void vtkNeuralCompress::DecodeNow()
 
 void vtkNeuralCompress::WaitForTraining(double seconds)
 {
+  vtkInternals& in = *this->Internals;
+  if (in.Preparing && !in.Preparing->Adopted)
+  {
+    // The field is being prepared: its job starts here when it is ready (or its error is printed).
+    in.Preparing->Wait();
+    this->AdoptPreparation();
+    this->Modified();
+  }
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->Wait(seconds);

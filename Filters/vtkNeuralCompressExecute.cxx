@@ -5,6 +5,8 @@
 #include "vtkNeuralCompressDecode.h"
 #include "vtkNeuralCompressInternals.h"
 #include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressOutput.h"
+#include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressResample.h"
 #include "vtkNeuralCompressSparse.h"
 #include "vtkNeuralCompressState.h"
@@ -13,14 +15,22 @@
 #include "Core/ValueRange.h"
 
 #include "vtkCompositeDataSet.h"
+#include "vtkDataSetAttributes.h"
+#include "vtkCellData.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkDataArray.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
+#include "vtkFieldData.h"
 #include "vtkMatrix3x3.h"
+#include "vtkNew.h"
+#include "vtkStringArray.h"
+#include "vtkOutputWindow.h"
 #include "vtkPointData.h"
 #include "vtkSmartPointer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <memory>
@@ -39,49 +49,94 @@ struct SelectedInput
   int Association = -1;
   /// Inputs resampled to an image: 1 for the points outside the source's domain (FieldInfo::Outside); null for images.
   std::shared_ptr<std::vector<uint8_t>> Outside;
+  /// A resampling coarsened to fit the TimeBudget: the dimensions announced, which the output keeps (0: none).
+  int DecodedDims[3] = { 0, 0, 0 };
 };
 } // namespace vtkNeuralCompressInternals
 
+namespace
+{
+/// Automatic sampling dimensions under a TimeBudget: resampling takes at most this share of it, probing at most
+/// kProbeBudgetShare (both measured on the input).
+constexpr double kResampleBudgetShare = 0.25;
+constexpr double kProbeBudgetShare = 0.2;
+}
+
+// Messages of the steps that may run in a preparation's thread: queued there, printed by the filter's thread.
+#define nvReportError(x)                                                                                          \
+  do                                                                                                              \
+  {                                                                                                               \
+    std::ostringstream nvReportText;                                                                              \
+    nvReportText << x;                                                                                            \
+    this->Report(nvi::QueuedMessage::Error, nvReportText.str());                                                  \
+  } while (0)
+#define nvReportWarning(x)                                                                                        \
+  do                                                                                                              \
+  {                                                                                                               \
+    std::ostringstream nvReportText;                                                                              \
+    nvReportText << x;                                                                                            \
+    this->Report(nvi::QueuedMessage::Warning, nvReportText.str());                                                \
+  } while (0)
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::Report(int level, const std::string& text)
+{
+  if (nvi::Preparation* preparation = nvi::Preparation::OfThisThread())
+  {
+    preparation->Queue(static_cast<nvi::QueuedMessage::Level>(level), text); // printed by the filter's thread
+  }
+  else if (level == nvi::QueuedMessage::Error)
+  {
+    vtkErrorMacro(<< text);
+  }
+  else if (level == nvi::QueuedMessage::Warning)
+  {
+    vtkWarningMacro(<< text);
+  }
+  else
+  {
+    vtkOutputWindowDisplayText((text + "\n").c_str());
+  }
+}
+
 //------------------------------------------------------------------------------
 bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
-  vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, double time, bool background)
 {
   if (!vtkImageData::SafeDownCast(inputObject) && nvi::IsSparseVoxels(inputObject))
   {
     return this->ExecuteSparse(inputObject, output, log, metrics, time);
   }
-  nvi::SelectedInput input;
-  if (!this->SelectInput(inputObject, inputVector, input))
+  nvi::InputRequest request;
+  if (!this->RequestInput(inputObject, inputVector, request))
   {
     return false;
   }
+  nvi::Settings settings = this->CurrentSettings();
+  if (request.IsImage)
+    settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
+  const nvi::InputIdentity identity = this->IdentityOf(request, settings.Canonical(), time);
+  if (background)
+  {
+    return this->ExecuteInBackground(request, settings, identity, output, log, metrics);
+  }
+  vtkInternals& in = *this->Internals;
+  in.Preparing.reset(); // after background runs: nothing else uses the resampler meanwhile
   try
   {
-    nvi::Settings settings = this->CurrentSettings();
-    if (!input.Outside)
-      settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
-    const std::string canonical = settings.Canonical();
-    if (this->IsCurrentTraining(input.Array, canonical, time))
+    if (this->IsCurrentTraining(identity))
     {
       return this->EmitOutputs(output, log, metrics); // a live refresh or a control: same training
     }
-    nvi::FieldInfo field;
-    if (!this->DescribeField(input, field))
+    const auto started = std::chrono::steady_clock::now();
+    nvi::PreparedField prepared;
+    if (!this->PrepareField(request, settings, prepared))
     {
       return false;
     }
-    auto data = std::make_shared<nvi::TrainingData>();
-    if (!this->ReadField(input, field, *data))
-    {
-      return false;
-    }
-    if (input.Outside && this->Sampling == SAMPLING_PROBE && !this->ProbeTrainingPoints(inputObject, field, *data))
-    {
-      return false;
-    }
-    data->Field.View.valueMin = field.Stats.min;
-    data->Field.View.valueMax = field.Stats.max;
-    this->StartJobIfChanged(input.Array, field, data, settings, canonical, time);
+    prepared.Field.PreparationSeconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    this->StartJobIfChanged(identity, prepared);
     return this->EmitOutputs(output, log, metrics);
   }
   catch (const nv::Error& e)
@@ -101,46 +156,41 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
 }
 
 //------------------------------------------------------------------------------
-bool vtkNeuralCompress::SelectInput(
-  vtkDataObject* inputObject, vtkInformationVector** inputVector, nvi::SelectedInput& input)
+bool vtkNeuralCompress::RequestInput(
+  vtkDataObject* inputObject, vtkInformationVector** inputVector, nvi::InputRequest& request)
 {
-  input.Image = vtkImageData::SafeDownCast(inputObject);
-  if (input.Image)
+  vtkImageData* image = vtkImageData::SafeDownCast(inputObject);
+  request.Object = inputObject;
+  request.Source = inputObject;
+  request.IsImage = image != nullptr;
+  request.InputMTime = inputObject ? inputObject->GetMTime() : 0;
+  if (image)
   {
-    input.Array = this->GetInputArrayToProcess(0, inputVector, input.Association);
+    request.Array = this->GetInputArrayToProcess(0, inputVector, request.Association);
+    if (image->GetNumberOfPoints() == 0)
+    {
+      vtkErrorMacro("Neural Compress: the input image has an empty extent; nothing to train on. "
+                    "The output is empty.");
+      return false;
+    }
+    if (!request.Array)
+    {
+      vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array of the "
+                    "image (SelectInputScalars). The output is empty.");
+      return false;
+    }
+    if (request.Association != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
+      request.Association != vtkDataObject::FIELD_ASSOCIATION_CELLS)
+    {
+      vtkErrorMacro("Neural Compress: array '" << (request.Array->GetName() ? request.Array->GetName() : "")
+                                               << "' is neither a point nor a cell array. "
+                                                  "The output is empty.");
+      return false;
+    }
+    request.ArrayName = request.Array->GetName() ? request.Array->GetName() : "";
+    return true;
   }
-  else if (!this->ResampleInput(inputObject, input))
-  {
-    return false;
-  }
-  if (input.Image->GetNumberOfPoints() == 0)
-  {
-    vtkErrorMacro("Neural Compress: the input image has an empty extent; nothing to train on. "
-                  "The output is empty.");
-    return false;
-  }
-  if (!input.Array)
-  {
-    vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array of the "
-                  "image (SelectInputScalars). The output is empty.");
-    return false;
-  }
-  if (input.Association != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
-    input.Association != vtkDataObject::FIELD_ASSOCIATION_CELLS)
-  {
-    vtkErrorMacro("Neural Compress: array '" << (input.Array->GetName() ? input.Array->GetName() : "")
-                                             << "' is neither a point nor a cell array. "
-                                                "The output is empty.");
-    return false;
-  }
-  return true;
-}
-
-//------------------------------------------------------------------------------
-bool vtkNeuralCompress::ResampleInput(vtkDataObject* inputObject, nvi::SelectedInput& input)
-{
-  vtkInternals& in = *this->Internals;
-  // Not an image: resampled onto one (vtkNeuralCompressResample.h), cached across re-executions.
+  // Not an image: resampled onto one when the field is prepared (vtkNeuralCompressResample.h).
   if (!vtkDataSet::SafeDownCast(inputObject) && !vtkCompositeDataSet::SafeDownCast(inputObject))
   {
     vtkErrorMacro("Neural Compress: " << (inputObject ? inputObject->GetClassName() : "no")
@@ -149,34 +199,130 @@ bool vtkNeuralCompress::ResampleInput(vtkDataObject* inputObject, nvi::SelectedI
   }
   vtkInformation* ai = this->GetInputArrayInformation(0);
   const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
-  const int assoc = ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
+  request.Association =
+    ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
   if (!name || !*name ||
-    (assoc != vtkDataObject::FIELD_ASSOCIATION_POINTS && assoc != vtkDataObject::FIELD_ASSOCIATION_CELLS))
+    (request.Association != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
+      request.Association != vtkDataObject::FIELD_ASSOCIATION_CELLS))
   {
     vtkErrorMacro("Neural Compress: no input array. Select a numeric point or cell array "
                   "(SelectInputScalars). The output is empty.");
     return false;
   }
+  request.ArrayName = name;
+  std::copy(this->Internals->AnnouncedDims, this->Internals->AnnouncedDims + 3, request.AnnouncedDims);
+  return true;
+}
+
+//------------------------------------------------------------------------------
+nvi::InputIdentity vtkNeuralCompress::IdentityOf(
+  const nvi::InputRequest& request, const std::string& canonical, double time) const
+{
+  nvi::InputIdentity identity;
+  identity.Object = request.Source;
+  identity.MTime = std::max(request.InputMTime, request.Array ? request.Array->GetMTime() : vtkMTimeType(0));
+  identity.Array = request.ArrayName;
+  identity.Association = request.Association;
+  identity.Settings = canonical;
+  identity.Time = time;
+  return identity;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::IsCurrentTraining(const nvi::InputIdentity& identity) const
+{
+  const vtkInternals& in = *this->Internals;
+  return in.Current && in.KeyIdentity == identity && in.Current->Time == identity.Time;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::PrepareField(
+  const nvi::InputRequest& request, const nvi::Settings& settings, nvi::PreparedField& prepared)
+{
+  nvi::Preparation* background = nvi::Preparation::OfThisThread();
+  auto stage = [background](const char* text) {
+    if (background)
+      background->SetStage(text);
+    return !background || !background->Cancelled();
+  };
+  nvi::SelectedInput input;
+  if (request.IsImage)
+  {
+    input.Image = vtkImageData::SafeDownCast(request.Object);
+    input.Array = request.Array;
+    input.Association = request.Association;
+  }
+  else if (!stage("resampling the input onto an image") ||
+    !this->ResampleInput(request, settings.Deterministic ? 0.0 : settings.TimeBudget, input))
+  {
+    return false;
+  }
+  if (!input.Image || !input.Array || input.Image->GetNumberOfPoints() == 0)
+  {
+    nvReportError("Neural Compress: the resampled input has no samples of '" << request.ArrayName
+                                                                            << "'; nothing to train on.");
+    return false;
+  }
+  nvi::FieldInfo& field = prepared.Field;
+  if (!stage("reading the field") || !this->DescribeField(input, field))
+  {
+    return false;
+  }
+  prepared.Data = std::make_shared<nvi::TrainingData>();
+  if (!this->ReadField(input, field, *prepared.Data))
+  {
+    return false;
+  }
+  if (input.Outside && settings.Sampling == SAMPLING_PROBE &&
+    (!stage("probing points inside the cells") || !this->ProbeTrainingPoints(request.Object, field, *prepared.Data)))
+  {
+    return false;
+  }
+  prepared.Data->Field.View.valueMin = field.Stats.min;
+  prepared.Data->Field.View.valueMax = field.Stats.max;
+  if (!stage("hashing the field"))
+  {
+    return false;
+  }
+  prepared.S = settings;
+  prepared.Key = nvi::TrainingKey(prepared.Data->Field.View, field, settings);
+  return true;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double timeBudget, nvi::SelectedInput& input)
+{
+  vtkInternals& in = *this->Internals;
+  vtkDataObject* inputObject = request.Object;
+  const std::string& name = request.ArrayName;
+  const int assoc = request.Association;
   int64_t outsideCount = 0;
   std::string problem;
   int dims[3];
   // The dimensions RequestInformation announced (from the input data it saw), else resolved now.
-  if (in.AnnouncedDims[0] > 0)
-    std::copy(in.AnnouncedDims, in.AnnouncedDims + 3, dims);
+  if (request.AnnouncedDims[0] > 0)
+    std::copy(request.AnnouncedDims, request.AnnouncedDims + 3, dims);
   else if (!nvi::ResolveSamplingDimensions(inputObject, name, assoc, this->SamplingDimensions, dims, problem))
   {
-    vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+    nvReportError("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
                                                           << ". The output is empty.");
     return false;
   }
-  if (!in.Resampler.Resample(inputObject, name, assoc, dims, input.Resampled, outsideCount, problem))
+  const bool automatic = std::all_of(
+    this->SamplingDimensions, this->SamplingDimensions + 3, [](int d) { return d <= 0; });
+  if (automatic && timeBudget > 0.0 && !this->FitResamplingToBudget(request, timeBudget, dims, input))
   {
-    vtkErrorMacro("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+    return false;
+  }
+  if (!in.Resampler.Resample(
+        inputObject, name, assoc, dims, input.Resampled, outsideCount, problem, request.Source, request.InputMTime))
+  {
+    nvReportError("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
                                                           << ". The output is empty.");
     return false;
   }
   input.Image = input.Resampled;
-  input.Array = input.Resampled->GetPointData()->GetArray(name);
+  input.Array = input.Resampled->GetPointData()->GetArray(name.c_str());
   input.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
   input.Outside = std::make_shared<std::vector<uint8_t>>(size_t(input.Array->GetNumberOfTuples()), uint8_t(0));
   for (vtkIdType i = 0; i < input.Array->GetNumberOfTuples(); ++i)
@@ -185,11 +331,43 @@ bool vtkNeuralCompress::ResampleInput(vtkDataObject* inputObject, nvi::SelectedI
 }
 
 //------------------------------------------------------------------------------
-bool vtkNeuralCompress::IsCurrentTraining(vtkDataArray* array, const std::string& canonical, double time) const
+bool vtkNeuralCompress::FitResamplingToBudget(
+  const nvi::InputRequest& request, double timeBudget, int dims[3], nvi::SelectedInput& input)
 {
-  const vtkInternals& in = *this->Internals;
-  return in.Current && in.KeyArray == array && in.KeyArrayMTime == array->GetMTime() &&
-    in.KeySettings == canonical && in.Current->Time == time;
+  const double samples = double(dims[0]) * dims[1] * dims[2];
+  // A trial at about 24^3 samples measures this input's cost per sample, its cell locator's included: the estimate
+  // errs on the safe side.
+  const double scale = std::min(1.0, std::cbrt(13824.0 / samples));
+  int trial[3];
+  for (int a = 0; a < 3; ++a)
+    trial[a] = dims[a] > 1 ? std::max(2, int(dims[a] * scale)) : 1;
+  nvi::InputResampler probe;
+  vtkSmartPointer<vtkImageData> image;
+  int64_t outside = 0;
+  std::string problem;
+  if (!probe.Resample(request.Object, request.ArrayName, request.Association, trial, image, outside, problem,
+        nullptr, 0))
+  {
+    nvReportError("Neural Compress: cannot resample the " << request.Object->GetClassName() << " input: " << problem
+                                                          << ". The output is empty.");
+    return false;
+  }
+  const double perSample = std::max(probe.SecondsPerSample(), 1e-9);
+  // Its whole time is about that of building the cell locator, which the Probe bank pays again.
+  this->Internals->Resampler.SetSetupSeconds(perSample * double(trial[0]) * trial[1] * trial[2]);
+  const double allowed = kResampleBudgetShare * timeBudget / perSample;
+  if (samples <= allowed)
+    return true;
+  const double shrink = std::cbrt(allowed / samples);
+  std::copy(dims, dims + 3, input.DecodedDims); // the output keeps the announced geometry
+  for (int a = 0; a < 3; ++a)
+    dims[a] = dims[a] > 1 ? std::max(8, int(dims[a] * shrink)) : 1;
+  nvReportWarning("Neural Compress: the input is resampled at " << dims[0] << " x " << dims[1] << " x " << dims[2]
+    << " instead of " << input.DecodedDims[0] << " x " << input.DecodedDims[1] << " x " << input.DecodedDims[2]
+    << " so that resampling takes at most " << int(kResampleBudgetShare * 100) << "% of the " << timeBudget
+    << " s TimeBudget (measured " << perSample * 1e6 << " us per sample); set SamplingDimensions or a larger "
+    "TimeBudget for a finer one.");
+  return true;
 }
 
 //------------------------------------------------------------------------------
@@ -202,8 +380,11 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   field.VtkType = array->GetDataType();
   int ext[6];
   image->GetExtent(ext);
-  field.Geometry =
-    nvi::ComputeGeometry(ext, image->GetOrigin(), image->GetSpacing(), field.Cells, this->OutputResolution);
+  // A resampling coarsened to fit the budget decodes at the dimensions announced (the network is continuous).
+  const bool coarsened = input.DecodedDims[0] > 0 &&
+    std::all_of(this->OutputResolution, this->OutputResolution + 3, [](int r) { return r <= 0; });
+  field.Geometry = nvi::ComputeGeometry(
+    ext, image->GetOrigin(), image->GetSpacing(), field.Cells, coarsened ? input.DecodedDims : this->OutputResolution);
   std::copy(image->GetDirectionMatrix()->GetData(), image->GetDirectionMatrix()->GetData() + 9, field.Direction);
   std::copy(ext, ext + 6, field.InputExtent);
   std::copy(image->GetOrigin(), image->GetOrigin() + 3, field.InputOrigin);
@@ -215,7 +396,7 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   nvi::CheckDecodedOutputMemory(field, this->OutputMode);
   if (dims[0] * dims[1] * dims[2] <= 0)
   {
-    vtkErrorMacro("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
+    nvReportError("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
                                                              << "; nothing to train on.");
     return false;
   }
@@ -232,7 +413,7 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   std::string problem;
   if (!nvi::MakeSourceField(array, this->VectorMode, this->VectorComponent, dims, data.Field, problem))
   {
-    vtkErrorMacro("Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
+    nvReportError("Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
     return false;
   }
   field.Description = data.Field.Description;
@@ -250,7 +431,7 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   field.Stats = nv::computeStats(data.Field.View);
   if (field.Stats.valid == 0)
   {
-    vtkErrorMacro("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
+    nvReportError("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
                                           << "' are NaN or Inf; nothing to train on.");
     return false;
   }
@@ -263,13 +444,27 @@ bool vtkNeuralCompress::ProbeTrainingPoints(vtkDataObject* inputObject, nvi::Fie
   vtkInternals& in = *this->Internals;
   // Probe sampling: the training targets are a bank of points probed inside the source's cells (once per
   // input), normalised like the field; the range covers both.
-  const int64_t count = this->ProbePoints > 0 ? this->ProbePoints : int64_t(1) << 20;
+  int64_t count = this->ProbePoints > 0 ? this->ProbePoints : int64_t(1) << 20;
+  const double budget = this->Deterministic ? 0.0 : this->TimeBudget;
+  const double perPoint = in.Resampler.SecondsPerSample(); // a probed point costs about a resampled sample
+  if (this->ProbePoints <= 0 && budget > 0.0 && perPoint > 0.0)
+  {
+    const double share = kProbeBudgetShare * budget - in.Resampler.SetupSeconds();
+    const int64_t fits = static_cast<int64_t>(std::max(0.0, share) / perPoint);
+    if (fits < count)
+    {
+      count = std::max<int64_t>(fits, int64_t(1) << 14);
+      nvReportWarning("Neural Compress: the Probe bank holds " << count << " points instead of " << (int64_t(1) << 20)
+        << " so that probing takes at most " << int(kProbeBudgetShare * 100) << "% of the " << budget
+        << " s TimeBudget; set ProbePoints or a larger TimeBudget for more.");
+    }
+  }
   std::string problem;
   std::shared_ptr<const nvi::ProbedBank> bank =
     in.Resampler.Probe(count, uint64_t(this->Seed), this->VectorMode, this->VectorComponent, problem);
   if (!bank)
   {
-    vtkErrorMacro("Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
+    nvReportError("Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
                                                        << ". The output is empty.");
     return false;
   }
@@ -291,15 +486,13 @@ bool vtkNeuralCompress::ProbeTrainingPoints(vtkDataObject* inputObject, nvi::Fie
 }
 
 //------------------------------------------------------------------------------
-void vtkNeuralCompress::StartJobIfChanged(vtkDataArray* array, const nvi::FieldInfo& field,
-  std::shared_ptr<nv::TrainingData> data, const nvi::Settings& settings, const std::string& canonical, double time)
+void vtkNeuralCompress::StartJobIfChanged(const nvi::InputIdentity& identity, const nvi::PreparedField& prepared)
 {
   vtkInternals& in = *this->Internals;
-  in.Key = nvi::TrainingKey(data->Field.View, field, settings);
-  in.KeyArray = array;
-  in.KeyArrayMTime = array->GetMTime();
-  in.KeySettings = canonical;
-  if (in.Current && in.Current->Key == in.Key && in.Current->Time == time)
+  const nvi::FieldInfo& field = prepared.Field;
+  in.Key = prepared.Key;
+  in.KeyIdentity = identity;
+  if (in.Current && in.Current->Key == in.Key && in.Current->Time == identity.Time)
   {
     return;
   }
@@ -311,11 +504,11 @@ void vtkNeuralCompress::StartJobIfChanged(vtkDataArray* array, const nvi::FieldI
     field.Outside ? std::count(field.Outside->begin(), field.Outside->end(), uint8_t(1)) : int64_t(0);
   if (field.Stats.invalid > outsideCount)
   {
-    vtkWarningMacro("Neural Compress: " << field.Stats.invalid - outsideCount << " of " << data->Field.View.count()
-                                        << " values of '" << field.Name
+    vtkWarningMacro("Neural Compress: " << field.Stats.invalid - outsideCount << " of "
+                                        << prepared.Data->Field.View.count() << " values of '" << field.Name
                                         << "' are NaN or Inf; they are excluded from training "
                                            "and decode to finite values.");
   }
   in.Retire();
-  this->StartJob(field, data, settings, in.Key, time);
+  this->StartJob(field, prepared.Data, prepared.S, in.Key, identity.Time);
 }

@@ -111,6 +111,9 @@ struct FieldInfo
   /// are Background exactly; nv::SourceInfo::occupancy). Null otherwise.
   std::shared_ptr<const std::vector<uint32_t>> Occupancy;
   double Background = 0.0;
+  /// Seconds from the execution that asked for this field until it was ready (resampling, reading, probing,
+  /// hashing): TimeBudget counts them.
+  double PreparationSeconds = 0.0;
 };
 
 /// True when float32 holds values in [lo, hi] to well within a network's accuracy (no overflow, no underflow, its

@@ -199,14 +199,15 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
 }
 
 bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int association, const int dimsIn[3],
-  vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem)
+  vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem, const void* source,
+  vtkMTimeType sourceMTime)
 {
   if (!input)
   {
     problem = "no input";
     return false;
   }
-  if (this->Image && this->Input == input && this->InputMTime == input->GetMTime() && this->Name == name &&
+  if (this->Image && this->Input == source && this->InputMTime == sourceMTime && this->Name == name &&
     this->Association == association && std::equal(dimsIn, dimsIn + 3, this->Dims))
   {
     image = this->Image;
@@ -236,7 +237,10 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
   resample->SetInputConnection(pass->GetOutputPort());
   resample->SetUseInputBounds(true);
   resample->SetSamplingDimensions(dims);
+  const auto started = std::chrono::steady_clock::now();
   resample->Update();
+  this->PerSample = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() /
+    (double(dims[0]) * dims[1] * dims[2]);
   vtkImageData* out = resample->GetOutput();
   vtkDataArray* values = out ? out->GetPointData()->GetArray(name.c_str()) : nullptr;
   vtkDataArray* mask = out ? out->GetPointData()->GetArray(resample->GetMaskArrayName()) : nullptr;
@@ -286,8 +290,9 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
     << " resampled to " << dims[0] << " x " << dims[1] << " x " << dims[2] << " (" << out0
     << " samples outside the domain)";
   this->Text = d.str();
-  this->Input = input;
-  this->InputMTime = input->GetMTime();
+  this->Input = source;
+  this->InputMTime = sourceMTime;
+  this->Source = input;
   this->Name = name;
   this->Association = association;
   std::copy(dimsIn, dimsIn + 3, this->Dims);
@@ -319,7 +324,7 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
     vtkUnsignedCharArray* ghost;
   };
   std::vector<Leaf> leaves;
-  for (vtkDataSet* leaf : Leaves(this->Input))
+  for (vtkDataSet* leaf : Leaves(this->Source))
   {
     vtkDataArray* a = FieldArray(leaf, this->Name, this->Association);
     if (!a)
@@ -421,7 +426,7 @@ std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t 
   vtkNew<vtkPolyData> where;
   where->SetPoints(points);
   vtkNew<vtkPassSelectedArrays> pass;
-  pass->SetInputDataObject(this->Input);
+  pass->SetInputDataObject(this->Source);
   pass->GetArraySelection(this->Association)->EnableArray(this->Name.c_str());
   vtkNew<vtkCompositeDataProbeFilter> probe;
   probe->SetInputData(where);

@@ -52,8 +52,17 @@ public:
   /// (ResolveSamplingDimensions). On success `image` holds the array as point data (float32 or float64, NaN
   /// outside the domain) and `outside` counts those points. False with `problem` set when the input has no such
   /// array or no volume for it (e.g. poly data of surfaces only).
+  /// `source` and `sourceMTime` identify the input for the cache (the pipeline's object when `input` is a copy of it).
   bool Resample(vtkDataObject* input, const std::string& name, int association, const int dims[3],
-    vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem);
+    vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem, const void* source,
+    vtkMTimeType sourceMTime);
+
+  /// Wall seconds per image sample of the last resampling (0 before one).
+  double SecondsPerSample() const { return this->PerSample; }
+  /// Seconds a probe of this input costs before its first point (its cell locator), as measured by a small
+  /// resampling (0: not measured).
+  double SetupSeconds() const { return this->Setup; }
+  void SetSetupSeconds(double seconds) { this->Setup = seconds; }
 
   /// The source's own samples of the last resampled input (points or visible cell centres) with the scalar the
   /// network learns from them (vectorMode 0: magnitude, 1: `component`), for measuring the PSNR at the source.
@@ -69,8 +78,11 @@ public:
   const std::string& Description() const { return this->Text; }
 
 private:
-  vtkDataObject* Input = nullptr;
+  const void* Input = nullptr;
   vtkMTimeType InputMTime = 0;
+  vtkSmartPointer<vtkDataObject> Source; ///< the object resampled (its cells are probed by Probe)
+  double PerSample = 0.0;
+  double Setup = 0.0;
   std::string Name;
   int Association = -1;
   int Dims[3] = { 0, 0, 0 };

@@ -48,9 +48,14 @@ bool vtkNeuralCompress::ExecuteSparse(
   {
     nvi::Settings settings = this->CurrentSettings();
     settings.Sampling = settings.ProbePoints = 0; // the bank is the grid's own voxels
-    const std::string canonical = settings.Canonical();
-    if (in.Current && in.KeyArray == voxels.Values && in.KeyArrayMTime == voxels.Values->GetMTime() &&
-      in.KeySettings == canonical && in.Current->Time == time)
+    nvi::InputIdentity identity;
+    identity.Object = voxels.Values;
+    identity.MTime = voxels.Values->GetMTime();
+    identity.Array = arrayName;
+    identity.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    identity.Settings = settings.Canonical();
+    identity.Time = time;
+    if (this->IsCurrentTraining(identity))
     {
       return this->EmitOutputs(output, log, metrics); // a live refresh or a control: same training
     }
@@ -126,9 +131,7 @@ bool vtkNeuralCompress::ExecuteSparse(
     const uint64_t positions =
       nv::crc32(reinterpret_cast<const uint8_t*>(data->BankXyz.data()), data->BankXyz.size() * sizeof(float));
     in.Key = nvi::TrainingKey(keyView, field, settings) ^ (positions * 0x9E3779B97F4A7C15ull);
-    in.KeyArray = voxels.Values;
-    in.KeyArrayMTime = voxels.Values->GetMTime();
-    in.KeySettings = canonical;
+    in.KeyIdentity = identity;
     if (!in.Current || in.Current->Key != in.Key || in.Current->Time != time)
     {
       if (stats.invalid > 0)

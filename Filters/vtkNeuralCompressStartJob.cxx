@@ -104,6 +104,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   train.threads = this->Threads;
   train.strategy = static_cast<nv::TrainingStrategy>(this->TrainingStrategy);
   train.deterministic = this->Deterministic;
+  train.lowPriority = this->TrainInBackground != 0; // beside the GUI: its threads keep their share of the cores
   nv::validate(train);
   job->Train = train;
 
@@ -273,7 +274,15 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   nvi::RunLimits limits;
   limits.KeepBest = this->KeepBestNetwork;
   limits.MaxSteps = this->TrainingSteps;
-  limits.TimeBudget = this->Deterministic ? 0.0 : this->TimeBudget;
+  // The budget bounds the whole Apply: what preparing the field took is spent, and the run keeps time for the
+  // measurement (and decode) at its end.
+  limits.TimeBudget =
+    this->Deterministic || this->TimeBudget <= 0.0 ? 0.0 : std::max(1e-3, this->TimeBudget - field.PreparationSeconds);
+  const nv::VolumeView& fieldView = data->Field.View;
+  const int* decodedDims = field.Geometry.DecodedDims;
+  limits.FinalSamples = (fieldView.data ? fieldView.count() : int64_t(0)) +
+    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0)) +
+    (this->OutputMode != 0 ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0));
   limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;
   limits.PsnrInterval = this->PSNRInterval > 0 ? this->PSNRInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
   this->StartRun(j, limits, 0, false);

@@ -5,6 +5,7 @@
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressResample.h"
 
 #include <map>
@@ -35,10 +36,8 @@ struct vtkNeuralCompress::vtkInternals
   size_t WarningsPrinted = 0; ///< warnings of the current run printed
   vtkIdType StepsOfEndedJobs = 0;
 
-  // The key of the last input seen (recomputed when the array, its content or the settings change).
-  vtkDataArray* KeyArray = nullptr;
-  vtkMTimeType KeyArrayMTime = 0;
-  std::string KeySettings;
+  // The key of the last input seen (recomputed when the input, its content or the settings change).
+  nvi::InputIdentity KeyIdentity;
   uint64_t Key = 0;
 
   /// Ends the current job: its network goes to the cache (a run cut short by this as a warm-start seed only: its
@@ -62,6 +61,11 @@ struct vtkNeuralCompress::vtkInternals
     }
     this->Current.reset(); // joins the run's thread
   }
+
+  /// The field of a new input being prepared in the background (null when none); declared last, so it ends (and
+  /// joins its thread) before anything it uses.
+  std::unique_ptr<nvi::Preparation> Preparing;
+  uint64_t PreparingSerialShown = ~uint64_t(0); ///< the preparation's serial at the last live refresh
 };
 
 

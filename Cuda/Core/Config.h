@@ -131,6 +131,9 @@ struct TrainConfig
   /// of each batch where the network is worst; 0 = uniform sampling. Volumes only (not banks of points, nor the
   /// CUDA trainer's host-sampled strategy).
   int importanceGrid = 0;
+  /// The run's CPU threads (the CPU trainer's workers and a background run's own thread) run at a lower scheduling
+  /// priority (ThreadPriority.h): an interactive application beside them keeps its share of the cores.
+  bool lowPriority = false;
 };
 
 /// Throws nv::Error with a readable message when a configuration is out of range.

@@ -21,6 +21,8 @@ public:
   PsnrProbe(const std::vector<float>& xyz, const std::vector<float>& values, int64_t maxSamples);
   /// Estimate from the session's current (published) network.
   double Estimate(NetworkSession& session) const;
+  /// Points each estimate evaluates.
+  int64_t Samples() const { return static_cast<int64_t>(Expected.size()); }
 
 private:
   std::vector<float> Coords;   // xyz interleaved in [0,1]

@@ -1,6 +1,7 @@
 #include "TrainingRun.h"
 
 #include "Error.h"
+#include "ThreadPriority.h"
 
 #include <algorithm>
 #include <utility>
@@ -121,6 +122,8 @@ void TrainingRun::StartInBackground()
 
 void TrainingRun::Worker()
 {
+  if (this->Config.lowPriority)
+    lowerCurrentThreadPriority(); // this thread is also the CPU trainer's worker 0
   try
   {
     auto trainer = this->CreateTrainer();
@@ -176,6 +179,9 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
   auto lastPublish = Clock::now();
   const int64_t phaseFirstStep = this->Status().Steps;
   double lastProgress = -1.0;
+  // The run's clock: wall time while not paused. activeBase: seconds up to activeSince.
+  double activeBase = this->Status().Seconds;
+  auto activeSince = Clock::now();
   std::string reason;
   try
   {
@@ -194,8 +200,11 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         {
           this->Current.State = RunState::Paused;
           ++this->Current.Serial;
+          activeBase += SecondsSince(activeSince); // paused time does not count
+          this->Current.Seconds = activeBase;
           this->Changed.notify_all();
           this->Changed.wait(lock, [this]() { return !this->PauseRequested || this->StopRequested; });
+          activeSince = Clock::now();
           if (!this->StopRequested)
           {
             this->Current.State = RunState::Running;
@@ -208,13 +217,15 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
         step = this->Current.Steps + 1;
-        phaseSeconds = this->Current.Seconds - this->PhaseStartSeconds;
+        phaseSeconds = activeBase + SecondsSince(activeSince) - this->PhaseStartSeconds;
+        // The budget's end: what the phase end will take to measure the network is kept out of it.
+        const double budgetLeft = this->PhaseBudget - phaseSeconds - this->FinalReserveSeconds();
         if (step > this->Current.TargetSteps)
         {
           reason = "step limit";
           break;
         }
-        if (this->PhaseBudget > 0.0 && phaseSeconds >= this->PhaseBudget)
+        if (this->PhaseBudget > 0.0 && budgetLeft <= 0.0)
         {
           reason = "time budget";
           break;
@@ -224,7 +235,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         {
           // The budget holds: training goes on until it is spent, but no step starts that would end more than
           // kBudgetOverrun past it (measured by the last step); a chunk ends within that.
-          const double left = (1.0 + kBudgetOverrun) * this->PhaseBudget - phaseSeconds;
+          const double left = budgetLeft + kBudgetOverrun * this->PhaseBudget;
           if (left < this->StepSeconds)
           {
             reason = "time budget";
@@ -246,6 +257,11 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
       if (this->GoodStep < 0)
       {
         this->Snapshot(std::numeric_limits<double>::quiet_NaN()); // the starting network: the first rollback point
+      }
+      if (this->PhaseBudget > 0.0 && this->Limits.FinalSamples > 0 && this->InferSecondsPerSample <= 0.0 &&
+        this->GoodStep >= 0 && this->Current.Steps > phaseFirstStep)
+      {
+        this->MeasureInference();
       }
       this->PlanSchedule(phaseSeconds);
       const auto before = Clock::now();
@@ -282,18 +298,19 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
         const double start = this->Current.Seconds;
+        const double elapsed = std::max(0.0, activeBase + SecondsSince(activeSince) - start);
         for (int64_t k = 0; k < count; ++k)
         {
           LogRow row;
           row.Step = step + k;
           row.LearningRate = this->Config.optimizer.learningRateAt(row.Step - this->ScheduleStart);
           row.Loss = losses[static_cast<size_t>(k)];
-          row.ElapsedSeconds = start + took * static_cast<double>(k + 1) / static_cast<double>(count);
+          row.ElapsedSeconds = start + elapsed * static_cast<double>(k + 1) / static_cast<double>(count);
           row.PSNR = std::numeric_limits<double>::quiet_NaN();
           this->Rows.push_back(row);
         }
         this->Current.Steps = step + count - 1;
-        this->Current.Seconds = start + took;
+        this->Current.Seconds = start + elapsed;
         this->Current.Loss = losses[static_cast<size_t>(count - 1)];
         ++this->Current.Serial;
         probeNow = this->DataPtr->Probe && this->Limits.PsnrInterval > 0 &&

@@ -33,7 +33,13 @@ namespace nv
 struct RunLimits
 {
   int64_t MaxSteps = 0;
-  double TimeBudget = 0.0;     ///< seconds of active training, 0 = unlimited
+  /// Seconds of the first phase, 0 = unlimited: wall time while the run is not paused (steps, probes, publishes and
+  /// snapshots), plus the measurement at its end (FinalSamples), so a caller that subtracts its own preparation
+  /// bounds the whole job.
+  double TimeBudget = 0.0;
+  /// Network evaluations the phase-end hook makes (the filter's measurement over every voxel and decode): the budget
+  /// keeps time for them at the inference rate the probes measured (0: nothing reserved).
+  int64_t FinalSamples = 0;
   double TargetPsnr = 0.0;     ///< dB on the probe, 0 = off
   int PsnrInterval = 0;        ///< steps between probes (0 = none)
   double PublishSeconds = 0.1; ///< background runs: the session shows a new network at least this often
@@ -68,6 +74,9 @@ public:
   void Extend(int64_t steps, bool fastForward);
   /// Ends the run now (see the file comment).
   void Stop();
+  /// Seconds the first phase keeps for its end (Limits.FinalSamples at the measured inference rate; 0 before any
+  /// measurement).
+  double FinalReserveSeconds() const;
   /// Blocks while the run is Starting, Running, Finishing or Paused, at most `timeoutSeconds` (< 0: no limit).
   /// Returns true when the run has settled (Finished, Stopped or Failed).
   bool Wait(double timeoutSeconds);
@@ -151,6 +160,9 @@ private:
   bool PhaseRequested = false; ///< Extend() after a phase ended
   bool FastForward = false;
   double PhaseBudget = 0.0;    ///< active seconds allowed to this phase (0 = unlimited)
+  double InferSecondsPerSample = 0.0; ///< measured once by MeasureInference (0: not yet)
+  /// Times the session's inference on up to 2^17 points (InferSecondsPerSample), for the budget's reserve.
+  void MeasureInference();
   double PhaseStartSeconds = 0.0;
   double PhaseTargetPsnr = 0.0;
   bool Background = false;

@@ -3,6 +3,8 @@
 #include "TrainingRun.h"
 
 #include <algorithm>
+#include <chrono>
+#include <vector>
 #include <cmath>
 #include <mutex>
 #include <sstream>
@@ -58,6 +60,33 @@ void TrainingRun::ResizeBatch(int batch, double stepSeconds)
   ++this->Current.Serial;
 }
 
+void TrainingRun::MeasureInference()
+{
+  // Enough points that the call's fixed cost is shared (the phase end evaluates its samples in large calls), at most
+  // what the phase end evaluates.
+  const int64_t count = std::min<int64_t>(this->Limits.FinalSamples, int64_t(1) << 17);
+  std::vector<float> xyz(static_cast<size_t>(3 * count)), out(static_cast<size_t>(count));
+  for (size_t i = 0; i < xyz.size(); ++i)
+    xyz[i] = static_cast<float>((i * 2654435761ull) % 4093ull) / 4092.0f;
+  const auto start = std::chrono::steady_clock::now();
+  this->SessionPtr->inferPoints(xyz.data(), count, out.data(), Memory::Host);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  this->InferSecondsPerSample = std::max(seconds, 1e-9) / static_cast<double>(count);
+}
+
+double TrainingRun::FinalReserveSeconds() const
+{
+  if (this->Limits.FinalSamples <= 0 || this->PhaseBudget <= 0.0)
+    return 0.0;
+  double perSample = this->InferSecondsPerSample;
+  if (perSample <= 0.0 && this->StepSeconds > 0.0 && this->Config.batchSize > 0)
+  {
+    // No probe yet: a training step's forward pass is about a third of it.
+    perSample = this->StepSeconds / (3.0 * static_cast<double>(this->Config.batchSize));
+  }
+  return static_cast<double>(this->Limits.FinalSamples) * perSample;
+}
+
 void TrainingRun::PlanSchedule(double phaseSeconds)
 {
   OptimizerConfig& o = this->Config.optimizer;
@@ -69,7 +98,8 @@ void TrainingRun::PlanSchedule(double phaseSeconds)
   // does not pull the planned end, and with it the rate, down early.
   const double perStep = done >= 1.0 && phaseSeconds > 0.0 ? phaseSeconds / done : this->StepSeconds;
   if (this->PhaseBudget > 0.0 && perStep > 0.0 && !this->Config.deterministic)
-    planned = std::min(planned, done + std::max(0.0, this->PhaseBudget - phaseSeconds) / perStep);
+    planned = std::min(planned,
+      done + std::max(0.0, this->PhaseBudget - phaseSeconds - this->FinalReserveSeconds()) / perStep);
   planned = std::max(planned, done + 1.0);
   if (planned == o.plannedSteps)
     return;

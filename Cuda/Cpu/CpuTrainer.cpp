@@ -19,7 +19,7 @@ CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const Train
   , Train(config)
   , Volume(volume)
   , Points(points)
-  , Pool(config.threads)
+  , Pool(config.threads, config.lowPriority)
   , Params(model.params())
   , Grad(model.paramCount(), 0.0f)
   , WT(Mlp.paramCount())

@@ -1,5 +1,7 @@
 #include "ThreadPool.h"
 
+#include "Core/ThreadPriority.h"
+
 #include <algorithm>
 #include <atomic>
 #if defined(__SSE__) || defined(_M_X64)
@@ -16,12 +18,16 @@ int ThreadPool::defaultThreads()
   return n == 0 ? 1 : static_cast<int>(n);
 }
 
-ThreadPool::ThreadPool(int threads)
+ThreadPool::ThreadPool(int threads, bool lowPriority)
   : Count(threads > 0 ? threads : defaultThreads())
 {
   for (int i = 1; i < Count; ++i)
   {
-    Workers.emplace_back([this, i] { workerLoop(i); });
+    Workers.emplace_back([this, i, lowPriority] {
+      if (lowPriority)
+        lowerCurrentThreadPriority();
+      workerLoop(i);
+    });
   }
 }
 

@@ -14,8 +14,9 @@ namespace nv
 class ThreadPool
 {
 public:
-  /// threads <= 0: hardware concurrency.
-  explicit ThreadPool(int threads);
+  /// threads <= 0: hardware concurrency. lowPriority: the workers run at a lower scheduling priority
+  /// (Core/ThreadPriority.h; worker 0 is the caller's thread and keeps its own).
+  explicit ThreadPool(int threads, bool lowPriority = false);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
   ThreadPool& operator=(const ThreadPool&) = delete;

@@ -2,10 +2,13 @@
 // training publishing to the session, pause / resume / continue / fast-forward step counts, stop latency, target
 // PSNR and time budget, bit-for-bit determinism, and warm start against cold start.
 #include "Core/Engine.h"
+#include "Core/ThreadPriority.h"
 #include "Core/TrainingRun.h"
+#include "Cpu/ThreadPool.h"
 #include "SessionHelpers.h"
 #include "TestHarness.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -252,6 +255,54 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
     std::printf("  budget 0.5 s: %.3f s of training, %lld steps\n", st.Seconds, static_cast<long long>(st.Steps));
     EXPECT_TRUE(st.Seconds >= 0.5 && st.Seconds < 0.75);
   }
+}
+
+NV_TEST(TimeBudgetKeepsTimeForTheMeasurementAtTheEnd)
+{
+  // The budget bounds the run and the measurement its phase end makes (FinalSamples network evaluations at the rate
+  // the probes measured): here the hook evaluates 2^19 points, as the filter measures a field of that size.
+  const std::vector<float> values = analyticVolume(0.0);
+  auto d = data(values);
+  std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
+  const int64_t points = int64_t(1) << 19;
+  std::vector<float> xyz(static_cast<size_t>(3 * points)), out(static_cast<size_t>(points));
+  for (size_t i = 0; i < xyz.size(); ++i)
+    xyz[i] = float((i * 2654435761u) % 1000u) / 999.0f;
+  double hookSeconds = 0.0;
+  RunLimits l = limits(1000000, 20);
+  l.TimeBudget = 1.0;
+  l.FinalSamples = points;
+  TrainingRun run(s, d, trainConfig(), l, [&](TrainingRun& r, const RunStatus&) {
+    const auto t0 = Clock::now();
+    r.Session().inferPoints(xyz.data(), points, out.data());
+    hookSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  });
+  const auto start = Clock::now();
+  run.RunHere(nullptr, nullptr);
+  const double total = std::chrono::duration<double>(Clock::now() - start).count();
+  const RunStatus st = run.Status();
+  std::printf("  budget 1 s: %.3f s of training + %.3f s measuring = %.3f s in all (reserve %.3f s)\n", st.Seconds,
+    hookSeconds, total, run.FinalReserveSeconds());
+  EXPECT_TRUE(st.EndReason == "time budget");
+  EXPECT_TRUE(run.FinalReserveSeconds() > 0.0);
+  EXPECT_TRUE(st.Seconds < 1.0);
+  EXPECT_TRUE(total >= 0.8 && total <= 1.2);
+}
+
+NV_TEST(LowPriorityWorkersRunAtAHigherNiceness)
+{
+#if defined(__linux__)
+  // TrainConfig::lowPriority: the CPU trainer's workers (not the caller's thread) leave an application its cores.
+  const int callerNice = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  std::vector<int> niceness(2, -100);
+  ThreadPool pool(2, true);
+  pool.runOnAll([&](int worker) { niceness[size_t(worker)] = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))); });
+  EXPECT_TRUE(niceness[0] == callerNice);
+  EXPECT_TRUE(niceness[1] == std::max(callerNice, kLowPriorityNiceness));
+  ThreadPool normal(2, false);
+  normal.runOnAll([&](int worker) { niceness[size_t(worker)] = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))); });
+  EXPECT_TRUE(niceness[1] == callerNice);
+#endif
 }
 
 NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)

@@ -89,7 +89,7 @@ wavelet = Wavelet(WholeExtent=[-31, 32] * 3)
 
 # 1. The defaults: Apply returns at once, the network of the moment is shown, and it changes between renders.
 nc = NeuralCompress(registrationName="Online", Input=wavelet, SelectInputScalars=["POINTS", "RTData"],
-                    TrainingSteps=3000, PSNRInterval=100, **SMALL)
+                    TrainingSteps=3000, TimeBudget=0, PSNRInterval=100, **SMALL)
 check(nc.TrainInBackground == 1 and nc.OutputMode == "Network only", "defaults: background, network only")
 start = time.time()
 nc.UpdatePipeline()

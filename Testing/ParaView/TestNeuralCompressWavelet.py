@@ -3,6 +3,7 @@ cell and vector arrays, time budget, progress and abort."""
 import math
 import os
 import sys
+import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import nvtest  # noqa: E402
@@ -169,13 +170,18 @@ for mode, comp, expected in (("Magnitude", 0, math.sqrt(5.0)), ("Component", 1, 
 # --- time budget ------------------------------------------------------------------------
 nc_time = NeuralCompress(Input=wavelet, SelectInputScalars=["POINTS", "RTData"], TrainingSteps=1000000,
                          TimeBudget=1.5, PSNRInterval=0, **FAST)
+apply_start = time.time()
 nc_time.UpdatePipeline()
+apply_seconds = time.time() - apply_start
 tout = servermanager.Fetch(nc_time)
 t_steps = nvtest.field_value(tout, "NeuralSteps")
 t_seconds = nvtest.field_value(tout, "NeuralTrainingSeconds")
-log("time budget 1.5 s: %d steps in %.2f s" % (t_steps, t_seconds))
+log("time budget 1.5 s: %d steps in %.2f s of training, the Apply took %.2f s" % (t_steps, t_seconds, apply_seconds))
 check(0 < t_steps < 1000000, "time budget stops training (%d steps)" % t_steps)
-check(1.5 <= t_seconds < 4.0, "training time %.2f s respects the 1.5 s budget" % t_seconds)
+# The budget bounds the whole Apply (preparing, training, the final measurement); within 10% is measured alone on the
+# machine by nv.pv.NeuralCompressTimeBudget, here beside other tests the bound is looser below.
+check(1.1 <= apply_seconds <= 1.65, "the Apply took %.2f s for the 1.5 s budget" % apply_seconds)
+check(t_seconds <= 1.5, "training time %.2f s within the 1.5 s budget" % t_seconds)
 Delete(nc_time)
 
 # --- (f) progress and abort ---------------------------------------------------------------

@@ -1,0 +1,75 @@
+"""TimeBudget bounds the whole Apply on an unstructured grid: resampling or probing, training and the final
+measurement end within 10% of the budget, in a blocking run and in the background (where Apply returns at once
+and the panel's status line says what is being prepared)."""
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import nvtest  # noqa: E402
+
+from paraview.simple import *  # noqa: E402,F401,F403
+
+nvtest.load_plugin(globals(), scripted=False)
+log, check = nvtest.log, nvtest.check
+
+BUDGET = 10.0
+SMALL = dict(BatchSize=16384, Levels=8, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Seed=1,
+             TrainingSteps=1000000, TimeBudget=BUDGET, PSNRInterval=50)
+
+# An unstructured grid of about 500k tetrahedra: resampling and probing it take a noticeable part of the budget.
+wavelet = Wavelet(WholeExtent=[-24, 24] * 3)
+grid = Tetrahedralize(Input=wavelet)
+grid.UpdatePipeline()
+cells = grid.GetDataInformation().GetNumberOfCells()
+log("input: unstructured grid of %d cells" % cells)
+check(cells > 400000, "the input is a large unstructured grid (%d cells)" % cells)
+
+
+def figures(nc):
+    out = servermanager.Fetch(nc)
+    return (out.GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0),
+            nvtest.field_value(out, "NeuralSteps"), nvtest.field_value(out, "NeuralTrainingSeconds"),
+            nvtest.field_value(out, "NeuralPSNR"))
+
+
+def within_budget(label, seconds):
+    log("%s: the Apply took %.2f s for a %.1f s budget" % (label, seconds, BUDGET))
+    check(0.9 * BUDGET <= seconds <= 1.1 * BUDGET,
+          "%s: %.2f s within 10%% of the %.1f s budget" % (label, seconds, BUDGET))
+
+
+for sampling in ("Resample", "Probe"):
+    # Blocking: UpdatePipeline returns when the network is measured.
+    nc = NeuralCompress(Input=grid, SelectInputScalars=["POINTS", "RTData"], TrainInBackground=0,
+                        Sampling=sampling, **SMALL)
+    start = time.time()
+    nc.UpdatePipeline()
+    took = time.time() - start
+    state, steps, seconds, psnr = figures(nc)
+    log("%s, blocking: %s, %d steps, %.2f s of training, PSNR %.2f dB" % (sampling, state, steps, seconds, psnr))
+    within_budget("%s, blocking" % sampling, took)
+    check(state == "Finished" and steps > 0 and psnr > 15.0, "%s, blocking: a trained network" % sampling)
+    Delete(nc)
+
+    # Background (the GUI's default): Apply returns at once; the budget bounds it up to the measured network.
+    nc = NeuralCompress(Input=grid, SelectInputScalars=["POINTS", "RTData"], Sampling=sampling, **SMALL)
+    start = time.time()
+    nc.UpdatePipeline()
+    returned = time.time() - start
+    nc.UpdatePropertyInformation()
+    status = nc.GetPropertyValue("TrainingStatus")
+    log("%s, background: Apply returned after %.3f s, status %r" % (sampling, returned, status))
+    check(returned < 0.5, "%s, background: Apply returns at once (%.3f s)" % (sampling, returned))
+    check(status.startswith("Preparing:"), "%s, background: the status line says what is prepared (%r)"
+          % (sampling, status))
+    nc.WaitForTraining()
+    nc.UpdatePipeline()
+    took = time.time() - start
+    state, steps, seconds, psnr = figures(nc)
+    log("%s, background: %s, %d steps, %.2f s of training, PSNR %.2f dB" % (sampling, state, steps, seconds, psnr))
+    within_budget("%s, background" % sampling, took)
+    check(state == "Finished" and steps > 0 and psnr > 15.0, "%s, background: a trained network" % sampling)
+    Delete(nc)
+
+nvtest.finish()
