@@ -174,17 +174,15 @@ NV_HD void startSegment(const Params& P, Ray& r, V3 p, V3 w)
   r.tEnd = fmaxf_(t1, 0.0f);
 }
 
-/// A path leaves the volume: sky, and the sun when it is not sampled by NEE.
+/// A path leaves the volume after at least one scattering event: the uniform sky, and the sun's lobe when NEE does
+/// not sample it. (A primary ray that leaves the volume shows the view's background, in both modes.)
 NV_HD void escape(const Params& P, Ray& r)
 {
   if (r.bounces > 0)
   {
     float L = P.ambient * P.intensity;
-    if (P.shading != PathTraceNee && dot(r.dW, P.lightW) >= P.sunCos)
-    {
-      const float omega = 6.28318530718f * (1.0f - P.sunCos);
-      L += P.diffuse * P.intensity * 12.5663706144f / omega;
-    }
+    if (P.shading != PathTraceNee)
+      L += sunRadiance(P, r.dW);
     for (int k = 0; k < 3; ++k)
       r.c[k] += r.thr[k] * L;
   }
@@ -369,7 +367,9 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
           if (P.shading == PathTraceNee)
           {
             const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
-            const V3 w = coneDir(P.lightW, P.sunCos, u1, u2);
+            // sunRadiance(w) / density(w) = 4 pi diffuse * intensity: the estimate is the phase function times
+            // diffuse * intensity, times the shadow ray's transmittance.
+            const V3 w = sunDir(P.lightW, P.sunExponent, u1, u2);
             r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
             startShadow(P, r, clampUnit(p), w);
             r.phase = Nee;

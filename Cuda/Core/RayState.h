@@ -120,7 +120,7 @@ struct Params
   float avgLo, avgHi;    ///< Average blend: normalised range (avgLo >= avgHi: every value)
   V3 lightW;             ///< world direction towards the light, unit length
   float ambient, diffuse, specular, specularPower, intensity;
-  float sunCos;          ///< cosine of the sun's angular radius
+  float sunExponent;     ///< the sun's radiance lobe: max(0, cos)^sunExponent around lightW (sunRadiance)
   float g;               ///< Henyey-Greenstein anisotropy of the phase function (0: isotropic)
   int maxBounces;
   uint32_t seed, frame;

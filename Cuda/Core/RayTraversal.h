@@ -253,10 +253,24 @@ NV_HD V3 aroundAxis(V3 a, float ct, float u)
   return b1 * (st * cosf(phi)) + b2 * (st * sinf(phi)) + a * ct;
 }
 
-/// Uniform direction in the cone of cosine cosMax around axis a (unit length).
-NV_HD V3 coneDir(V3 a, float cosMax, float u1, float u2)
+/// The sun's radiance lobe (path tracing): in world direction w (unit length), diffuse * intensity * 2 (n + 1) *
+/// max(0, cos)^n around the light direction, n = P.sunExponent. Its integral over the sphere is 4 pi diffuse *
+/// intensity whatever n: at a scattering event the sun contributes phase * diffuse * intensity on average, as the
+/// diffuse term of ray marching with shadows does.
+NV_HD float sunRadiance(const Params& P, V3 w)
 {
-  return aroundAxis(a, 1.0f - u1 * (1.0f - cosMax), u2);
+  const float c = dot(w, P.lightW);
+  if (!(c > 0.0f))
+    return 0.0f;
+  return P.diffuse * P.intensity * 2.0f * (P.sunExponent + 1.0f) * powf_(c, P.sunExponent);
+}
+
+/// Direction drawn from the sun's lobe around axis a (unit length): density (n + 1) / (2 pi) cos^n on the
+/// hemisphere of a, so sunRadiance / density = 4 pi diffuse * intensity exactly (next-event estimation).
+NV_HD V3 sunDir(V3 a, float n, float u1, float u2)
+{
+  // cos = v^(1 / (n + 1)) with v = 1 - u1 in (0, 1]: never the grazing cosine 0 exactly.
+  return aroundAxis(a, powf_(1.0f - u1, 1.0f / (n + 1.0f)), u2);
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -34,8 +34,9 @@ enum class ShadingMode : int
   RayMarch = 0,         ///< emission-absorption
   RayMarchGradient = 1, ///< emission-absorption, Blinn-Phong with the network's gradient (central differences)
   RayMarchShadows = 2,  ///< emission-absorption, one shadow ray per visible sample towards the light
-  PathTrace = 3,        ///< volumetric path tracing (delta tracking, isotropic phase, sky + sun)
-  PathTraceNee = 4      ///< the same with next-event estimation of the sun (ratio-tracked shadow rays)
+  PathTrace = 3,        ///< volumetric path tracing (delta tracking, Henyey-Greenstein phase); the light is an
+                        ///< environment both modes reach: a uniform sky (ambient) and a sun lobe (diffuse, sunAngle)
+  PathTraceNee = 4      ///< the same picture with next-event estimation of the sun (ratio-tracked shadow rays)
 };
 
 /// How samples along a ray are combined (ray-marching modes; path tracing always composites).
@@ -79,7 +80,8 @@ struct RenderRequest
   double diffuse = 0.8;
   double specular = 0.2;
   double specularPower = 10.0;
-  double sunAngle = 5.0;          ///< degrees, angular radius of the sun (path tracing)
+  double sunAngle = 30.0;         ///< degrees from the light direction at which the sun's radiance lobe falls to half
+                                  ///< its peak (path tracing; 0.1..90: a sharp sun .. the lit hemisphere)
   double anisotropy = 0.0;        ///< Henyey-Greenstein g of the phase function (path tracing), in (-1, 1)
   int maxBounces = 4;             ///< scattering events per path (path tracing)
   int samplesPerPixel = 1;        ///< paths per pixel per render (path tracing)

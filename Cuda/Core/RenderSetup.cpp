@@ -392,8 +392,11 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.specular = static_cast<float>(q.specular);
   P.specularPower = static_cast<float>(q.specularPower);
   P.intensity = static_cast<float>(q.lightIntensity);
-  const double sun = std::min(90.0, std::max(0.1, q.sunAngle));
-  P.sunCos = static_cast<float>(std::cos(sun * 3.14159265358979 / 180.0));
+  // The sun's lobe max(0, cos)^n falls to half its peak at sunAngle: n = log(1/2) / log(cos(sunAngle)) (0 at 90
+  // degrees: the whole lit hemisphere evenly).
+  const double sun = std::min(90.0, std::max(0.1, q.sunAngle)) * 3.14159265358979 / 180.0;
+  const double sunCos = std::cos(sun);
+  P.sunExponent = sunCos > 1e-9 ? static_cast<float>(std::log(0.5) / std::log(sunCos)) : 0.0f;
   P.g = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
