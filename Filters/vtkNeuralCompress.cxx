@@ -23,6 +23,7 @@
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkIntArray.h"
+#include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
@@ -291,16 +292,59 @@ int vtkNeuralCompress::RequestData(
 namespace
 {
 
-/// The panel's status line: "Training 1234/2000 steps, 12.3 s, PSNR 41.2 dB" (targetSteps < 0: no run).
-std::string StatusLine(const nvi::NetworkRecord& record, int64_t targetSteps)
+/// Seconds the run needs for its remaining steps at the rate of its log, or within its time budget (whichever comes
+/// first); NaN when unknown (no rate yet, or a settled run).
+double SecondsLeft(const nvi::NetworkRecord& record, const nv::RunStatus& status, double timeBudget)
 {
+  double left = std::numeric_limits<double>::quiet_NaN();
+  if (nvi::IsSettled(status.State) || status.State == nvi::RunState::Finishing)
+    return left;
+  if (record.Log.size() >= 2)
+  {
+    const nvi::LogRow& first = record.Log.front();
+    const nvi::LogRow& last = record.Log.back();
+    const double seconds = last.ElapsedSeconds - first.ElapsedSeconds;
+    if (last.Step > first.Step && seconds > 0.0 && status.TargetSteps >= status.Steps)
+      left = static_cast<double>(status.TargetSteps - status.Steps) * seconds / static_cast<double>(last.Step - first.Step);
+  }
+  if (timeBudget > 0.0 && status.Seconds < timeBudget)
+    left = std::isnan(left) ? timeBudget - status.Seconds : std::min(left, timeBudget - status.Seconds);
+  return left;
+}
+
+/// The panel's status line (Training Status): state, steps, PSNR, time; e.g. "Training: 1234/2000 steps, PSNR 41.2 dB
+/// (estimate), 12.3 s, about 8 s left" or "Cached: 2000 steps (trained before in 52.1 s), PSNR 47.6 dB".
+/// `status`: the run's (null when the network had no run: constant, cached, restored).
+std::string StatusLine(const nvi::FieldInfo& field, const nvi::NetworkRecord& record, const nv::RunStatus* status,
+  double timeBudget, bool fromCache)
+{
+  const nvi::Metrics& m = record.M;
   std::ostringstream text;
-  text.precision(4);
-  text << record.M.State << ": " << record.M.Steps;
-  if (targetSteps >= 0)
-    text << "/" << targetSteps;
-  text << " steps, " << record.M.Seconds << " s, PSNR " << record.M.Psnr << " dB"
-       << (record.M.PsnrFinal ? "" : " (estimate)");
+  text.precision(3);
+  text << std::fixed;
+  text << (fromCache ? "Cached" : m.State) << ": " << m.Steps;
+  if (status)
+    text << "/" << status->TargetSteps;
+  text << " steps";
+  const std::string reason = status ? std::string() : nvi::EndReasonText(field, m);
+  if (!reason.empty() && !fromCache && !m.Restored)
+    text << " (" << reason << ")";
+  text.precision(2);
+  if (std::isnan(m.Psnr))
+    text << ", PSNR not estimated yet";
+  else
+    text << ", PSNR " << m.Psnr << " dB" << (m.PsnrFinal ? "" : " (estimate)");
+  text.precision(1);
+  if (fromCache)
+    text << " (trained before in " << m.Seconds << " s)";
+  else if (!m.Restored)
+    text << ", " << m.Seconds << " s";
+  const double left = status ? SecondsLeft(record, *status, timeBudget) : std::numeric_limits<double>::quiet_NaN();
+  if (std::isfinite(left))
+    text << ", about " << std::max(left, 0.0) << " s left";
+  text.precision(2);
+  if (m.Ratio > 0.0)
+    text << ", ratio " << m.Ratio << ":1" << (m.Ratio < 1.0 ? " (model larger than the field: see the message)" : "");
   return text.str();
 }
 
@@ -328,8 +372,24 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     return false;
   }
   in.DecodeRequested = false;
+  if (!live && !in.SummaryPrinted)
+  {
+    // Complete for the first time in this job: a network with no run that the cache had for this time step and
+    // input is one trained before (not a constant field seen for the first time, not one restored from a state).
+    in.FromCache = !job.Run && !record.M.Restored && in.Cache.Find(job.Time, job.Key) != nullptr;
+  }
+  else if (live)
+  {
+    in.FromCache = false;
+  }
   this->FillOutputs(job, record, decoded, live, output, log, metrics);
-  in.StatusText = StatusLine(record, job.Run ? status.TargetSteps : -1);
+  output->GetFieldData()->RemoveArray("NeuralFromCache");
+  vtkNew<vtkIntArray> fromCache;
+  fromCache->SetName("NeuralFromCache");
+  fromCache->InsertNextValue(in.FromCache ? 1 : 0);
+  output->GetFieldData()->AddArray(fromCache);
+  const double budget = this->Deterministic ? 0.0 : this->TimeBudget;
+  in.StatusText = StatusLine(job.Field, record, job.Run ? &status : nullptr, budget, in.FromCache);
   if (!live && !in.SummaryPrinted)
   {
     // A network complete for the first time (re-executions of the same one emit it without this).
@@ -459,21 +519,14 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
   if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
     record.M.Ratio < this->TargetCompressionRatio)
   {
-    std::string advice;
-    if (this->StoragePrecision != QUANTIZED8)
-      advice += ", 8-bit (entropy coded) storage";
-    if (this->Levels > 8)
-      advice += ", fewer Levels";
-    if (this->FeaturesPerLevel > 1)
-      advice += ", fewer FeaturesPerLevel";
-    if (this->NetworkWidth > 16)
-      advice += ", a narrower network";
+    const std::string advice = nvi::SmallerModelAdvice(job);
     vtkWarningMacro("Neural Compress: the target compression ratio "
       << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
       << "(the smallest hash table gives " << record.M.Ratio << ":1)"
-      << (advice.empty() ? std::string(".") : "; try" + advice.substr(1) + "."));
+      << (advice.empty() ? std::string(".") : "; try " + advice + "."));
   }
-  vtkOutputWindowDisplayText(nvi::Summary(job.Field, job, record, this->TargetCompressionRatio).c_str());
+  vtkOutputWindowDisplayText(
+    nvi::Summary(job.Field, job, record, this->TargetCompressionRatio, this->Internals->FromCache).c_str());
 }
 
 //------------------------------------------------------------------------------

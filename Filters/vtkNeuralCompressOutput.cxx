@@ -103,6 +103,10 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   range->SetValue(0, field.Stats.min);
   range->SetValue(1, field.Stats.max);
   fd->AddArray(range);
+  // What the network represents: the Neural Volume representation shows its range under this name (so that
+  // ParaView's colour-map rescaling finds the network's array on an output without a decoded field).
+  AddString(fd, "NeuralArrayName", field.Name);
+  AddFieldValue<vtkIntArray>(fd, "NeuralArrayAssociation", field.Cells ? 1 : 0);
 }
 
 void InitializeLog(vtkTable* log)
@@ -119,7 +123,9 @@ void InitializeLog(vtkTable* log)
 void FillLog(vtkTable* log, const NetworkRecord& record)
 {
   InitializeLog(log);
-  const vtkIdType rows = static_cast<vtkIdType>(record.Log.size());
+  // A line needs two points: a log of one row (the first publish of a run) stays empty, so that the training chart
+  // draws nothing instead of failing ("Attempted to paint a line with <2 points").
+  const vtkIdType rows = record.Log.size() >= 2 ? static_cast<vtkIdType>(record.Log.size()) : 0;
   log->SetNumberOfRows(rows);
   for (vtkIdType r = 0; r < rows; ++r)
   {
@@ -169,7 +175,36 @@ void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& rec
   }
 }
 
-std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio)
+std::string EndReasonText(const FieldInfo& field, const Metrics& m)
+{
+  if (m.EndReason == "constant field" && field.Stats.max > field.Stats.min)
+  {
+    // Job::FinalizeWithoutTraining serves both: a field that is not constant got no step because none was asked.
+    return "Training Steps is 0: the network is untrained (" + std::string(m.WarmStart ? "the warm start's" : "its random") +
+      " initialisation)";
+  }
+  return m.EndReason;
+}
+
+std::string SmallerModelAdvice(const Job& job)
+{
+  const nv::ModelConfig& config = job.Base.config();
+  std::string advice;
+  if (config.encoding.log2TableSize > 10)
+    advice += ", a smaller Log2 Table Size (2^" + std::to_string(config.encoding.log2TableSize) + " now)";
+  if (config.encoding.levels > 8)
+    advice += ", fewer Levels (" + std::to_string(config.encoding.levels) + ")";
+  if (config.encoding.featuresPerLevel > 1)
+    advice += ", fewer Features Per Level (" + std::to_string(config.encoding.featuresPerLevel) + ")";
+  if (config.network.width > 16)
+    advice += ", a narrower network (Network Width " + std::to_string(config.network.width) + ")";
+  if (job.Storage != nv::Precision::Quantized8)
+    advice += ", 8-bit (entropy coded) storage";
+  return advice.empty() ? advice : advice.substr(2);
+}
+
+std::string Summary(
+  const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio, bool fromCache)
 {
   const Metrics& m = record.M;
   const nv::ModelConfig& config = job.Base.config();
@@ -187,11 +222,16 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
     s << "network restored from the state, no training";
   else
   {
+    if (fromCache)
+      s << "network of this time step taken from the cache, no training (trained before: ";
     s << m.Steps << " steps in " << m.Seconds << " s on " << m.Device;
     if (m.WarmStart)
       s << " (warm start)";
-    if (!m.EndReason.empty() && m.EndReason != "step limit")
-      s << " (" << m.EndReason << ")";
+    const std::string reason = EndReasonText(field, m);
+    if (!reason.empty() && reason != "step limit")
+      s << " (" << reason << ")";
+    if (fromCache)
+      s << ")";
   }
   s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError;
   if (m.SourceSamples > 0)
@@ -205,9 +245,14 @@ std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord&
     << nv::precisionName(job.Storage) << "), ratio " << m.Ratio << ":1";
   if (targetRatio > 0.0)
     s << " (target " << targetRatio << ")";
-  else if (m.Ratio < 1.0)
-    s << " (the field is smaller than the smallest model of this configuration; fewer Levels or FeaturesPerLevel "
-         "make a smaller one)";
+  if (m.Ratio < 1.0)
+  {
+    const std::string advice = SmallerModelAdvice(job);
+    s << ". The model is larger than the field (" << FormatBytes(m.Ratio * static_cast<double>(m.ModelBytes))
+      << "): a field this small is better kept as it is";
+    if (!advice.empty())
+      s << ", or compressed with a smaller model: " << advice;
+  }
   if (!job.DeviceNote.empty())
     s << "; " << job.DeviceNote;
   s << "\n";

@@ -22,7 +22,8 @@ namespace vtkNeuralCompressInternals
 void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord& record, vtkDataArray* decoded,
   const std::shared_ptr<nv::NetworkSession>& session, bool live);
 
-/// Output 1: one row per step of `record` (the last row's PSNR is the final one when it is known).
+/// Output 1: one row per step of `record` (the last row's PSNR is the final one when it is known); no row for a log
+/// of one row (a line chart cannot draw one point).
 void FillLog(vtkTable* log, const NetworkRecord& record);
 void InitializeLog(vtkTable* log);
 
@@ -30,8 +31,18 @@ void InitializeLog(vtkTable* log);
 void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& records);
 void InitializeMetrics(vtkTable* metrics);
 
-/// The line printed when a network is complete.
-std::string Summary(const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio);
+/// The line printed when a network is complete; `fromCache`: the network of this time step was trained before and
+/// taken from the filter's cache.
+std::string Summary(
+  const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio, bool fromCache);
+
+/// Why a network was not trained further, in words ("constant field", "Training Steps is 0: ...", "target PSNR"):
+/// the record's end reason, except that a field that is not constant and got no step was not trained on request.
+std::string EndReasonText(const FieldInfo& field, const Metrics& metrics);
+
+/// What makes a smaller model of `job`'s configuration (a ratio below 1:1: the model is larger than the field),
+/// e.g. "a smaller Log2 Table Size, fewer Levels, 8-bit (entropy coded) storage"; empty when nothing does.
+std::string SmallerModelAdvice(const Job& job);
 
 /// "nvnet1;<key hex>:<base64>;..." and back (entries that do not parse are skipped; `error` says why).
 std::string EncodeNetworks(const std::vector<const NetworkRecord*>& records);

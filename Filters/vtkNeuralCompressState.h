@@ -32,6 +32,7 @@ struct vtkNeuralCompress::vtkInternals
   std::string StatusText;
   bool DecodeRequested = false;
   bool SummaryPrinted = false;
+  bool FromCache = false; ///< the current job's network is one trained before, taken from the cache
   size_t NotesPrinted = 0;    ///< notes of the current run printed (as text)
   size_t WarningsPrinted = 0; ///< warnings of the current run printed
   vtkIdType StepsOfEndedJobs = 0;

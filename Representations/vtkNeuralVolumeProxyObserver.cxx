@@ -1,5 +1,7 @@
 #include "vtkNeuralVolumeProxyObserver.h"
 
+#include "vtkNeuralVolumeColorRange.h"
+
 #include "vtkCommand.h"
 #include "vtkDataObject.h"
 #include "vtkDataSetAttributes.h"
@@ -16,6 +18,7 @@
 #include "vtkSMPropertyHelper.h"
 #include "vtkSMProxyIterator.h"
 #include "vtkSMProxyManager.h"
+#include "vtkSMProxySelectionModel.h"
 #include "vtkSMSessionProxyManager.h"
 #include "vtkSMSourceProxy.h"
 #include "vtkSMTransferFunctionProxy.h"
@@ -28,6 +31,7 @@
 #include <cstring>
 #include <map>
 #include <set>
+#include <vector>
 #include <string>
 
 vtkStandardNewMacro(vtkNeuralVolumeProxyObserver);
@@ -216,22 +220,6 @@ void AddEngineBlendModes(vtkSMProxy* representation)
   }
 }
 
-/// The value range of the network (field data NeuralValueRange of the representation's input).
-bool NetworkValueRange(vtkSMProxy* representation, double range[2])
-{
-  vtkSMPropertyHelper input(representation, "Input", /*quiet=*/true);
-  auto* producer = vtkSMSourceProxy::SafeDownCast(input.GetAsProxy());
-  vtkPVDataInformation* info = producer ? producer->GetDataInformation(input.GetOutputPort()) : nullptr;
-  vtkPVDataSetAttributesInformation* fields = info ? info->GetFieldDataInformation() : nullptr;
-  vtkPVArrayInformation* values = fields ? fields->GetArrayInformation("NeuralValueRange") : nullptr;
-  if (!values)
-  {
-    return false;
-  }
-  values->GetComponentRange(0, range);
-  return range[0] <= range[1];
-}
-
 /// The network's array: the active scalars of the points, else of the cells, else the first point or cell array.
 bool NetworkArray(vtkSMProxy* representation, std::string& name, int& association)
 {
@@ -308,9 +296,15 @@ struct vtkNeuralVolumeProxyObserver::vtkInternals
   vtkWeakPointer<vtkSMProxyManager> Manager;
   unsigned long RegisterTag = 0;
   unsigned long UnRegisterTag = 0;
-  std::map<vtkSMProxy*, unsigned long> Representations; // observer tags
+  std::map<vtkSMProxy*, unsigned long> Representations; // PropertyModifiedEvent tags
   std::map<vtkSMProxy*, unsigned long> Views;
-  std::set<vtkSMProxy*> AwaitingView; // shown as Neural Volume before joining their view
+  std::map<vtkSMProxy*, unsigned long> ViewUpdates; // UpdateDataEvent tags
+  std::map<vtkSMProxy*, unsigned long> Sources; // Neural Compress filters: UpdateDataEvent tags
+  std::set<vtkSMProxy*> AwaitingView;  // shown as Neural Volume before joining their view
+  std::set<vtkSMProxy*> AwaitingRange; // coloured while the network had no usable range (constant or empty)
+  /// Views registered but not yet given representations, with the view that was active before them (a view
+  /// registered by ParaView becomes the active one).
+  std::map<vtkSMProxy*, vtkWeakPointer<vtkSMProxy>> NewViews;
 };
 
 vtkNeuralVolumeProxyObserver::vtkNeuralVolumeProxyObserver()
@@ -321,10 +315,9 @@ vtkNeuralVolumeProxyObserver::vtkNeuralVolumeProxyObserver()
 vtkNeuralVolumeProxyObserver::~vtkNeuralVolumeProxyObserver()
 {
   vtkInternals& in = *this->Internals;
-  for (auto& r : in.Representations)
-    r.first->RemoveObserver(r.second);
-  for (auto& v : in.Views)
-    v.first->RemoveObserver(v.second);
+  for (auto* map : { &in.Representations, &in.Views, &in.ViewUpdates, &in.Sources })
+    for (auto& entry : *map)
+      entry.first->RemoveObserver(entry.second);
   if (in.Manager)
   {
     in.Manager->RemoveObserver(in.RegisterTag);
@@ -353,28 +346,33 @@ void vtkNeuralVolumeProxyObserver::Install()
     it->SetSessionProxyManager(pxm);
     for (it->Begin(); !it->IsAtEnd(); it->Next())
     {
-      vtkSMProxy* proxy = it->GetProxy();
-      const char* group = it->GetGroup();
-      if (group && std::strcmp(group, "views") == 0)
-        this->AddView(proxy);
-      else if (group && std::strcmp(group, "representations") == 0)
-        this->AddRepresentation(proxy);
+      this->AddProxy(it->GetGroup(), it->GetProxy(), /*registering=*/false);
     }
   }
+}
+
+void vtkNeuralVolumeProxyObserver::AddProxy(const char* group, vtkSMProxy* proxy, bool registering)
+{
+  if (!group || !proxy)
+  {
+    return;
+  }
+  if (std::strcmp(group, "views") == 0)
+    this->AddView(proxy, registering);
+  else if (std::strcmp(group, "representations") == 0)
+    this->AddRepresentation(proxy);
+  else if (std::strcmp(group, "sources") == 0)
+    this->AddSource(proxy);
 }
 
 void vtkNeuralVolumeProxyObserver::OnRegister(vtkObject*, unsigned long, void* data)
 {
   auto* info = static_cast<vtkSMProxyManager::RegisteredProxyInformation*>(data);
-  if (!info || info->Type != vtkSMProxyManager::RegisteredProxyInformation::PROXY || !info->Proxy ||
-    !info->GroupName)
+  if (!info || info->Type != vtkSMProxyManager::RegisteredProxyInformation::PROXY || !info->Proxy)
   {
     return;
   }
-  if (std::strcmp(info->GroupName, "views") == 0)
-    this->AddView(info->Proxy);
-  else if (std::strcmp(info->GroupName, "representations") == 0)
-    this->AddRepresentation(info->Proxy);
+  this->AddProxy(info->GroupName, info->Proxy, /*registering=*/true);
 }
 
 void vtkNeuralVolumeProxyObserver::OnUnRegister(vtkObject*, unsigned long, void* data)
@@ -385,7 +383,7 @@ void vtkNeuralVolumeProxyObserver::OnUnRegister(vtkObject*, unsigned long, void*
     return;
   }
   vtkInternals& in = *this->Internals;
-  for (auto* map : { &in.Representations, &in.Views })
+  for (auto* map : { &in.Representations, &in.Views, &in.ViewUpdates, &in.Sources })
   {
     auto it = map->find(info->Proxy);
     if (it != map->end())
@@ -395,6 +393,8 @@ void vtkNeuralVolumeProxyObserver::OnUnRegister(vtkObject*, unsigned long, void*
     }
   }
   in.AwaitingView.erase(info->Proxy);
+  in.AwaitingRange.erase(info->Proxy);
+  in.NewViews.erase(info->Proxy);
 }
 
 //------------------------------------------------------------------------------
@@ -447,14 +447,13 @@ void vtkNeuralVolumeProxyObserver::AddRepresentation(vtkSMProxy* representation)
     vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnRepresentationModified);
   // Show() picks the representation type before registering the representation and adds it to its view
   // afterwards: colour once it is in the view.
-  if (IsNeuralVolume(representation) && !LoadingState(representation) &&
-    !ColorByNetwork(representation, nullptr))
+  if (IsNeuralVolume(representation) && !LoadingState(representation) && !this->Color(representation, nullptr))
   {
     in.AwaitingView.insert(representation);
   }
 }
 
-void vtkNeuralVolumeProxyObserver::AddView(vtkSMProxy* view)
+void vtkNeuralVolumeProxyObserver::AddView(vtkSMProxy* view, bool registering)
 {
   vtkInternals& in = *this->Internals;
   if (!vtkSMViewProxy::SafeDownCast(view) || in.Views.count(view))
@@ -463,6 +462,41 @@ void vtkNeuralVolumeProxyObserver::AddView(vtkSMProxy* view)
   }
   in.Views[view] =
     view->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnViewModified);
+  // A view's update (a time step, a re-execution) runs before its render and before ParaView's automatic rescaling.
+  in.ViewUpdates[view] =
+    view->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnViewUpdated);
+  vtkSMSessionProxyManager* pxm = view->GetSessionProxyManager();
+  vtkSMProxySelectionModel* active = pxm ? pxm->GetSelectionModel("ActiveView") : nullptr;
+  if (registering && active && !LoadingState(view))
+  {
+    in.NewViews[view] = active->GetCurrentProxy();
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::AddSource(vtkSMProxy* source)
+{
+  vtkInternals& in = *this->Internals;
+  const char* xmlName = source->GetXMLName();
+  if (!xmlName || std::strcmp(xmlName, "NeuralCompress") != 0 || in.Sources.count(source))
+  {
+    return;
+  }
+  in.Sources[source] =
+    source->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnSourceUpdated);
+}
+
+void vtkNeuralVolumeProxyObserver::OnSourceUpdated(vtkObject* caller, unsigned long, void*)
+{
+  // The panel reads information properties after Apply only: refresh the training status (and the steps) on every
+  // re-execution, so that the panel follows a background training (ParaView's live-source timer updates the view).
+  auto* source = vtkSMProxy::SafeDownCast(caller);
+  for (const char* name : { "TrainingStatus", "TotalStepsTrained" })
+  {
+    if (vtkSMProperty* property = source ? source->GetProperty(name) : nullptr)
+    {
+      source->UpdatePropertyInformation(property);
+    }
+  }
 }
 
 void vtkNeuralVolumeProxyObserver::OnRepresentationModified(vtkObject* caller, unsigned long, void* name)
@@ -474,9 +508,43 @@ void vtkNeuralVolumeProxyObserver::OnRepresentationModified(vtkObject* caller, u
   {
     return;
   }
-  if (IsNeuralVolume(representation) && !ColorByNetwork(representation, nullptr))
+  if (IsNeuralVolume(representation) && !this->Color(representation, nullptr))
   {
     this->Internals->AwaitingView.insert(representation);
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::OnViewUpdated(vtkObject* caller, unsigned long, void*)
+{
+  auto* view = vtkSMProxy::SafeDownCast(caller);
+  if (!view || !view->GetProperty("Representations"))
+  {
+    return;
+  }
+  vtkSMPropertyHelper members(view, "Representations");
+  std::vector<vtkSMProxy*> representations;
+  for (unsigned int i = 0; i < members.GetNumberOfElements(); ++i)
+  {
+    vtkSMProxy* representation = members.GetAsProxy(i);
+    if (representation && this->Internals->Representations.count(representation))
+    {
+      representations.push_back(representation);
+    }
+  }
+  for (vtkSMProxy* representation : representations)
+  {
+    this->FitUnsetRange(representation);
+  }
+}
+
+void vtkNeuralVolumeProxyObserver::FitUnsetRange(vtkSMProxy* representation)
+{
+  vtkInternals& in = *this->Internals;
+  if (!LoadingState(representation) && IsNeuralVolume(representation) &&
+    vtkSMPropertyHelper(representation, "Visibility", true).GetAsInt() != 0 &&
+    vtkNeuralVolumeColorRange::FitUnsetRange(representation, in.AwaitingRange.count(representation) != 0))
+  {
+    in.AwaitingRange.erase(representation);
   }
 }
 
@@ -485,7 +553,18 @@ void vtkNeuralVolumeProxyObserver::OnViewModified(vtkObject* caller, unsigned lo
   vtkInternals& in = *this->Internals;
   auto* view = vtkSMProxy::SafeDownCast(caller);
   const char* property = static_cast<const char*>(name);
-  if (!view || !property || std::strcmp(property, "Representations") != 0 || in.AwaitingView.empty())
+  if (!view || !property || std::strcmp(property, "Representations") != 0)
+  {
+    return;
+  }
+  auto created = in.NewViews.find(view);
+  if (created != in.NewViews.end())
+  {
+    vtkSMProxy* previous = created->second;
+    in.NewViews.erase(created);
+    this->KeepActiveView(view, previous);
+  }
+  if (in.AwaitingView.empty())
   {
     return;
   }
@@ -495,14 +574,54 @@ void vtkNeuralVolumeProxyObserver::OnViewModified(vtkObject* caller, unsigned lo
     vtkSMProxy* representation = members.GetAsProxy(i);
     if (in.AwaitingView.erase(representation) && !LoadingState(representation))
     {
-      ColorByNetwork(representation, view);
+      this->Color(representation, view);
     }
   }
 }
 
-//------------------------------------------------------------------------------
-bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vtkSMProxy* view)
+void vtkNeuralVolumeProxyObserver::KeepActiveView(vtkSMProxy* view, vtkSMProxy* previous)
 {
+  // A training log shown in a chart that ParaView created for it (the filter's first Apply opens one per filter):
+  // the chart is a side view. The view that was active stays active, so that the next filter's output and the eye
+  // of the pipeline browser go to the render view, not into the chart.
+  vtkSMPropertyHelper members(view, "Representations");
+  bool trainingLog = false;
+  for (unsigned int i = 0; i < members.GetNumberOfElements(); ++i)
+  {
+    vtkSMProxy* representation = members.GetAsProxy(i);
+    const char* xmlName = representation ? representation->GetXMLName() : nullptr;
+    trainingLog = trainingLog || (xmlName && std::strcmp(xmlName, "NeuralTrainingLogChartRepresentation") == 0);
+  }
+  vtkSMSessionProxyManager* pxm = view->GetSessionProxyManager();
+  vtkSMProxySelectionModel* active = pxm ? pxm->GetSelectionModel("ActiveView") : nullptr;
+  if (trainingLog && previous && active && active->GetCurrentProxy() == view &&
+    pxm->GetProxyName("views", previous))
+  {
+    active->SetCurrentProxy(previous, vtkSMProxySelectionModel::CLEAR_AND_SELECT);
+  }
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralVolumeProxyObserver::Color(vtkSMProxy* representation, vtkSMProxy* view)
+{
+  bool rangeFound = false;
+  if (!ColorByNetwork(representation, view, &rangeFound))
+  {
+    return false;
+  }
+  if (rangeFound)
+    this->Internals->AwaitingRange.erase(representation);
+  else
+    this->Internals->AwaitingRange.insert(representation);
+  return true;
+}
+
+bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vtkSMProxy* view, bool* rangeFound)
+{
+  if (rangeFound)
+  {
+    *rangeFound = false;
+  }
   if (!IsNeuralVolume(representation) || vtkSMPVRepresentationProxy::GetUsingScalarColoring(representation))
   {
     return false;
@@ -519,31 +638,11 @@ bool vtkNeuralVolumeProxyObserver::ColorByNetwork(vtkSMProxy* representation, vt
   {
     return false;
   }
-  // As if the user picked the array: fit the maps to its range (the network's range when the output holds no
-  // decoded field).
-  vtkSMPropertyHelper input(representation, "Input", /*quiet=*/true);
-  auto* producer = vtkSMSourceProxy::SafeDownCast(input.GetAsProxy());
-  vtkPVDataInformation* info = producer ? producer->GetDataInformation(input.GetOutputPort()) : nullptr;
-  const bool decoded = info && info->GetArrayInformation(array.c_str(),
-    association == vtkDataObject::CELL ? vtkDataObject::FIELD_ASSOCIATION_CELLS : vtkDataObject::FIELD_ASSOCIATION_POINTS);
-  if (decoded)
+  // As if the user picked the array: fit the maps to its range (vtkNeuralVolumeColorRange.h).
+  const bool fitted = vtkNeuralVolumeColorRange::FitToNetwork(representation);
+  if (rangeFound)
   {
-    vtkSMPVRepresentationProxy::RescaleTransferFunctionToDataRange(representation, true);
-  }
-  else
-  {
-    double range[2];
-    if (NetworkValueRange(representation, range))
-    {
-      vtkSMPropertyHelper lut(representation, "LookupTable", /*quiet=*/true);
-      if (vtkSMProxy* colors = lut.GetAsProxy())
-      {
-        vtkSMTransferFunctionProxy::RescaleTransferFunction(colors, range);
-        vtkSMPropertyHelper opacity(colors, "ScalarOpacityFunction", /*quiet=*/true);
-        if (opacity.GetAsProxy())
-          vtkSMTransferFunctionProxy::RescaleTransferFunction(opacity.GetAsProxy(), range);
-      }
-    }
+    *rangeFound = fitted;
   }
   // The GUI's default; scripts (pvpython, pvbatch) run with manual colour bars, as for the stock Volume.
   if (vtkPVGeneralSettings::GetInstance()->GetScalarBarMode() ==

@@ -3,13 +3,20 @@
 #include "vtkNeuralNetworkArray.h"
 #include "vtkNeuralVolumeMapper.h"
 
+#include "vtkCellData.h"
+#include "vtkDoubleArray.h"
+#include "vtkFieldData.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkMultiProcessController.h"
 #include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkStringArray.h"
 
 #include <algorithm>
+#include <cmath>
+#include <string>
 
 vtkStandardNewMacro(vtkNeuralVolumeRepresentation);
 
@@ -130,14 +137,65 @@ int vtkNeuralVolumeRepresentation::GetMapperHasNetwork()
 }
 
 //------------------------------------------------------------------------------
+namespace
+{
+/// The input with the network's range under the network's array name (see GetRenderedDataObject), or null when
+/// the input needs nothing added (no network, no valid range, or the decoded field is there).
+vtkSmartPointer<vtkImageData> WithNetworkRange(vtkImageData* image)
+{
+  vtkFieldData* fd = image ? image->GetFieldData() : nullptr;
+  auto* names = fd ? vtkStringArray::SafeDownCast(fd->GetAbstractArray("NeuralArrayName")) : nullptr;
+  vtkDataArray* association = fd ? fd->GetArray("NeuralArrayAssociation") : nullptr;
+  vtkDataArray* range = fd ? fd->GetArray("NeuralValueRange") : nullptr;
+  if (!names || names->GetNumberOfValues() != 1 || names->GetValue(0).empty() || !range ||
+    range->GetNumberOfTuples() != 2 || !vtkNeuralNetworkArray::Find(fd))
+  {
+    return nullptr;
+  }
+  const double lo = range->GetTuple1(0), hi = range->GetTuple1(1);
+  if (!std::isfinite(lo) || !std::isfinite(hi) || lo > hi || !std::isfinite(hi - lo))
+  {
+    // No valid value (an empty or all-NaN field), or a range wider than the largest double: ParaView 5.11 aborts when
+    // it rescales a colour map to such a range (the network is refused, see the mapper), so none is offered.
+    return nullptr;
+  }
+  const std::string name = names->GetValue(0);
+  const bool cells = association && association->GetNumberOfTuples() == 1 && association->GetTuple1(0) == 1;
+  vtkDataSetAttributes* attributes =
+    cells ? static_cast<vtkDataSetAttributes*>(image->GetCellData()) : image->GetPointData();
+  if (attributes->GetAbstractArray(name.c_str()))
+  {
+    return nullptr; // a decoded output: its own array gives the range
+  }
+  auto represented = vtkSmartPointer<vtkImageData>::New();
+  represented->ShallowCopy(image);
+  vtkNew<vtkDoubleArray> values;
+  values->SetName(name.c_str());
+  values->SetNumberOfTuples(2);
+  values->SetValue(0, lo);
+  values->SetValue(1, hi);
+  (cells ? static_cast<vtkDataSetAttributes*>(represented->GetCellData()) : represented->GetPointData())
+    ->AddArray(values);
+  return represented;
+}
+} // namespace
+
+vtkDataObject* vtkNeuralVolumeRepresentation::GetRenderedDataObject(int port)
+{
+  return this->RepresentedData ? this->RepresentedData.GetPointer() : this->Superclass::GetRenderedDataObject(port);
+}
+
+//------------------------------------------------------------------------------
 int vtkNeuralVolumeRepresentation::RequestData(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   const int ok = this->Superclass::RequestData(request, inputVector, outputVector);
   this->HasNetwork = 0;
+  this->RepresentedData = nullptr;
   if (inputVector[0]->GetNumberOfInformationObjects() == 1)
   {
     vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
+    this->RepresentedData = WithNetworkRange(image);
     // Under MPI, Neural Compress gives its whole output (and the network) to rank 0 and an empty image to the
     // other ranks: an empty piece has nothing to draw and is no error.
     vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();

@@ -16,7 +16,8 @@
 
 #include "NeuralVolumeRepresentationsModule.h" // for export macro
 #include "vtkImageVolumeRepresentation.h"
-#include "vtkNew.h" // for vtkNew
+#include "vtkNew.h"          // for vtkNew
+#include "vtkSmartPointer.h" // for vtkSmartPointer
 
 class vtkNeuralVolumeMapper;
 
@@ -65,6 +66,12 @@ public:
 
   vtkNeuralVolumeMapper* GetNeuralMapper();
 
+  /// What ParaView's data-range queries see (vtkPVRepresentedDataInformation: Rescale to Data Range, the automatic
+  /// rescale modes, the colouring box): the input, plus -- when it holds the network but not the decoded field --
+  /// a two-value array under the network's array name (field data NeuralArrayName and NeuralArrayAssociation)
+  /// holding the network's value range (NeuralValueRange). That array is for the range only and is never rendered.
+  vtkDataObject* GetRenderedDataObject(int port) override;
+
 protected:
   vtkNeuralVolumeRepresentation();
   ~vtkNeuralVolumeRepresentation() override;
@@ -75,6 +82,7 @@ protected:
   bool ReportedMissing = false;
   int LastImageSize[2] = { 0, 0 };
   vtkNew<vtkNeuralVolumeMapper> NeuralMapper;
+  vtkSmartPointer<vtkDataObject> RepresentedData; ///< see GetRenderedDataObject
 
 private:
   vtkNeuralVolumeRepresentation(const vtkNeuralVolumeRepresentation&) = delete;

@@ -116,6 +116,9 @@ for label, members in EXPECTED_GROUPS.items():
     check(groups.get(label, ([], ""))[0] == members, "group %s holds %r (has %r)"
           % (label, members, groups.get(label, ([], ""))[0]))
 check(groups.get("Advanced", ([], ""))[1] == "advanced", "the Advanced group is advanced")
+# The status line (state, steps, PSNR, time left) heads the Training group and is shown in the panel.
+check(groups.get("Training", ([], ""))[0][:1] == ["TrainingStatus"], "Training Status heads the Training group")
+check(nc_proto.GetProperty("TrainingStatus").GetPanelVisibility() == "default", "Training Status is shown in the panel")
 for p in EXPECTED_GROUPS["Advanced"]:
     check(nc_proto.GetProperty(p).GetPanelVisibility() == "advanced", "%s is an advanced property" % p)
 # Every property the panel shows is in a group.
