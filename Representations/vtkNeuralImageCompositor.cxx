@@ -11,6 +11,7 @@
 #include "vtk_glew.h"
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 vtkNeuralImageCompositor::vtkNeuralImageCompositor() = default;
@@ -153,6 +154,42 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
     this->Quad->Render();
   }
   this->Texture->Deactivate();
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralImageCompositor::DrawProgress(vtkRenderer* ren, double fraction)
+{
+  auto* window = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  if (!window)
+  {
+    return;
+  }
+  constexpr int kProgressBarHeight = 4;
+  int vw = 0, vh = 0, vx = 0, vy = 0;
+  ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
+  if (vw < 1 || vh < 1)
+  {
+    return;
+  }
+  const int height = std::min(vh, kProgressBarHeight);
+  const int filled = static_cast<int>(std::lround(std::max(0.0, std::min(1.0, fraction)) * vw));
+  vtkOpenGLState* state = window->GetState();
+  vtkOpenGLState::ScopedglEnableDisable scissorTest(state, GL_SCISSOR_TEST);
+  vtkOpenGLState::ScopedglScissor scissor(state);
+  vtkOpenGLState::ScopedglClearColor clearColor(state);
+  vtkOpenGLState::ScopedglColorMask colorMask(state);
+  state->vtkglEnable(GL_SCISSOR_TEST);
+  state->vtkglColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  // The track, then the finished part (opaque: ParaView's views keep the framebuffer's alpha at 1).
+  state->vtkglScissor(vx, vy, vw, height);
+  state->vtkglClearColor(0.12f, 0.12f, 0.14f, 1.0f);
+  state->vtkglClear(GL_COLOR_BUFFER_BIT);
+  if (filled > 0)
+  {
+    state->vtkglScissor(vx, vy, filled, height);
+    state->vtkglClearColor(0.35f, 0.7f, 1.0f, 1.0f);
+    state->vtkglClear(GL_COLOR_BUFFER_BIT);
+  }
 }
 
 //------------------------------------------------------------------------------

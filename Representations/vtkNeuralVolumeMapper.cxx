@@ -4,6 +4,7 @@
 
 #include "vtkNeuralImageCompositor.h"
 #include "vtkNeuralNetworkArray.h"
+#include "vtkNeuralProgressiveRenderer.h"
 #include "vtkNeuralRenderRequest.h"
 
 #include "Core/NetworkSession.h"
@@ -12,6 +13,7 @@
 #include "Core/ResourceEstimate.h"
 
 #include "vtkFieldData.h"
+#include "vtkFloatArray.h"
 #include "vtkImageData.h"
 #include "vtkObjectFactory.h"
 #include "vtkRenderWindow.h"
@@ -39,6 +41,11 @@ constexpr int kTransferEntries = 1024;
 /// still in use returns the previous image without marching) and gives up after kMaxDecodeWait.
 constexpr std::chrono::milliseconds kDecodePoll(20);
 constexpr std::chrono::seconds kMaxDecodeWait(600);
+/// Progressive mode: a new request waits at most this multiple of FrameBudget for its first image (then the previous
+/// picture is drawn and the refresh driver shows the new one when it is ready).
+constexpr double kFirstImageWait = 1.5;
+/// Progressive mode: the progress bar appears once a refinement has run this long.
+constexpr double kProgressDelaySeconds = 0.3;
 
 uint64_t Mix(uint64_t h, uint64_t v)
 {
@@ -70,6 +77,14 @@ struct vtkNeuralVolumeMapper::vtkInternals
   int EngineRenders = 0;
   bool WorkPending = false;
   std::vector<float> Depth;
+
+  // Progressive mode (ProgressiveRefinement on, CPU engine): the background renderer and what the image shows.
+  std::unique_ptr<vtkNeuralProgressiveRenderer> Worker;
+  double ImageScale = 1.0;
+  int ImageLevel = 0;
+  int ImageLevels = 1;
+  bool ImageFinal = true;
+  double Progress = 1.0;
 
   // The decode grid's resolution: the one asked for (DecodeResolution, or the trained dims) clamped to what the machine
   // holds, decided once per request and network (the clamp does not follow the free memory render by render).
@@ -128,7 +143,51 @@ double vtkNeuralVolumeMapper::GetLastRenderMilliseconds() const
 }
 int vtkNeuralVolumeMapper::GetEngineRenderCount() const
 {
-  return this->Internals->EngineRenders;
+  const vtkInternals& in = *this->Internals;
+  return in.EngineRenders + (in.Worker ? in.Worker->EngineRenders() : 0);
+}
+double vtkNeuralVolumeMapper::GetLastImageScale() const
+{
+  return this->Internals->ImageScale;
+}
+int vtkNeuralVolumeMapper::GetLastRefinementLevel() const
+{
+  return this->Internals->ImageLevel;
+}
+int vtkNeuralVolumeMapper::GetLastRefinementLevels() const
+{
+  return this->Internals->ImageLevels;
+}
+bool vtkNeuralVolumeMapper::GetLastImageFinal() const
+{
+  return this->Internals->ImageFinal;
+}
+double vtkNeuralVolumeMapper::GetRefinementProgress() const
+{
+  return this->Internals->Progress;
+}
+int vtkNeuralVolumeMapper::GetAbandonedRefinements() const
+{
+  return this->Internals->Worker ? this->Internals->Worker->AbandonedJobs() : 0;
+}
+int vtkNeuralVolumeMapper::GetCancelledEngineRenders() const
+{
+  return this->Internals->Worker ? this->Internals->Worker->CancelledRenders() : 0;
+}
+double vtkNeuralVolumeMapper::GetLastAbandonMilliseconds() const
+{
+  return this->Internals->Worker ? this->Internals->Worker->LastAbandonMilliseconds() : 0.0;
+}
+void vtkNeuralVolumeMapper::GetLastImage(vtkFloatArray* rgba) const
+{
+  if (!rgba)
+  {
+    return;
+  }
+  const std::vector<float>& image = this->Internals->Compositor.GetImage();
+  rgba->SetNumberOfComponents(4);
+  rgba->SetNumberOfTuples(static_cast<vtkIdType>(image.size() / 4));
+  std::copy(image.begin(), image.end(), rgba->GetPointer(0));
 }
 bool vtkNeuralVolumeMapper::GetWorkPending() const
 {
@@ -390,6 +449,33 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       in.HaveImage = true;
     };
 
+    if (this->ProgressiveRefinement && session.device() == nv::Device::Cpu)
+    {
+      // In the background: this render only starts or continues the work and draws the newest image.
+      const int frames = pathTracing && !interactive
+        ? std::max(1, (this->TargetSamples + q.samplesPerPixel - 1) / q.samplesPerPixel)
+        : 1;
+      std::string error;
+      if (!this->RenderInBackground(q, Mix(key, static_cast<uint64_t>(frames)), frames, scale, error))
+      {
+        fail(error, true);
+        return;
+      }
+      in.LastError.clear();
+      in.Reported.clear();
+      this->DrawImage(ren);
+      return;
+    }
+    if (in.Worker)
+    {
+      in.Worker->Cancel(); // back to blocking renders (a script turned ProgressiveRefinement off)
+    }
+    in.ImageScale = scale;
+    in.ImageLevel = 0;
+    in.ImageLevels = 1;
+    in.ImageFinal = true;
+    in.Progress = 1.0;
+
     const bool same = in.HaveImage && key == in.Key;
     bool render = !same;
     if (same && in.Stats.decodePending)
@@ -459,13 +545,77 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     return;
   }
 
+  this->DrawImage(ren);
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralVolumeMapper::RenderInBackground(
+  const nv::RenderRequest& q, uint64_t key, int frames, double viewScale, std::string& error)
+{
+  vtkInternals& in = *this->Internals;
+  if (!in.Worker)
+  {
+    in.Worker.reset(new vtkNeuralProgressiveRenderer);
+  }
+  vtkNeuralProgressiveRenderer& worker = *in.Worker;
+  if (worker.CurrentKey() != key)
+  {
+    // A new picture: abandon the refinement in flight, start this one and wait a frame's budget for its first image.
+    vtkNeuralProgressiveRenderer::Job job;
+    job.Session = in.Session;
+    job.Request = q;
+    job.Request.depth = nullptr;
+    if (q.depth)
+    {
+      job.Depth.assign(q.depth, q.depth + static_cast<size_t>(q.width) * static_cast<size_t>(q.height));
+    }
+    job.Key = key;
+    job.Frames = frames;
+    job.BudgetMilliseconds = this->FrameBudget;
+    worker.Start(std::move(job));
+    worker.WaitForImage(kFirstImageWait * this->FrameBudget);
+  }
+  const bool busy = worker.Busy();
+  error = worker.TakeError();
+  if (!error.empty())
+  {
+    return false;
+  }
+  vtkNeuralProgressiveRenderer::Image image;
+  if (worker.TakeImage(image))
+  {
+    in.Stats = image.Stats;
+    in.Size[0] = image.Width;
+    in.Size[1] = image.Height;
+    in.ImageScale = viewScale * image.Scale;
+    in.ImageLevel = image.Level;
+    in.ImageLevels = image.Levels;
+    in.ImageFinal = image.Final;
+    in.Compositor.SetImage(std::move(image.Rgba), image.Width, image.Height);
+    in.HaveImage = true;
+    in.Key = 0; // a blocking render after this one renders its own picture
+  }
+  in.Progress = worker.Progress();
+  in.WorkPending = busy || worker.WaitForImage(0.0);
+  return true;
+}
+
+void vtkNeuralVolumeMapper::DrawImage(vtkRenderer* ren)
+{
+  vtkInternals& in = *this->Internals;
   try
   {
     in.Compositor.Draw(ren);
+    if (this->ProgressiveRefinement && in.Worker && in.Worker->Busy() &&
+      in.Worker->BusySeconds() > kProgressDelaySeconds)
+    {
+      in.Compositor.DrawProgress(ren, in.Worker->Progress());
+    }
   }
   catch (...)
   {
-    fail("drawing the rendered image failed", true);
+    in.LastError = "drawing the rendered image failed";
+    vtkErrorMacro("Neural Volume: " << in.LastError);
   }
 }
 
@@ -488,5 +638,16 @@ void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
      << this->DecodeResolution[2] << "\n"
      << indent << "InteractiveImageScale: " << this->InteractiveImageScale << "\n"
      << indent << "ProgressiveRefinement: " << this->ProgressiveRefinement << "\n"
-     << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n";
+     << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n"
+     << indent << "FrameBudget: " << this->FrameBudget << "\n"
+     << indent << "WorkPending: " << this->GetWorkPending() << "\n"
+     << indent << "LastImageSize: " << this->Internals->Size[0] << " " << this->Internals->Size[1] << "\n"
+     << indent << "LastImageScale: " << this->GetLastImageScale() << "\n"
+     << indent << "LastRefinementLevel: " << this->GetLastRefinementLevel() << "\n"
+     << indent << "LastRefinementLevels: " << this->GetLastRefinementLevels() << "\n"
+     << indent << "LastImageFinal: " << this->GetLastImageFinal() << "\n"
+     << indent << "RefinementProgress: " << this->GetRefinementProgress() << "\n"
+     << indent << "AbandonedRefinements: " << this->GetAbandonedRefinements() << "\n"
+     << indent << "CancelledEngineRenders: " << this->GetCancelledEngineRenders() << "\n"
+     << indent << "LastAbandonMilliseconds: " << this->GetLastAbandonMilliseconds() << "\n";
 }

@@ -19,9 +19,16 @@
  *
  * Still renders block until the picture is final (the Decode path's full grid, decoded at once on all
  * the session's threads -- finishing a background decode an interactive render started -- and path
- * tracing at TargetSamples) unless ProgressiveRefinement is on: then every render does one
- * step and GetWorkPending() says that another render would refine the picture (the GUI's refresh
- * driver, vtkNeuralVolumeRefreshDriver, renders again while it is true).
+ * tracing at TargetSamples) unless ProgressiveRefinement is on (the GUI turns it on). Then, on the
+ * CPU engine, no render waits for the engine: a new picture (camera, transfer function, network,
+ * view size...) is rendered by a background thread (vtkNeuralProgressiveRenderer), first at a
+ * reduced size chosen from the measured cost per ray to take about FrameBudget milliseconds (a render
+ * waits at most 1.5 x FrameBudget for it), then at twice the size per axis up to the full size, then
+ * path-tracing frames up to TargetSamples; each render draws the newest finished image (and a thin
+ * progress bar along the bottom once a refinement has run 0.3 s), and another picture cancels the
+ * work in flight (the engine stops within a pixel or an inference slice). On the CUDA engine a
+ * render does one refinement step. GetWorkPending() says that another render would show more (the
+ * GUI's refresh driver, vtkNeuralVolumeRefreshDriver, renders again while it is true).
  *
  * Engine errors are reported once with vtkErrorMacro and nothing is drawn.
  */
@@ -31,7 +38,15 @@
 #include "NeuralVolumeRepresentationsModule.h" // for export macro
 #include "vtkVolumeMapper.h"
 
-#include <memory> // for std::unique_ptr
+#include <cstdint> // for uint64_t
+#include <memory>  // for std::unique_ptr
+#include <string>  // for std::string
+
+class vtkFloatArray;
+namespace nv
+{
+struct RenderRequest;
+}
 
 class NEURALVOLUMEREPRESENTATIONS_EXPORT vtkNeuralVolumeMapper : public vtkVolumeMapper
 {
@@ -131,9 +146,16 @@ public:
   ///@}
 
   ///@{
-  /// Off (default): a still render returns the final picture. On: one refinement step per render.
+  /// Off (default): a still render returns the final picture. On: renders never wait for the engine
+  /// beyond about FrameBudget; the picture refines in the background (see above).
   vtkSetMacro(ProgressiveRefinement, bool);
   vtkGetMacro(ProgressiveRefinement, bool);
+  ///@}
+
+  ///@{
+  /// Progressive mode: milliseconds the first image of a new picture should take (5 - 1000, default 50).
+  vtkSetClampMacro(FrameBudget, double, 5.0, 1000.0);
+  vtkGetMacro(FrameBudget, double);
   ///@}
 
   ///@{
@@ -153,8 +175,31 @@ public:
   /// session->render() calls so far (a render that reuses the last image does not count).
   int GetEngineRenderCount() const;
   /// True when another render would refine the picture (background decode still running, or path
-  /// tracing below TargetSamples).
+  /// tracing below TargetSamples, or a progressive refinement running or not shown yet).
   bool GetWorkPending() const;
+
+  ///@{
+  /// The image drawn: its size relative to the viewport per axis (1 for a final still picture,
+  /// InteractiveImageScale for an interactive one, less for a progressive refinement's early images),
+  /// its refinement level (0 the first image of a picture) out of GetLastRefinementLevels(), and
+  /// whether nothing would refine it. GetLastImage copies it (premultiplied RGBA floats, row 0 at the
+  /// bottom, GetLastImageSize pixels).
+  double GetLastImageScale() const;
+  int GetLastRefinementLevel() const;
+  int GetLastRefinementLevels() const;
+  bool GetLastImageFinal() const;
+  void GetLastImage(vtkFloatArray* rgba) const;
+  ///@}
+
+  ///@{
+  /// Progressive mode: the fraction of the current refinement's rays finished; refinements abandoned
+  /// for another picture before they finished; engine renders those cancellations stopped; and the
+  /// milliseconds the last abandoned render took to stop after it was cancelled.
+  double GetRefinementProgress() const;
+  int GetAbandonedRefinements() const;
+  int GetCancelledEngineRenders() const;
+  double GetLastAbandonMilliseconds() const;
+  ///@}
   /// True when the input carries a network the engine accepted.
   bool HasNetwork() const;
   /// True when the network's session was created from the serialized bytes (not the session the
@@ -183,10 +228,18 @@ protected:
   int DecodeResolution[3] = { 0, 0, 0 };
   double InteractiveImageScale = 0.5;
   bool ProgressiveRefinement = false;
+  double FrameBudget = 50.0;
 
 private:
   vtkNeuralVolumeMapper(const vtkNeuralVolumeMapper&) = delete;
   void operator=(const vtkNeuralVolumeMapper&) = delete;
+
+  /// Progressive mode: start `request` in the background unless it is the picture in progress (key), take the
+  /// newest finished image. False (and `error`) when the background render failed.
+  bool RenderInBackground(const nv::RenderRequest& request, uint64_t key, int frames, double viewScale,
+    std::string& error);
+  /// Composite the current image (and the progress bar of a long refinement).
+  void DrawImage(vtkRenderer* ren);
 
   struct vtkInternals;
   std::unique_ptr<vtkInternals> Internals;

@@ -14,6 +14,8 @@
 #include "vtkSMViewProxy.h"
 #include "vtkWeakPointer.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <map>
 
@@ -47,6 +49,9 @@ struct vtkNeuralVolumeRefreshDriver::vtkInternals
     unsigned long StartingTag = 0;
     unsigned long TimerTag = 0;
     int TimerId = -1;
+    bool Refreshing = false; ///< the render in progress is one this driver asked for
+    bool Pending = false;    ///< the last still render left work pending
+    std::chrono::steady_clock::time_point PendingSince;
   };
   vtkWeakPointer<vtkSMProxyManager> Manager;
   unsigned long RegisterTag = 0;
@@ -210,9 +215,13 @@ void vtkNeuralVolumeRefreshDriver::OnViewRendered(vtkObject* caller, unsigned lo
   {
     return;
   }
+  vtkInternals::View& v = it->second;
+  const bool refresh = v.Refreshing;
+  v.Refreshing = false;
   const int* interactive = static_cast<const int*>(data);
   if (interactive && *interactive)
   {
+    v.Pending = false;
     return; // the still render that ends the interaction comes next
   }
   bool pending = false;
@@ -235,10 +244,25 @@ void vtkNeuralVolumeRefreshDriver::OnViewRendered(vtkObject* caller, unsigned lo
       pending = information->GetValid() && information->GetWorkPending();
     }
   }
-  if (pending)
+  if (!pending)
   {
-    it->second.TimerId = it->second.Interactor->CreateOneShotTimer(this->IntervalMilliseconds);
+    v.Pending = false;
+    return;
   }
+  // A refinement's images come ever more slowly (each level has four times the pixels of the one before): render
+  // again after an eighth of the time it has run so far, between IntervalMilliseconds and MaxIntervalMilliseconds,
+  // so that a long refinement does not spend the CPU it needs on redrawing the same picture. A render this driver did
+  // not ask for (an edit, the end of an interaction) starts the count again.
+  const auto now = std::chrono::steady_clock::now();
+  if (!v.Pending || !refresh)
+  {
+    v.PendingSince = now;
+  }
+  v.Pending = true;
+  const double elapsed = std::chrono::duration<double, std::milli>(now - v.PendingSince).count();
+  const int interval = static_cast<int>(std::max<double>(this->IntervalMilliseconds,
+    std::min<double>(this->MaxIntervalMilliseconds, elapsed / 8.0)));
+  v.TimerId = v.Interactor->CreateOneShotTimer(interval);
 }
 
 void vtkNeuralVolumeRefreshDriver::OnTimer(vtkObject* caller, unsigned long, void* data)
@@ -250,6 +274,7 @@ void vtkNeuralVolumeRefreshDriver::OnTimer(vtkObject* caller, unsigned long, voi
     if (v.Interactor == caller && v.TimerId >= 0 && v.TimerId == id)
     {
       v.TimerId = -1;
+      v.Refreshing = true;
       vtkSMViewProxy::SafeDownCast(entry.first)->StillRender();
       return;
     }

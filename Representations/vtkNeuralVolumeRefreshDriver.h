@@ -9,7 +9,9 @@
  * runs timers in an event loop (the GUI's QVTKInteractor) and, after each still render of such a
  * view, gathers whether a Neural Volume in it has work pending (vtkPVNeuralVolumeInformation, from
  * the render server) and schedules another still render (a one-shot timer of the view's interactor)
- * while any has. It needs no Qt code of its own: the timers are those of the interactor ParaView
+ * while any has: after IntervalMilliseconds at first, then after an eighth of the time the
+ * refinement has run (at most MaxIntervalMilliseconds), so that a long refinement on the CPU is not
+ * slowed by redrawing an unchanged picture. It needs no Qt code of its own: the timers are those of the interactor ParaView
  * created for the view, and it works the same in a client-server session.
  *
  * Without such an interactor (pvpython, pvbatch) nothing is changed: ProgressiveRefinement stays
@@ -35,9 +37,12 @@ public:
   /// Observe the proxy manager of this process (once) and the views already registered.
   void Install();
 
-  /// Milliseconds between a still render that left work pending and the next one.
+  /// Milliseconds between a still render that left work pending and the next one: at least
+  /// IntervalMilliseconds, at most MaxIntervalMilliseconds (see above).
   vtkSetClampMacro(IntervalMilliseconds, int, 1, 10000);
   vtkGetMacro(IntervalMilliseconds, int);
+  vtkSetClampMacro(MaxIntervalMilliseconds, int, 1, 10000);
+  vtkGetMacro(MaxIntervalMilliseconds, int);
 
 protected:
   vtkNeuralVolumeRefreshDriver();
@@ -59,6 +64,7 @@ private:
   void RemoveView(vtkSMProxy* view);
 
   int IntervalMilliseconds = 30;
+  int MaxIntervalMilliseconds = 250;
 
   struct vtkInternals;
   std::unique_ptr<vtkInternals> Internals;

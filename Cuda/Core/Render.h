@@ -16,6 +16,7 @@
 #include "Config.h"
 #include "Volume.h"
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -62,6 +63,16 @@ struct TransferFunction
   double unitDistance = 1.0;  ///< world distance over which an entry's opacity applies (ScalarOpacityUnitDistance)
 };
 
+/// Lets another thread follow and stop a render in flight. The caller owns it (it must outlive the render) and may
+/// reuse it for the next render once it has reset `cancel`. The CPU backend checks `cancel` before every pixel (per-ray
+/// paths) and between wavefronts and inference slices (Sample Streaming); the CUDA backend, whose frames take
+/// milliseconds, ignores it.
+struct RenderControl
+{
+  std::atomic<bool> cancel{ false };      ///< set from any thread: the render stops early, stats.cancelled
+  std::atomic<int64_t> raysFinished{ 0 }; ///< primary rays (pixel paths) the render has finished, added as it goes
+};
+
 struct RenderRequest
 {
   int width = 0;
@@ -94,6 +105,7 @@ struct RenderRequest
                                   ///< waits for the final picture: the CPU backend decodes it on all of the session's
                                   ///< threads, finishing a background decode already under way); not in the image key
   const float* depth = nullptr;   ///< optional width*height window depths in [0,1] of opaque geometry (row 0 bottom)
+  RenderControl* control = nullptr; ///< optional cancellation and progress (CPU backend; not in the image key)
   const VolumeView* grid = nullptr; ///< Decode path only: march this volume (its own value range normalised like the
                                     ///< network's source) instead of the decoded network -- the tests' reference
   uint64_t seed = 1;
@@ -110,6 +122,8 @@ struct RenderStats
   int64_t wavefronts = 0;       ///< Sample Streaming: batches inferred
   int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
   bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
+  bool cancelled = false;       ///< request.control->cancel stopped the render: rgba is empty, nothing was cached or
+                                ///< accumulated (render again to get the picture)
   bool reused = false;          ///< ray marching: the request, network and image size were unchanged, so the previous
                                 ///< image was returned without rendering
   double decodeMilliseconds = 0.0;    ///< decoding and macrocell refresh done by this call

@@ -141,11 +141,11 @@ std::shared_ptr<DecodedGrid> CpuGridDecoder::decode(ThreadPool& pool, const Mode
 }
 
 std::shared_ptr<const DecodedGrid> CpuGridDecoder::decodeNow(const Model& model, uint64_t version,
-  const int64_t dims[3])
+  const int64_t dims[3], const std::atomic<bool>* cancel)
 {
   if (matches(Full.get(), version, dims))
     return Full;
-  return decode(Pool, model, version, dims, nullptr);
+  return decode(Pool, model, version, dims, cancel);
 }
 
 void CpuGridDecoder::finishRunning()

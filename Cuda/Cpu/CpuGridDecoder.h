@@ -52,8 +52,10 @@ public:
   /// blocks left are shared between its thread and the session's pool).
   Result acquire(const Model& model, uint64_t version, const int64_t dims[3], bool wait = false);
 
-  /// The full grid, decoded now on the session's pool when not cached (never progressive).
-  std::shared_ptr<const DecodedGrid> decodeNow(const Model& model, uint64_t version, const int64_t dims[3]);
+  /// The full grid, decoded now on the session's pool when not cached (never progressive). `cancel` (may be null)
+  /// set: stops within a block of 2^18 samples and returns null.
+  std::shared_ptr<const DecodedGrid> decodeNow(const Model& model, uint64_t version, const int64_t dims[3],
+    const std::atomic<bool>* cancel = nullptr);
 
   /// The last full grid when it is `dims` of version `version` (else null): no decode.
   std::shared_ptr<const DecodedGrid> cached(uint64_t version, const int64_t dims[3]) const

@@ -27,7 +27,19 @@ void addCounters(TraceCounters& total, const std::vector<WorkerCounters>& w)
   {
     total.evaluated += x.c.evaluated;
     total.plain += x.c.plain;
+    total.cancelled = total.cancelled || x.c.cancelled;
   }
+}
+
+bool cancelRequested(const RenderControl* control)
+{
+  return control && control->cancel.load(std::memory_order_relaxed);
+}
+
+void addFinished(RenderControl* control, int64_t rays)
+{
+  if (control && rays > 0)
+    control->raysFinished.fetch_add(rays, std::memory_order_relaxed);
 }
 
 [[noreturn]] void runaway()
@@ -38,7 +50,8 @@ void addCounters(TraceCounters& total, const std::vector<WorkerCounters>& w)
 
 /// Per-ray paths: tiles of 8 x 8 pixels handed out dynamically; each pixel's paths run the machine with K = 1.
 template <class Field>
-void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& field, float* rgba, TraceCounters& total)
+void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& field, float* rgba,
+  RenderControl* control, TraceCounters& total)
 {
   const int width = P.width, height = P.height;
   const int tilesX = (width + 7) / 8, tilesY = (height + 7) / 8;
@@ -47,12 +60,19 @@ void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& f
     TraceCounters& c = counters[static_cast<size_t>(w)].c;
     ray::V3 q[ray::kMaxQueriesPerStep];
     float v[ray::kMaxQueriesPerStep];
-    for (int64_t tile = b; tile < e; ++tile)
+    for (int64_t tile = b; tile < e && !c.cancelled; ++tile)
     {
       const int x0 = static_cast<int>(tile % tilesX) * 8, y0 = static_cast<int>(tile / tilesX) * 8;
-      for (int py = y0; py < std::min(height, y0 + 8); ++py)
+      int64_t finished = 0;
+      for (int py = y0; py < std::min(height, y0 + 8) && !c.cancelled; ++py)
         for (int px = x0; px < std::min(width, x0 + 8); ++px)
         {
+          if (cancelRequested(control))
+          {
+            c.cancelled = true;
+            break;
+          }
+          finished += spp;
           float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
           for (int sample = 0; sample < spp; ++sample)
           {
@@ -78,6 +98,7 @@ void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& f
           for (int k = 0; k < 4; ++k)
             dst[k] += sum[k];
         }
+      addFinished(control, finished);
     }
   });
   addCounters(total, counters);
@@ -85,7 +106,7 @@ void tracePerRay(ThreadPool& pool, const ray::Params& P, int spp, const Field& f
 } // namespace
 
 void traceDecode(ThreadPool& pool, const ray::Params& P, int spp, const CpuGridSampler& grid, float* rgba,
-  TraceCounters& counters)
+  RenderControl* control, TraceCounters& counters)
 {
   tracePerRay(
     pool, P, spp,
@@ -93,18 +114,19 @@ void traceDecode(ThreadPool& pool, const ray::Params& P, int spp, const CpuGridS
       for (int i = 0; i < n; ++i)
         v[i] = grid(&q[i].x);
     },
-    rgba, counters);
+    rgba, control, counters);
 }
 
 void traceInShader(ThreadPool& pool, const ray::Params& P, int spp, const CpuHalfNetwork& net, float* rgba,
-  TraceCounters& counters)
+  RenderControl* control, TraceCounters& counters)
 {
   tracePerRay(
-    pool, P, spp, [&net](const ray::V3* q, int n, float* v) { net.evaluate(&q[0].x, n, v); }, rgba, counters);
+    pool, P, spp, [&net](const ray::V3* q, int n, float* v) { net.evaluate(&q[0].x, n, v); }, rgba, control,
+    counters);
 }
 
 void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, const CpuInference& net, float* rgba,
-  TraceCounters& counters, int64_t queryBudget)
+  RenderControl* control, TraceCounters& counters, int64_t queryBudget)
 {
   const int width = P.width;
   const int64_t rays = int64_t(P.width) * P.height * spp; // ray g: pixel g / spp, path g % spp
@@ -124,6 +146,7 @@ void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, cons
   int64_t next = 0;
 
   auto retire = [&](const Slot& s) {
+    addFinished(control, 1);
     counters.plain += s.r.plain;
     float o[4];
     ray::result(s.r, o);
@@ -161,6 +184,11 @@ void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, cons
   admit();
   while (!live.empty())
   {
+    if (cancelRequested(control))
+    {
+      counters.cancelled = true;
+      return;
+    }
     const int64_t nLive = static_cast<int64_t>(live.size());
     slotQueries.resize(static_cast<size_t>(nLive) * cap * 3);
     count.resize(static_cast<size_t>(nLive));
@@ -188,8 +216,18 @@ void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, cons
         std::copy_n(slotQueries.data() + static_cast<size_t>(i) * cap * 3, 3 * count[static_cast<size_t>(i)],
           batch.data() + 3 * offset[static_cast<size_t>(i)]);
     });
-    net.inferPoints(pool, batch.data(), total, values.data());
-    counters.evaluated += total;
+    // Sliced so that a cancelled render stops within one slice (each query is evaluated on its own: the same values).
+    for (int64_t first = 0; first < total; first += kInferenceSlice)
+    {
+      if (cancelRequested(control))
+      {
+        counters.cancelled = true;
+        return;
+      }
+      const int64_t slice = std::min(kInferenceSlice, total - first);
+      net.inferPoints(pool, batch.data() + 3 * first, slice, values.data() + first);
+      counters.evaluated += slice;
+    }
     ++counters.wavefronts;
     // 3. every ray consumes its values in order
     pool.parallelFor(nLive, [&](int64_t b, int64_t e, int) {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "Core/RayMachine.h"
+#include "Core/Render.h"
 
 #include <cstdint>
 
@@ -24,18 +25,25 @@ struct TraceCounters
   int64_t evaluated = 0;  ///< queries evaluated (grid lookups or network evaluations)
   int64_t plain = 0;      ///< sum of Ray::plain
   int64_t wavefronts = 0; ///< Sample Streaming batches
+  bool cancelled = false; ///< control->cancel stopped the trace: rgba holds part of the image
 };
 
 /// `spp` paths per pixel (path s: initRay(..., s); P.frame is the first path index of this render). Each trace adds
-/// the sum of a pixel's path results to rgba (width * height * 4, row 0 at the bottom).
+/// the sum of a pixel's path results to rgba (width * height * 4, row 0 at the bottom). `control` (may be null): the
+/// trace stops when control->cancel is set (checked before every pixel, counters.cancelled) and adds the rays it
+/// finishes to control->raysFinished.
 void traceDecode(ThreadPool& pool, const ray::Params& P, int spp, const CpuGridSampler& grid, float* rgba,
-  TraceCounters& counters);
+  RenderControl* control, TraceCounters& counters);
 void traceInShader(ThreadPool& pool, const ray::Params& P, int spp, const CpuHalfNetwork& net, float* rgba,
-  TraceCounters& counters);
+  RenderControl* control, TraceCounters& counters);
 /// At most `queryBudget` queries per wavefront (live rays = queryBudget / (K * queries per step), at least 1024);
-/// rays beyond that wait and are admitted as others finish.
+/// rays beyond that wait and are admitted as others finish. The batch is inferred in slices of kInferenceSlice
+/// queries (the same values: every query is evaluated on its own); control->cancel is checked between them.
 void traceStreaming(ThreadPool& pool, const ray::Params& P, int spp, int K, const CpuInference& net, float* rgba,
-  TraceCounters& counters, int64_t queryBudget = int64_t(1) << 21);
+  RenderControl* control, TraceCounters& counters, int64_t queryBudget = int64_t(1) << 21);
+
+/// Sample Streaming: queries per inference slice (a cancelled render stops within one slice, ~10 ms on 2 cores).
+constexpr int64_t kInferenceSlice = int64_t(1) << 15;
 
 /// Emit/consume iterations after which a ray is declared runaway (nv::Error): far beyond any valid request.
 constexpr int64_t kMaxRayIterations = int64_t(1) << 26;

@@ -84,7 +84,8 @@ std::shared_ptr<const DecodedGrid> CpuRenderer::referenceGrid(const Model& model
   return Reference;
 }
 
-std::shared_ptr<const DecodedGrid> CpuRenderer::networkLattice(const Model& model, uint64_t version)
+std::shared_ptr<const DecodedGrid> CpuRenderer::networkLattice(const Model& model, uint64_t version,
+  const RenderControl* control)
 {
   int64_t dims[3];
   for (int a = 0; a < 3; ++a)
@@ -92,8 +93,12 @@ std::shared_ptr<const DecodedGrid> CpuRenderer::networkLattice(const Model& mode
   if (Lattice && Lattice->version == version && Lattice->dims[0] == dims[0] && Lattice->dims[1] == dims[1] &&
     Lattice->dims[2] == dims[2])
     return Lattice;
-  Lattice = Decoder.decodeNow(model, version, dims);
-  return Lattice;
+  // (A new network version decodes 2^21 samples: cancellable, as a publish while training starts it again.)
+  std::shared_ptr<const DecodedGrid> lattice =
+    Decoder.decodeNow(model, version, dims, control ? &control->cancel : nullptr);
+  if (lattice)
+    Lattice = lattice;
+  return lattice;
 }
 
 void CpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& out)
@@ -119,6 +124,18 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   if (q.grid && q.path != RenderPath::Decode)
     NV_THROW(std::string("invalid render request: a reference grid is rendered by the Decode path only (path is ") +
       renderPathName(q.path) + ")");
+  auto cancelled = [&] {
+    out.rgba.clear();
+    out.deviceRgba = nullptr;
+    out.stats = RenderStats();
+    out.stats.path = q.path;
+    out.stats.cancelled = true;
+  };
+  if (q.control && q.control->cancel.load())
+  {
+    cancelled();
+    return;
+  }
   RenderSetup setup = makeRenderSetup(q, model.source);
   DecodeShown = q.path == RenderPath::Decode && !q.grid;
   ray::Params& P = setup.params;
@@ -144,7 +161,12 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   }
   else
   {
-    lattice = networkLattice(model, version);
+    lattice = networkLattice(model, version, q.control);
+    if (!lattice)
+    {
+      cancelled();
+      return;
+    }
     const int64_t cells = int64_t(setup.cells.dims[0]) * setup.cells.dims[1] * setup.cells.dims[2];
     const CpuInference net(model);
     if (Options.probesPerCell > 0)
@@ -213,20 +235,20 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
       case RenderPath::Decode:
       {
         const CpuGridSampler sampler(grid->values.data(), grid->dims, grid->hasNaN);
-        traceDecode(Pool, P, spp, sampler, target, c);
+        traceDecode(Pool, P, spp, sampler, target, q.control, c);
         break;
       }
       case RenderPath::InShader:
       {
         HalfTable.update(model, version);
         const CpuHalfNetwork net(model, HalfTable.table());
-        traceInShader(Pool, P, spp, net, target, c);
+        traceInShader(Pool, P, spp, net, target, q.control, c);
         break;
       }
       case RenderPath::SampleStreaming:
       {
         const CpuInference net(model);
-        traceStreaming(Pool, P, spp, setup.streamingSamples, net, target, c);
+        traceStreaming(Pool, P, spp, setup.streamingSamples, net, target, q.control, c);
         break;
       }
     }
@@ -244,6 +266,22 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   }
   st.rays = static_cast<int64_t>(q.width) * q.height * spp;
   st.samplesEvaluated = c.evaluated;
+  if (c.cancelled)
+  {
+    // Stopped by the caller: nothing is cached, a partial path-tracing frame is not averaged in.
+    if (pathTrace)
+    {
+      Accum.clear();
+      AccumFrames = 0;
+    }
+    st.cancelled = true;
+    st.wavefronts = c.wavefronts;
+    st.renderMilliseconds = millis(t1, Clock::now());
+    out.rgba.clear();
+    out.deviceRgba = nullptr;
+    out.stats = st;
+    return;
+  }
   st.samplesPlain = pathTrace ? 0 : c.plain;
   st.wavefronts = c.wavefronts;
   if (pathTrace)

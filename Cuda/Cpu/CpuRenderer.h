@@ -47,7 +47,9 @@ public:
   CpuRenderer& operator=(const CpuRenderer&) = delete;
 
   /// Render `request` of `model`, whose parameters have version `version` (caches key on it). Throws nv::Error for
-  /// an invalid request or model.
+  /// an invalid request or model. request.control->cancel set before or during the render stops it early
+  /// (stats.cancelled, empty image; the caches and the path-tracing accumulation are left as if it never ran, except
+  /// that a path-tracing accumulation of the same request starts over).
   void render(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
 
   /// True while the last render was a Decode render whose full grid is still decoding in the background or has not
@@ -66,7 +68,8 @@ public:
 
 private:
   std::shared_ptr<const DecodedGrid> referenceGrid(const Model& model, const VolumeView& grid);
-  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version);
+  /// Null when `control` cancelled it.
+  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version, const RenderControl* control);
 
   void renderImpl(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
 

@@ -26,8 +26,7 @@ CpuSession::~CpuSession() = default;
 
 uint64_t CpuSession::version() const
 {
-  std::lock_guard<std::mutex> lock(Mutex);
-  return Version;
+  return Version.load();
 }
 
 void CpuSession::setModel(const Model& model)
@@ -117,8 +116,7 @@ void CpuSession::render(const RenderRequest& request, RenderResult& result, Memo
 
 bool CpuSession::workPending() const
 {
-  std::lock_guard<std::mutex> lock(Mutex);
-  return Renderer->workPending();
+  return Renderer->workPending(); // atomics only: answers while a render holds Mutex
 }
 
 } // namespace nv

@@ -7,6 +7,7 @@
 #include "CpuTrainer.h"
 #include "ThreadPool.h"
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 
@@ -42,7 +43,9 @@ private:
   SessionOptions Options;
   mutable std::mutex Mutex;
   Model M;
-  uint64_t Version = 1;
+  /// Changed under Mutex; read without it (a render in flight on another thread holds Mutex: a caller that only asks
+  /// for the version or for pending work must not wait for that render).
+  std::atomic<uint64_t> Version{ 1 };
   ThreadPool Pool;
   std::unique_ptr<CpuInference> Eval;
   std::unique_ptr<CpuRenderer> Renderer;

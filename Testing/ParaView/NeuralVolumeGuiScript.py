@@ -45,7 +45,9 @@ def start():
     view.SMProxy.AddObserver("EndEvent", lambda caller, event: renders.append(1))
     Render(view)
     if not REMOTE:
-        check(nvtest.info(display, "EngineRenderCount") == 1, "the still render returned after one frame")
+        # (The CPU engine refines in a background thread: the render returned with the first, reduced image.)
+        frames = nvtest.info(display, "LastAccumulatedFrames")
+        check(frames < TARGET, "the still render returned before the target (%d of %d frames drawn)" % (frames, TARGET))
         check(nvtest.info(display, "WorkPending") == 1, "... with work pending (accumulation)")
     first = len(renders)
     # (This capture renders once more: one more frame of the accumulation.)
