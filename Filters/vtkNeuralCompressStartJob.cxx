@@ -208,6 +208,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
 
   nv::SessionOptions sessionOptions;
   sessionOptions.threads = this->Threads;
+  sessionOptions.lowPriority = this->TrainInBackground != 0; // its renders and measurements share the cores with training
   if (!in.Session || in.SessionDevice != static_cast<int>(device) || in.SessionThreads != this->Threads)
   {
     in.Session = nv::NetworkSession::create(device, model, sessionOptions);

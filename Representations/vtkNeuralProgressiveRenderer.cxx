@@ -1,5 +1,7 @@
 #include "vtkNeuralProgressiveRenderer.h"
 
+#include "Core/ThreadPriority.h"
+
 #include <algorithm>
 #include <cmath>
 #include <exception>
@@ -77,6 +79,7 @@ void vtkNeuralProgressiveRenderer::Start(Job&& job)
     this->HaveNext = true;
     ++this->Serial;
     this->Key = this->Next.Key;
+    this->SceneKey = this->Next.SceneKey;
     this->Running = true;
     this->Started = Clock::now();
     this->Control = std::make_shared<nv::RenderControl>();
@@ -100,9 +103,16 @@ void vtkNeuralProgressiveRenderer::Cancel()
   this->HaveNext = false;
   ++this->Serial;
   this->Key = 0;
+  this->SceneKey = 0;
   this->Running = false;
   this->LatestFresh = false;
   this->Published.notify_all();
+}
+
+uint64_t vtkNeuralProgressiveRenderer::CurrentSceneKey() const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->SceneKey;
 }
 
 uint64_t vtkNeuralProgressiveRenderer::CurrentKey() const
@@ -163,9 +173,18 @@ double vtkNeuralProgressiveRenderer::BusySeconds() const
   return this->Running ? std::chrono::duration<double>(Clock::now() - this->Started).count() : 0.0;
 }
 
+bool vtkNeuralProgressiveRenderer::RestedAfterLastJob(double shareOfTime) const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  const double since = std::chrono::duration<double>(Clock::now() - this->LastJobEnd).count();
+  return this->LastJobSeconds <= 0.0 || since * shareOfTime >= this->LastJobSeconds * (1.0 - shareOfTime);
+}
+
 //------------------------------------------------------------------------------
 void vtkNeuralProgressiveRenderer::Run()
 {
+  // Refining shares the cores with a training run (both below the GUI thread, which draws what they make).
+  nv::lowerCurrentThreadPriority();
   std::unique_lock<std::mutex> lock(this->Mutex);
   for (;;)
   {
@@ -201,6 +220,8 @@ void vtkNeuralProgressiveRenderer::Run()
     if (serial == this->Serial)
     {
       this->Running = false;
+      this->LastJobSeconds = std::chrono::duration<double>(Clock::now() - this->Started).count();
+      this->LastJobEnd = Clock::now();
       if (!error.empty())
       {
         this->Error = error;

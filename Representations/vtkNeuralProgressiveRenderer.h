@@ -34,6 +34,7 @@ public:
     nv::RenderRequest Request;     ///< at the final size; its depth and control are ignored
     std::vector<float> Depth;      ///< window depths at the final size (empty: none)
     uint64_t Key = 0;              ///< identifies the picture (the mapper's key)
+    uint64_t SceneKey = 0;         ///< the same without the network's version (a network that trains)
     int Frames = 1;                ///< renders at the final size (path tracing: frames averaged)
     double BudgetMilliseconds = 50.0; ///< the first image should take at most this long
   };
@@ -63,6 +64,8 @@ public:
   void Cancel();
   /// Key of the current job (0: none since the last Cancel()).
   uint64_t CurrentKey() const;
+  /// The current job's SceneKey (0: none).
+  uint64_t CurrentSceneKey() const;
   /// Wait at most `milliseconds` for an image of the current job not taken yet. True when there is one.
   bool WaitForImage(double milliseconds);
   /// Move out the newest image of the current job if it was not taken yet.
@@ -76,6 +79,9 @@ public:
   double Progress() const;
   /// Seconds since the current job started (0 when idle).
   double BusySeconds() const;
+  /// True when the time since the last completed job lets the jobs take at most `shareOfTime` of the time (its
+  /// duration against the rest since it ended); true when no job completed yet.
+  bool RestedAfterLastJob(double shareOfTime) const;
 
   ///@{
   /// Counters: engine renders that drew (not cancelled, not reused), renders stopped by a cancellation, jobs
@@ -114,6 +120,9 @@ private:
   bool HaveNext = false;
   uint64_t Serial = 0;       ///< of the current job
   uint64_t Key = 0;
+  uint64_t SceneKey = 0;
+  double LastJobSeconds = 0.0; ///< duration of the last job that ran to its end
+  Clock::time_point LastJobEnd;
   bool Running = false;      ///< the current job has not finished
   Clock::time_point Started;
   std::shared_ptr<nv::RenderControl> Control; ///< of the job the worker runs

@@ -44,6 +44,8 @@ constexpr std::chrono::seconds kMaxDecodeWait(600);
 /// Progressive mode: a new request waits at most this multiple of FrameBudget for its first image (then the previous
 /// picture is drawn and the refresh driver shows the new one when it is ready).
 constexpr double kFirstImageWait = 1.5;
+/// Progressive mode, a network that trains: the share of the time its live picture may take to redraw new versions.
+constexpr double kLiveRenderShare = 0.5;
 /// Progressive mode: the progress bar appears once a refinement has run this long.
 constexpr double kProgressDelaySeconds = 0.3;
 
@@ -427,7 +429,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     }
 
     // Everything that changes the picture; the engine's own key plus the network.
-    const uint64_t key = Mix(Mix(nv::renderKey(q), session.version()), reinterpret_cast<uintptr_t>(&session));
+    const uint64_t sceneKey = Mix(nv::renderKey(q), reinterpret_cast<uintptr_t>(&session));
+    const uint64_t key = Mix(sceneKey, session.version());
     const bool pathTracing = shading >= PATH_TRACING;
     auto accumulated = [&]() { return static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel; };
     auto renderOnce = [&]() {
@@ -456,7 +459,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
         ? std::max(1, (this->TargetSamples + q.samplesPerPixel - 1) / q.samplesPerPixel)
         : 1;
       std::string error;
-      if (!this->RenderInBackground(q, Mix(key, static_cast<uint64_t>(frames)), frames, scale, error))
+      if (!this->RenderInBackground(q, Mix(key, static_cast<uint64_t>(frames)),
+            Mix(sceneKey, static_cast<uint64_t>(frames)), frames, scale, error))
       {
         fail(error, true);
         return;
@@ -549,8 +553,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 }
 
 //------------------------------------------------------------------------------
-bool vtkNeuralVolumeMapper::RenderInBackground(
-  const nv::RenderRequest& q, uint64_t key, int frames, double viewScale, std::string& error)
+bool vtkNeuralVolumeMapper::RenderInBackground(const nv::RenderRequest& q, uint64_t key, uint64_t sceneKey,
+  int frames, double viewScale, std::string& error)
 {
   vtkInternals& in = *this->Internals;
   if (!in.Worker)
@@ -558,7 +562,14 @@ bool vtkNeuralVolumeMapper::RenderInBackground(
     in.Worker.reset(new vtkNeuralProgressiveRenderer);
   }
   vtkNeuralProgressiveRenderer& worker = *in.Worker;
-  if (worker.CurrentKey() != key)
+  // A network that trains publishes ~10 versions a second: a refinement of the same scene goes on (its later levels
+  // render the network of their moment) instead of restarting at every version and never finishing.
+  // And once it is drawn, the next version of the same scene waits until drawing took at most kLiveRenderShare of
+  // the time: the training beside it keeps the rest of the cores.
+  const bool sameScene = worker.CurrentSceneKey() == sceneKey;
+  const bool sameSceneInFlight = sameScene && worker.Busy();
+  const bool resting = sameScene && !worker.Busy() && !worker.RestedAfterLastJob(kLiveRenderShare);
+  if (worker.CurrentKey() != key && !sameSceneInFlight && !resting)
   {
     // A new picture: abandon the refinement in flight, start this one and wait a frame's budget for its first image.
     vtkNeuralProgressiveRenderer::Job job;
@@ -570,6 +581,7 @@ bool vtkNeuralVolumeMapper::RenderInBackground(
       job.Depth.assign(q.depth, q.depth + static_cast<size_t>(q.width) * static_cast<size_t>(q.height));
     }
     job.Key = key;
+    job.SceneKey = sceneKey;
     job.Frames = frames;
     job.BudgetMilliseconds = this->FrameBudget;
     worker.Start(std::move(job));
@@ -596,7 +608,7 @@ bool vtkNeuralVolumeMapper::RenderInBackground(
     in.Key = 0; // a blocking render after this one renders its own picture
   }
   in.Progress = worker.Progress();
-  in.WorkPending = busy || worker.WaitForImage(0.0);
+  in.WorkPending = busy || resting || worker.WaitForImage(0.0);
   return true;
 }
 

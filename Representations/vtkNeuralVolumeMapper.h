@@ -234,10 +234,11 @@ private:
   vtkNeuralVolumeMapper(const vtkNeuralVolumeMapper&) = delete;
   void operator=(const vtkNeuralVolumeMapper&) = delete;
 
-  /// Progressive mode: start `request` in the background unless it is the picture in progress (key), take the
-  /// newest finished image. False (and `error`) when the background render failed.
-  bool RenderInBackground(const nv::RenderRequest& request, uint64_t key, int frames, double viewScale,
-    std::string& error);
+  /// Progressive mode: start `request` in the background unless it is the picture in progress (key) or a refinement
+  /// of the same scene (sceneKey: the key without the network's version) is in flight, take the newest finished
+  /// image. False (and `error`) when the background render failed.
+  bool RenderInBackground(const nv::RenderRequest& request, uint64_t key, uint64_t sceneKey, int frames,
+    double viewScale, std::string& error);
   /// Composite the current image (and the progress bar of a long refinement).
   void DrawImage(vtkRenderer* ren);
 

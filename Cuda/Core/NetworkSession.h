@@ -46,6 +46,8 @@ struct KernelOptions
 struct SessionOptions
 {
   int threads = 0; ///< CPU worker threads (CPU backend, and host-side work of the GPU backend); 0 = all cores
+  /// The CPU backend's workers run at a lower scheduling priority (ThreadPriority.h): a session beside a GUI.
+  bool lowPriority = false;
   KernelOptions kernels;
 };
 

@@ -1,5 +1,7 @@
 #include "CpuGridDecoder.h"
 
+#include "Core/ThreadPriority.h"
+
 #include "Core/Error.h"
 #include "Core/Model.h"
 #include "CpuInference.h"
@@ -63,7 +65,7 @@ struct CpuGridDecoder::Job
 CpuGridDecoder::CpuGridDecoder(ThreadPool& pool, int64_t progressiveSamples)
   : Pool(pool)
   , ProgressiveSamples(std::max<int64_t>(1, progressiveSamples))
-  , Background(std::max(1, pool.size() - 1))
+  , Background(std::max(1, pool.size() - 1), pool.lowPriority())
 {
 }
 
@@ -224,11 +226,14 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
     job->dims[a] = dims[a];
   Job* j = job.get();
   ThreadPool* pool = &Background;
+  const bool lowPriority = Background.lowPriority();
   Pending = true;
   // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
   job->block = std::max<int64_t>(1, (int64_t(1) << 18) / (dims[0] * dims[1]));
   job->blocks = (dims[2] + job->block - 1) / job->block;
-  job->thread = std::thread([j, pool] {
+  job->thread = std::thread([j, pool, lowPriority] {
+    if (lowPriority)
+      lowerCurrentThreadPriority(); // the pool's worker 0
     try
     {
       auto g = std::make_shared<DecodedGrid>();

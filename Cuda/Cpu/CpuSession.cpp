@@ -17,7 +17,7 @@ std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const Sessi
 CpuSession::CpuSession(const Model& model, const SessionOptions& options)
   : Options(options)
   , M(model)
-  , Pool(options.threads)
+  , Pool(options.threads, options.lowPriority)
   , Renderer(new CpuRenderer(Pool))
 {
 }
@@ -34,7 +34,6 @@ void CpuSession::setModel(const Model& model)
   validate(model.config());
   std::lock_guard<std::mutex> lock(Mutex);
   M = model;
-  Eval.reset();
   ++Version;
 }
 
@@ -44,10 +43,25 @@ Model CpuSession::currentModel()
   return M;
 }
 
-const CpuInference& CpuSession::evaluator()
+CpuSession::Snapshot CpuSession::snapshot()
 {
-  if (!Eval)
-    Eval.reset(new CpuInference(M));
+  std::lock_guard<std::mutex> lock(Mutex);
+  const uint64_t current = Version.load();
+  if (!Snap.model || Snap.version != current)
+  {
+    Snap.model = std::make_shared<const Model>(M);
+    Snap.version = current;
+  }
+  return Snap;
+}
+
+const CpuInference& CpuSession::evaluator(const std::shared_ptr<const Model>& model)
+{
+  if (!Eval || EvalModel != model)
+  {
+    Eval.reset(new CpuInference(*model));
+    EvalModel = model;
+  }
   return *Eval;
 }
 
@@ -58,7 +72,6 @@ CpuTrainer::PublishFn CpuSession::publisher()
     std::lock_guard<std::mutex> guard(Mutex);
     NV_CHECK(p.size() == M.params().size(), "publish: the trainer's network has a different configuration");
     M.params() = p;
-    Eval.reset();
     ++Version;
   };
 }
@@ -83,8 +96,8 @@ void CpuSession::inferPoints(const float* xyz, int64_t n, float* out, Memory whe
   NV_CHECK(n >= 0 && (n == 0 || (xyz && out)), "inferPoints: invalid arguments");
   if (n == 0)
     return;
-  std::lock_guard<std::mutex> lock(Mutex);
-  evaluator().inferPoints(Pool, xyz, n, out);
+  std::lock_guard<std::mutex> work(WorkMutex);
+  evaluator(snapshot().model).inferPoints(Pool, xyz, n, out);
 }
 
 void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where)
@@ -95,23 +108,25 @@ void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int6
   NV_CHECK(out != nullptr || z0 == z1, "decodeGrid: null output");
   if (z0 == z1)
     return;
-  std::lock_guard<std::mutex> lock(Mutex);
+  std::lock_guard<std::mutex> work(WorkMutex);
+  const Snapshot now = snapshot();
   // The grid the Decode path rendered last (same network, same dims: the same values, decoded by the same code) is
   // copied instead of decoded again -- a script that renders a restored network, then asks for the decoded field.
   const int64_t dims[3] = { nx, ny, nz };
-  if (const std::shared_ptr<const DecodedGrid> grid = Renderer->decodedGrid(Version, dims))
+  if (const std::shared_ptr<const DecodedGrid> grid = Renderer->decodedGrid(now.version, dims))
   {
     std::memcpy(out, grid->values.data() + z0 * nx * ny, static_cast<size_t>((z1 - z0) * nx * ny) * sizeof(float));
     return;
   }
-  evaluator().decodeGrid(Pool, nx, ny, nz, z0, z1, out);
+  evaluator(now.model).decodeGrid(Pool, nx, ny, nz, z0, z1, out);
 }
 
 void CpuSession::render(const RenderRequest& request, RenderResult& result, Memory where)
 {
   NV_CHECK(where == Memory::Host, "the CPU backend renders into host memory");
-  std::lock_guard<std::mutex> lock(Mutex);
-  Renderer->render(M, Version, request, result);
+  std::lock_guard<std::mutex> work(WorkMutex);
+  const Snapshot now = snapshot();
+  Renderer->render(*now.model, now.version, request, result);
 }
 
 bool CpuSession::workPending() const

@@ -37,17 +37,29 @@ public:
 private:
   /// Makes a trainer's parameters the session's.
   CpuTrainer::PublishFn publisher();
-  /// The evaluator of the current parameters (rebuilt after a change). Call with Mutex held.
-  const CpuInference& evaluator();
+  /// The network of the moment, copied once per version: renders and inference use it without holding Mutex, so a
+  /// trainer publishing and a caller asking for the model never wait for a render in flight.
+  struct Snapshot
+  {
+    std::shared_ptr<const Model> model;
+    uint64_t version = 0;
+  };
+  Snapshot snapshot();
+  /// The evaluator of a snapshot (rebuilt for another one). Call with WorkMutex held.
+  const CpuInference& evaluator(const std::shared_ptr<const Model>& model);
 
   SessionOptions Options;
-  mutable std::mutex Mutex;
+  mutable std::mutex Mutex; ///< M, Version, Snap: held briefly, never during a render or inference
   Model M;
-  /// Changed under Mutex; read without it (a render in flight on another thread holds Mutex: a caller that only asks
-  /// for the version or for pending work must not wait for that render).
+  /// Changed under Mutex; read without it.
   std::atomic<uint64_t> Version{ 1 };
+  Snapshot Snap;
+  /// One piece of work on the pool at a time (renders, inference, decoding): the pool, the renderer's caches and the
+  /// evaluator belong to it.
+  std::mutex WorkMutex;
   ThreadPool Pool;
   std::unique_ptr<CpuInference> Eval;
+  std::shared_ptr<const Model> EvalModel; ///< the snapshot Eval was built from
   std::unique_ptr<CpuRenderer> Renderer;
 };
 

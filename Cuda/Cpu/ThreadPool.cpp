@@ -20,6 +20,7 @@ int ThreadPool::defaultThreads()
 
 ThreadPool::ThreadPool(int threads, bool lowPriority)
   : Count(threads > 0 ? threads : defaultThreads())
+  , LowPriority(lowPriority)
 {
   for (int i = 1; i < Count; ++i)
   {

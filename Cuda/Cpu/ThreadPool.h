@@ -22,6 +22,8 @@ public:
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return Count; }
+  /// Whether the workers run at a lower scheduling priority.
+  bool lowPriority() const { return LowPriority; }
 
   /// Run fn(worker) on every worker (worker 0 is the calling thread) and wait. Exceptions are rethrown.
   void runOnAll(const std::function<void(int)>& fn);
@@ -38,6 +40,7 @@ private:
   void workerLoop(int id);
 
   int Count;
+  bool LowPriority = false;
   std::vector<std::thread> Workers;
   std::mutex Mutex;
   std::condition_variable Wake;

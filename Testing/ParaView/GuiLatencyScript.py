@@ -75,6 +75,8 @@ def gaps(since, until):
 
 def summarise(name, lat, gap_list):
     finite = [v for v in lat if v != float("inf")]
+    if len(finite) < len(lat):
+        log("%s: events never handled: %r" % (name, [k for k, v in enumerate(lat) if v == float("inf")]))
     entry = {"events": len(lat), "handled": len(finite),
              "median_s": statistics.median(lat) if lat else float("inf"),
              "max_s": max(lat) if lat else float("inf"),
@@ -95,6 +97,15 @@ def start_drag(name):
     ox, oy = state["offset"]
     proc, path = driver(["drag", x0 + ox, (size[1] - 1 - y0) + oy, 60, 6, 0.12], "gui_latency_%s.txt" % name)
     state.update(driver=proc, sent=path, since=time.time(), name=name)
+
+
+WATCH_SECONDS = 8.0
+
+
+def steps_of(text):
+    import re
+    match = re.search(r": (\d+)", text)
+    return int(match.group(1)) if match else 0
 
 
 def status():
@@ -129,10 +140,18 @@ def on_timer(caller, event):
             nvtest.finish()
             nvtest._exit(1)
     elif phase == "train-wait" and (status().startswith("Training") or now - state["since"] > 30.0):
-        log("training: %r" % status())
+        # The view is still for a while: how fast training goes beside the live picture.
+        state.update(phase="watching", since=now, steps=steps_of(status()))
+    elif phase == "watching" and now - state["since"] > WATCH_SECONDS:
+        steps = steps_of(status()) - state["steps"]
+        state["results"]["watching"] = {"steps_per_s": steps / (now - state["since"])}
+        log("training beside the still view: %.2f steps/s (%r)" % (steps / (now - state["since"]), status()))
         start_drag("training")
         state["phase"] = "dragging"
     elif phase == "dragging" and state["driver"].poll() is not None:
+        state["phase"], state["ended"] = "settling", now  # the last events may still be on their way
+    elif phase == "settling" and now - state["ended"] > MAX_LIMIT + 0.1:
+        state["phase"] = "dragging"
         name = state["name"]
         summarise(name, latencies(state["sent"], state["since"]), gaps(state["since"], now))
         if name == "training":
