@@ -267,21 +267,7 @@ int vtkNeuralCompress::RequestData(
     // (input) geometry, so the pipeline does not execute again (and repeat the error) on every
     // update.
     this->Internals->Retire();
-    output->Initialize();
-    nvi::InitializeLog(log);
-    nvi::InitializeMetrics(metrics);
-    vtkInformation* outInfo = outputVector->GetInformationObject(0);
-    if (outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-    {
-      int ext[6];
-      double origin[3], spacing[3];
-      outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
-      outInfo->Get(vtkDataObject::ORIGIN(), origin);
-      outInfo->Get(vtkDataObject::SPACING(), spacing);
-      output->SetExtent(ext);
-      output->SetOrigin(origin);
-      output->SetSpacing(spacing);
-    }
+    nvi::InitializeOutputs(output, log, metrics, outputVector->GetInformationObject(0));
   }
   output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
 

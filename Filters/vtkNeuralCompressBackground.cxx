@@ -120,21 +120,7 @@ bool vtkNeuralCompress::EmitWhilePreparing(vtkImageData* output, vtkTable* log, 
     return true;
   }
   // Nothing to show yet: the promised geometry, no network.
-  output->Initialize();
-  nvi::InitializeLog(log);
-  nvi::InitializeMetrics(metrics);
-  vtkInformation* outInfo = this->GetOutputInformation(0);
-  if (outInfo && outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-  {
-    int ext[6];
-    double origin[3], spacing[3];
-    outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
-    outInfo->Get(vtkDataObject::ORIGIN(), origin);
-    outInfo->Get(vtkDataObject::SPACING(), spacing);
-    output->SetExtent(ext);
-    output->SetOrigin(origin);
-    output->SetSpacing(spacing);
-  }
+  nvi::InitializeOutputs(output, log, metrics, this->GetOutputInformation(0));
   vtkNew<vtkStringArray> state;
   state->SetName("NeuralTrainingState");
   state->InsertNextValue("Preparing");

@@ -8,9 +8,11 @@
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 #include "vtkImageData.h"
+#include "vtkInformation.h"
 #include "vtkIntArray.h"
 #include "vtkPointData.h"
 #include "vtkStringArray.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkTable.h"
 #include "vtkTypeInt64Array.h"
 
@@ -310,6 +312,24 @@ std::map<uint64_t, std::vector<uint8_t>> DecodeNetworks(const std::string& text,
     pos = end;
   }
   return out;
+}
+
+void InitializeOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo)
+{
+  output->Initialize();
+  InitializeLog(log);
+  InitializeMetrics(metrics);
+  if (outInfo && outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    int ext[6];
+    double origin[3], spacing[3];
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
+    outInfo->Get(vtkDataObject::ORIGIN(), origin);
+    outInfo->Get(vtkDataObject::SPACING(), spacing);
+    output->SetExtent(ext);
+    output->SetOrigin(origin);
+    output->SetSpacing(spacing);
+  }
 }
 
 } // namespace vtkNeuralCompressInternals

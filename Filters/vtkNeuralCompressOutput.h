@@ -12,6 +12,7 @@
 
 class vtkDataArray;
 class vtkImageData;
+class vtkInformation;
 class vtkTable;
 
 namespace vtkNeuralCompressInternals
@@ -30,6 +31,10 @@ void InitializeLog(vtkTable* log);
 /// Output 2: one row per network, ordered by time.
 void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& records);
 void InitializeMetrics(vtkTable* metrics);
+
+/// Outputs without a network: empty tables and an image of the geometry promised in `outInfo` (its whole extent,
+/// origin and spacing), so the pipeline does not execute again for a geometry it did not announce.
+void InitializeOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo);
 
 /// The line printed when a network is complete; `fromCache`: the network of this time step was trained before and
 /// taken from the filter's cache.

@@ -281,9 +281,14 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     this->Deterministic || this->TimeBudget <= 0.0 ? 0.0 : std::max(1e-3, this->TimeBudget - field.PreparationSeconds);
   const nv::VolumeView& fieldView = data->Field.View;
   const int* decodedDims = field.Geometry.DecodedDims;
-  limits.FinalSamples = (fieldView.data ? fieldView.count() : int64_t(0)) +
-    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0)) +
-    (this->OutputMode != 0 ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0));
+  // The phase end (Job::Finalize) decodes the output field (decoded modes), measures the network over the field
+  // (a float32 field decoded on the source's grid is compared as it is, without evaluating the network again) and at
+  // a resampled input's own samples.
+  const bool decodes = this->OutputMode != 0;
+  const bool comparesDecoded = this->OutputMode == OUTPUT_FLOAT32 && field.Geometry.OnSourceGrid;
+  limits.FinalSamples = (decodes ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0)) +
+    (fieldView.data && !comparesDecoded ? fieldView.count() : int64_t(0)) +
+    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0));
   limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;
   limits.PsnrInterval = this->PSNRInterval > 0 ? this->PSNRInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
   this->StartRun(j, limits, 0, false);

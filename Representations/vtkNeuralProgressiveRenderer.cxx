@@ -64,17 +64,22 @@ vtkNeuralProgressiveRenderer::~vtkNeuralProgressiveRenderer()
 }
 
 //------------------------------------------------------------------------------
+void vtkNeuralProgressiveRenderer::AbandonInFlight()
+{
+  if (this->Running && this->Control)
+  {
+    this->Control->cancel = true;
+    this->CancelTime = Clock::now();
+    this->CancelPending = true;
+    ++this->AbandonedJobCount;
+  }
+}
+
 void vtkNeuralProgressiveRenderer::Start(Job&& job)
 {
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
-    if (this->Running && this->Control)
-    {
-      this->Control->cancel = true;
-      this->CancelTime = Clock::now();
-      this->CancelPending = true;
-      ++this->AbandonedJobCount;
-    }
+    this->AbandonInFlight();
     this->Next = std::move(job);
     this->HaveNext = true;
     ++this->Serial;
@@ -93,13 +98,7 @@ void vtkNeuralProgressiveRenderer::Start(Job&& job)
 void vtkNeuralProgressiveRenderer::Cancel()
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
-  if (this->Running && this->Control)
-  {
-    this->Control->cancel = true;
-    this->CancelTime = Clock::now();
-    this->CancelPending = true;
-    ++this->AbandonedJobCount;
-  }
+  this->AbandonInFlight();
   this->HaveNext = false;
   ++this->Serial;
   this->Key = 0;

@@ -93,6 +93,8 @@ public:
   ///@}
 
 private:
+  /// Cancels the job in flight (Mutex held): its engine render stops, it counts as abandoned.
+  void AbandonInFlight();
   using Clock = std::chrono::steady_clock;
 
   void Run();

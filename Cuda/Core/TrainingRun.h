@@ -116,6 +116,7 @@ private:
   static constexpr int kCalibrationBatch = 65536;
   static constexpr double kStepShare = 0.05;
   static constexpr double kBudgetOverrun = 0.05; ///< a step may end this share of the budget past it, no more
+  static constexpr double kMaxReserveShare = 0.5; ///< the phase end's reserve takes at most this share of the budget
   int RequestedBatch = 0;      ///< the configured batch (Config.batchSize may be capped below it)
   bool Calibrating = false;    ///< the trainer runs the calibration batch
   double StepSeconds = 0.0;    ///< seconds of the last step (0: none yet)

@@ -237,6 +237,44 @@ NV_TEST(filter_loop_abort_and_time_budget_on_gpu)
   }
 }
 
+NV_TEST(time_budget_bounds_training_and_measurement_on_gpu)
+{
+  // As the filter runs it: the budget bounds the steps, probes and the measurement over every voxel at the phase end
+  // (FinalSamples at the measured inference rate) within 10%.
+  const int n = 160;
+  std::vector<float> data(size_t(n) * n * n);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        data[(size_t(z) * n + y) * n + x] = float(std::sin(0.11 * x) * std::cos(0.07 * y) + 0.3 * std::sin(0.05 * z * x));
+  const VolumeView vol = floatCubeView(data, n);
+  auto training = std::make_shared<TrainingData>();
+  training->Field.View = vol;
+  training->Probe.reset(new PsnrProbe(vol, 1, 65536));
+  ModelConfig c;
+  c.encoding.log2TableSize = 19;
+  std::shared_ptr<NetworkSession> session = NetworkSession::create(Device::Cuda, nvtest::untrainedModel(c, vol, 3));
+  RunLimits limits;
+  limits.MaxSteps = 100000000;
+  limits.PsnrInterval = 100;
+  limits.TimeBudget = 2.0;
+  limits.FinalSamples = vol.count();
+  double measureSeconds = 0.0, psnr = 0.0;
+  TrainingRun run(session, training, trainConfig(TrainingStrategy::Auto), limits, [&](TrainingRun& r, const RunStatus&) {
+    const auto t0 = std::chrono::steady_clock::now();
+    psnr = compareToSource(r.Session(), vol).psnr;
+    measureSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  run.RunHere(nullptr, nullptr);
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const RunStatus st = run.Status();
+  std::printf("    budget 2 s: %lld steps, %.3f s training + %.3f s measuring (%.2f dB) = %.3f s (reserve %.3f s)\n",
+    (long long)st.Steps, st.Seconds, measureSeconds, psnr, total, run.FinalReserveSeconds());
+  EXPECT_TRUE(st.EndReason == "time budget");
+  EXPECT_TRUE(total >= 1.8 && total <= 2.2);
+}
+
 NV_TEST(background_run_while_rendering_on_gpu)
 {
   // The online filter on the GPU: a background run trains and publishes while this thread renders; every few frames
