@@ -162,7 +162,8 @@ private:
   bool FastForward = false;
   double PhaseBudget = 0.0;    ///< active seconds allowed to this phase (0 = unlimited)
   double InferSecondsPerSample = 0.0; ///< measured once by MeasureInference (0: not yet)
-  /// Times the session's inference on up to 2^17 points (InferSecondsPerSample), for the budget's reserve.
+  /// Times the phase end's work per sample (a decode to host doubles and a comparison, on up to 2^17 samples:
+  /// InferSecondsPerSample), for the budget's reserve.
   void MeasureInference();
   double PhaseStartSeconds = 0.0;
   double PhaseTargetPsnr = 0.0;

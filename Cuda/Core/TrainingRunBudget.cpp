@@ -2,6 +2,8 @@
 // steps of its annealed learning-rate schedule (PlanSchedule); see TrainingRun.h.
 #include "TrainingRun.h"
 
+#include "Engine.h"
+
 #include <algorithm>
 #include <chrono>
 #include <vector>
@@ -62,23 +64,32 @@ void TrainingRun::ResizeBatch(int batch, double stepSeconds)
 
 void TrainingRun::MeasureInference()
 {
-  // Enough points that the call's fixed cost is shared (the phase end evaluates its samples in large calls), at most
-  // what the phase end evaluates.
+  // What the phase end does per sample, on a grid of up to 2^17 samples: the network decoded to doubles in host
+  // memory, then compared with a field (compareToSource; a decode for the output costs less). Enough samples that
+  // the calls' fixed costs are shared, at most what the phase end evaluates.
   const int64_t count = std::min<int64_t>(this->Limits.FinalSamples, int64_t(1) << 17);
-  std::vector<float> xyz(static_cast<size_t>(3 * count)), out(static_cast<size_t>(count));
-  for (size_t i = 0; i < xyz.size(); ++i)
-    xyz[i] = static_cast<float>((i * 2654435761ull) % 4093ull) / 4092.0f;
+  const int64_t nx = std::min<int64_t>(count, 64), ny = std::max<int64_t>(1, std::min<int64_t>(count / nx, 64));
+  const int64_t nz = std::max<int64_t>(1, count / (nx * ny));
+  std::vector<double> decoded(static_cast<size_t>(nx * ny * nz));
+  std::vector<float> field(decoded.size(), 0.5f);
+  VolumeView view;
+  view.data = field.data();
+  view.type = ScalarType::Float32;
+  view.dims[0] = nx;
+  view.dims[1] = ny;
+  view.dims[2] = nz;
   // Twice: the first call may also build the evaluator of a new network; the faster one is the rate (a busy machine
   // only slows a measurement).
   double best = 0.0;
   for (int attempt = 0; attempt < 2; ++attempt)
   {
     const auto start = std::chrono::steady_clock::now();
-    this->SessionPtr->inferPoints(xyz.data(), count, out.data(), Memory::Host);
+    decodeGridValues(*this->SessionPtr, nx, ny, nz, 0, nz, decoded.data());
+    compareDecoded(decoded.data(), view, 0.0, 1.0, 0);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     best = attempt == 0 ? seconds : std::min(best, seconds);
   }
-  this->InferSecondsPerSample = std::max(best, 1e-9) / static_cast<double>(count);
+  this->InferSecondsPerSample = std::max(best, 1e-9) / static_cast<double>(decoded.size());
 }
 
 double TrainingRun::FinalReserveSeconds() const
