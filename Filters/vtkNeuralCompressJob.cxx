@@ -334,6 +334,23 @@ void Job::FinalizeWithoutTraining()
   this->FinalRecord = record;
 }
 
+void Job::WriteLiveBytes(const RunStatus& status)
+{
+  nv::Model model = this->Session->currentModel();
+  // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
+  // 8-bit network is coded once, when training ends (Finalize).
+  model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
+  model.stats.steps = status.Steps;
+  model.stats.seconds = status.Seconds;
+  model.stats.device = nv::deviceName(this->Session->device());
+  std::vector<uint8_t> bytes = nv::serialize(model);
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->LiveBytes.swap(bytes);
+  this->LiveBytesTime = std::chrono::steady_clock::now();
+  this->LiveModelBytes = model.parameterBytes();
+  this->LiveWriting = false;
+}
+
 NetworkRecord Job::Snapshot()
 {
   NetworkRecord r;
@@ -341,29 +358,40 @@ NetworkRecord Job::Snapshot()
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
   // The bytes matter to consumers in other processes only (renderers here use the live session): serialized again
-  // at most once a second, so frequent live refreshes of a large network stay cheap for the GUI thread.
-  const auto now = std::chrono::steady_clock::now();
-  if (this->LiveBytes.empty() || now - this->LiveBytesTime > std::chrono::seconds(1))
+  // at most once a second, in a thread of their own (a large network takes a fifth of a second and more), so live
+  // refreshes cost the filter's thread a copy. The first snapshot waits for its bytes: the output carries a network
+  // from the start.
+  bool start = false, first = false;
   {
-    nv::Model model = this->Session->currentModel();
-    // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
-    // 8-bit network is coded once, when training ends (Finalize).
-    model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
-    model.stats.steps = status.Steps;
-    model.stats.seconds = status.Seconds;
-    model.stats.device = nv::deviceName(this->Session->device());
-    this->LiveBytes = nv::serialize(model);
-    this->LiveBytesTime = now;
-    this->LiveModelBytes = model.parameterBytes();
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    const auto now = std::chrono::steady_clock::now();
+    first = this->LiveBytes.empty();
+    if (!this->LiveWriting && (first || now - this->LiveBytesTime > std::chrono::seconds(1)))
+    {
+      start = true;
+      this->LiveWriting = true;
+    }
   }
-  r.Bytes = this->LiveBytes;
+  if (start)
+  {
+    if (this->LiveWriter.joinable())
+      this->LiveWriter.join(); // ended: LiveWriting was off
+    if (first)
+      this->WriteLiveBytes(status);
+    else
+      this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
+  }
   Metrics& m = r.M;
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    r.Bytes = this->LiveBytes;
+    m.ModelBytes = this->LiveModelBytes;
+  }
   m.State = RunStateName(status.State);
   m.Steps = status.Steps;
   m.Seconds = status.Seconds;
   m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
   m.PsnrFinal = false;
-  m.ModelBytes = this->LiveModelBytes;
   m.Ratio = static_cast<double>(this->Base.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;

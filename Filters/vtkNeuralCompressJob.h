@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 class vtkDataArray;
@@ -130,6 +131,8 @@ public:
   ~Job()
   {
     this->Retiring = true; // a decode at a phase end stops at its next chunk
+    if (this->LiveWriter.joinable())
+      this->LiveWriter.join();
     this->Run.reset();
   }
   Job(const Job&) = delete;
@@ -179,9 +182,14 @@ public:
   mutable std::mutex Mutex;
 
 private:
-  std::vector<uint8_t> LiveBytes;
+  /// Serializes the session's network of the moment into LiveBytes (in LiveWriter's thread, or the caller's).
+  void WriteLiveBytes(const RunStatus& status);
+
+  std::vector<uint8_t> LiveBytes; ///< under Mutex, as the two below
   std::chrono::steady_clock::time_point LiveBytesTime;
   int64_t LiveModelBytes = 0;
+  bool LiveWriting = false;  ///< LiveWriter runs (under Mutex)
+  std::thread LiveWriter;    ///< serializes a live snapshot off the filter's thread
   std::shared_ptr<const NetworkRecord> FinalRecord;
   vtkSmartPointer<vtkDataArray> Decoded;
   int DecodedMode = 0;
