@@ -185,6 +185,18 @@ vtkDataObject* vtkNeuralVolumeRepresentation::GetRenderedDataObject(int port)
   return this->RepresentedData ? this->RepresentedData.GetPointer() : this->Superclass::GetRenderedDataObject(port);
 }
 
+namespace
+{
+/// Neural Compress is still preparing its field (its output has no network yet, NeuralTrainingState "Preparing"):
+/// nothing to draw, and no error to report.
+bool IsPreparing(vtkImageData* image)
+{
+  auto* state =
+    image ? vtkStringArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralTrainingState")) : nullptr;
+  return state && state->GetNumberOfValues() > 0 && state->GetValue(0) == "Preparing";
+}
+} // namespace
+
 //------------------------------------------------------------------------------
 int vtkNeuralVolumeRepresentation::RequestData(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
@@ -206,7 +218,7 @@ int vtkNeuralVolumeRepresentation::RequestData(
       this->HasNetwork = 1;
       this->ReportedMissing = false;
     }
-    else if (!this->ReportedMissing && !emptyPiece)
+    else if (!this->ReportedMissing && !emptyPiece && !IsPreparing(image))
     {
       vtkErrorMacro("Neural Volume: the input has no '"
         << vtkNeuralNetworkArray::GetArrayName()

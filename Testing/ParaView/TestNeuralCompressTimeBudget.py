@@ -63,6 +63,15 @@ for sampling in ("Resample", "Probe"):
     check(returned < 0.5, "%s, background: Apply returns at once (%.3f s)" % (sampling, returned))
     check(status.startswith("Preparing:"), "%s, background: the status line says what is prepared (%r)"
           % (sampling, status))
+    if sampling == "Resample":
+        # Shown while it prepares: nothing to draw yet, and no error ("no network") for the user.
+        view = nvtest.render_view([120, 120])
+        with nvtest.captured_messages() as messages:
+            shown = Show(nc, view)
+            Render(view)
+        log("shown while preparing: %r" % messages[0][:300])
+        check(shown.Representation == "Neural Volume" and "ERR" not in messages[0] and "rror" not in messages[0],
+              "Neural Volume of a filter that prepares: no error (%r)" % messages[0][:200])
     nc.WaitForTraining()
     nc.UpdatePipeline()
     took = time.time() - start
