@@ -5,6 +5,7 @@
 
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressPreparation.h"
+#include "vtkNeuralCompressResample.h"
 #include "vtkNeuralCompressState.h"
 
 #include "Core/Error.h"
@@ -20,6 +21,7 @@
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStringArray.h"
 
+#include <algorithm>
 #include <new>
 
 namespace
@@ -60,10 +62,14 @@ bool vtkNeuralCompress::ExecuteInBackground(const nvi::InputRequest& request, co
     vtkDataArray* shared = request.ArrayName.empty() ? nullptr : attributes->GetArray(request.ArrayName.c_str());
     copy.Array = shared ? shared : request.Array.GetPointer(); // the same array, shared with the copy
   }
+  double bounds[6] = { 1.0, -1.0, 1.0, -1.0, 1.0, -1.0 };
+  if (!request.IsImage)
+    nvi::InputBounds(request.Object, bounds); // before the work starts: the copy is the thread's afterwards
   in.Preparing.reset(new nvi::Preparation(
     identity,
     [this, copy, settings](nvi::Preparation& self) { return this->PrepareField(copy, settings, self.Result()); },
     std::move(in.Preparing)));
+  std::copy(bounds, bounds + 6, in.Preparing->Bounds);
   // A small input is ready within a fraction of a frame: its job starts in this execution, as a blocking one's.
   if (in.Preparing->WaitFor(kPreparationWaitSeconds))
   {
@@ -120,7 +126,8 @@ bool vtkNeuralCompress::EmitWhilePreparing(vtkImageData* output, vtkTable* log, 
     return true;
   }
   // Nothing to show yet: the promised geometry, no network.
-  nvi::InitializeOutputs(output, log, metrics, this->GetOutputInformation(0));
+  const double* bounds = in.Preparing->Bounds[0] <= in.Preparing->Bounds[1] ? in.Preparing->Bounds : nullptr;
+  nvi::InitializeOutputs(output, log, metrics, this->GetOutputInformation(0), bounds);
   vtkNew<vtkStringArray> state;
   state->SetName("NeuralTrainingState");
   state->InsertNextValue("Preparing");

@@ -11,18 +11,25 @@
 #include "vtkDataArray.h"
 
 #include <algorithm>
+#include <chrono>
 
 //------------------------------------------------------------------------------
 bool vtkNeuralCompress::GetNeedsUpdate()
 {
   vtkInternals& in = *this->Internals;
-  // A preparation: its stage changed (the panel's status line) or it ended (its job starts at the next update).
-  const bool preparing = in.Preparing && !in.Preparing->Adopted && in.Preparing->Serial() != in.PreparingSerialShown;
+  // A preparation: it ended (its job starts at the next update), its stage changed or a second passed (the panel's
+  // status line says what it does and for how long).
+  const auto now = std::chrono::steady_clock::now();
+  const bool preparing = in.Preparing && !in.Preparing->Adopted &&
+    (in.Preparing->Serial() != in.PreparingSerialShown || now - in.PreparingShownAt >= std::chrono::seconds(1));
   if (preparing ||
     (in.Current && in.Current->Run && in.Current->Run->Status().Serial != in.Current->EmittedSerial))
   {
     if (in.Preparing)
+    {
       in.PreparingSerialShown = in.Preparing->Serial();
+      in.PreparingShownAt = now;
+    }
     this->Modified();
     return true;
   }

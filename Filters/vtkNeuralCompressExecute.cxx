@@ -210,6 +210,7 @@ bool vtkNeuralCompress::RequestInput(
     return false;
   }
   request.ArrayName = name;
+  request.InputMTime = nvi::InputStamp(inputObject, request.ArrayName, request.Association);
   std::copy(this->Internals->AnnouncedDims, this->Internals->AnnouncedDims + 3, request.AnnouncedDims);
   return true;
 }
@@ -220,8 +221,10 @@ nvi::InputIdentity vtkNeuralCompress::IdentityOf(
 {
   nvi::InputIdentity identity;
   identity.Object = request.Source;
-  identity.MTime = std::max(request.InputMTime, request.Array ? request.Array->GetMTime() : vtkMTimeType(0));
-  identity.Array = request.ArrayName;
+  // Images: the selected array and its modification time (as the training key's field); other inputs: InputStamp.
+  identity.MTime = request.Array ? request.Array->GetMTime() : request.InputMTime;
+  identity.Array = request.Array ? std::to_string(reinterpret_cast<uintptr_t>(request.Array.GetPointer())) : "";
+  identity.Array += request.ArrayName;
   identity.Association = request.Association;
   identity.Settings = canonical;
   identity.Time = time;

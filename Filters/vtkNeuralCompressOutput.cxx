@@ -314,7 +314,8 @@ std::map<uint64_t, std::vector<uint8_t>> DecodeNetworks(const std::string& text,
   return out;
 }
 
-void InitializeOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo)
+void InitializeOutputs(
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo, const double* bounds)
 {
   output->Initialize();
   InitializeLog(log);
@@ -322,10 +323,20 @@ void InitializeOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics, v
   if (outInfo && outInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int ext[6];
-    double origin[3], spacing[3];
+    double origin[3] = { 0.0, 0.0, 0.0 }, spacing[3] = { 1.0, 1.0, 1.0 };
     outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
-    outInfo->Get(vtkDataObject::ORIGIN(), origin);
-    outInfo->Get(vtkDataObject::SPACING(), spacing);
+    if (outInfo->Has(vtkDataObject::ORIGIN()))
+      outInfo->Get(vtkDataObject::ORIGIN(), origin);
+    if (outInfo->Has(vtkDataObject::SPACING()))
+      outInfo->Get(vtkDataObject::SPACING(), spacing);
+    for (int a = 0; bounds && a < 3; ++a)
+    {
+      // The resampled image spans the bounds with its samples (vtkResampleToImage, UseInputBounds).
+      const int cells = ext[2 * a + 1] - ext[2 * a];
+      origin[a] = bounds[2 * a];
+      spacing[a] = cells > 0 && bounds[2 * a + 1] > bounds[2 * a] ? (bounds[2 * a + 1] - bounds[2 * a]) / cells : 1.0;
+      origin[a] -= ext[2 * a] * spacing[a];
+    }
     output->SetExtent(ext);
     output->SetOrigin(origin);
     output->SetSpacing(spacing);

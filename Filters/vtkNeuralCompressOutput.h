@@ -33,8 +33,10 @@ void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& rec
 void InitializeMetrics(vtkTable* metrics);
 
 /// Outputs without a network: empty tables and an image of the geometry promised in `outInfo` (its whole extent,
-/// origin and spacing), so the pipeline does not execute again for a geometry it did not announce.
-void InitializeOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo);
+/// origin and spacing), so the pipeline does not execute again for a geometry it did not announce. `bounds`
+/// (optional): a resampled input's bounds, which its image spans (RequestInformation announces only its extent).
+void InitializeOutputs(
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo, const double* bounds = nullptr);
 
 /// The line printed when a network is complete; `fromCache`: the network of this time step was trained before and
 /// taken from the filter's cache.

@@ -34,14 +34,16 @@ struct InputRequest
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< the sampling dimensions RequestInformation announced (0: none)
   bool IsImage = false;
   const void* Source = nullptr; ///< the pipeline's input object (Object may be a copy of it)
-  vtkMTimeType InputMTime = 0;  ///< its modification time
+  /// Images: the input's modification time; other inputs: InputStamp (vtkNeuralCompressResample.h), also the
+  /// resampler's cache key.
+  uint64_t InputMTime = 0;
 };
 
 /// What decides a preparation: a new one starts when any of these differs.
 struct InputIdentity
 {
   const void* Object = nullptr;
-  vtkMTimeType MTime = 0;
+  uint64_t MTime = 0; ///< the selected array's modification time (images) or InputStamp
   std::string Array;
   int Association = -1;
   std::string Settings; ///< Settings::Canonical()
@@ -117,6 +119,8 @@ public:
   std::vector<QueuedMessage> TakeMessages();
 
   PreparedField& Result() { return this->Prepared; }
+  /// A resampled input's bounds (set by the filter's thread before the work starts; Bounds[0] > Bounds[1]: none).
+  double Bounds[6] = { 1.0, -1.0, 1.0, -1.0, 1.0, -1.0 };
   bool Adopted = false; ///< the filter's thread took the result (a job started from it, or its error printed)
 
 private:

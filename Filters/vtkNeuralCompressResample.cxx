@@ -1,35 +1,39 @@
 #include "vtkNeuralCompressResample.h"
 #include "vtkNeuralCompressJob.h"
 
-#include "vtkCellData.h"
 #include "vtkCell.h"
-#include "vtkDataSetAttributes.h"
-#include "vtkGenericCell.h"
-#include "vtkUnsignedCharArray.h"
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
 #include "vtkCompositeDataIterator.h"
+#include "vtkCompositeDataProbeFilter.h"
 #include "vtkCompositeDataSet.h"
 #include "vtkDataArray.h"
 #include "vtkDataArraySelection.h"
 #include "vtkDataObject.h"
 #include "vtkDataSet.h"
+#include "vtkDataSetAttributes.h"
 #include "vtkDoubleArray.h"
 #include "vtkFloatArray.h"
+#include "vtkGenericCell.h"
 #include "vtkImageData.h"
 #include "vtkNew.h"
 #include "vtkOverlappingAMR.h"
 #include "vtkPassSelectedArrays.h"
 #include "vtkPointData.h"
+#include "vtkPointSet.h"
+#include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkResampleToImage.h"
-#include "vtkCompositeDataProbeFilter.h"
-#include "vtkPoints.h"
 #include "vtkStaticCellLocator.h"
+#include "vtkUnsignedCharArray.h"
+#include "vtkUnstructuredGrid.h"
 
 #include "Core/HashGridMath.h"
 
 #include <chrono>
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -71,6 +75,56 @@ vtkDataArray* FieldArray(vtkDataSet* ds, const std::string& name, int associatio
                                                                 : ds->GetPointData()->GetArray(name.c_str());
 }
 } // namespace
+
+bool InputBounds(vtkDataObject* input, double bounds[6])
+{
+  bool any = false;
+  for (vtkDataSet* leaf : Leaves(input))
+  {
+    if (leaf->GetNumberOfPoints() == 0)
+      continue;
+    double b[6];
+    leaf->GetBounds(b);
+    for (int a = 0; a < 3; ++a)
+    {
+      bounds[2 * a] = any ? std::min(bounds[2 * a], b[2 * a]) : b[2 * a];
+      bounds[2 * a + 1] = any ? std::max(bounds[2 * a + 1], b[2 * a + 1]) : b[2 * a + 1];
+    }
+    any = true;
+  }
+  return any;
+}
+
+uint64_t InputStamp(vtkDataObject* input, const std::string& name, int association)
+{
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](uint64_t v) {
+    for (int b = 0; b < 8; ++b)
+      h = (h ^ ((v >> (8 * b)) & 0xffu)) * 1099511628211ull;
+  };
+  for (vtkDataSet* leaf : Leaves(input))
+  {
+    mix(reinterpret_cast<uintptr_t>(leaf));
+    vtkDataArray* array = FieldArray(leaf, name, association);
+    mix(reinterpret_cast<uintptr_t>(array));
+    mix(array ? array->GetMTime() : 0);
+    if (auto* points = vtkPointSet::SafeDownCast(leaf))
+      mix(points->GetPoints() ? points->GetPoints()->GetMTime() : 0);
+    if (auto* grid = vtkUnstructuredGrid::SafeDownCast(leaf))
+      mix(grid->GetCells() ? grid->GetCells()->GetMTime() : 0);
+    if (auto* poly = vtkPolyData::SafeDownCast(leaf))
+      mix(poly->GetNumberOfCells());
+    double bounds[6];
+    leaf->GetBounds(bounds);
+    for (double b : bounds)
+    {
+      uint64_t bits;
+      std::memcpy(&bits, &b, sizeof(bits));
+      mix(bits);
+    }
+  }
+  return h;
+}
 
 void AutoSamplingDimensions(const double bounds[6], int64_t sourceSamples, double finestSpacing, int dims[3])
 {

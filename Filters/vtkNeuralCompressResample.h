@@ -43,6 +43,14 @@ void AutoSamplingDimensions(const double bounds[6], int64_t sourceSamples, doubl
 bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, int association,
   const int requested[3], int dims[3], std::string& problem);
 
+/// A stamp of what a non-image input's field is made of: every leaf dataset, its points and cells and the array
+/// `name` (their pointers and modification times). It changes when the pipeline gives the filter new data, and not
+/// when only the input's container or information is touched (e.g. by a locator built in a leaf).
+uint64_t InputStamp(vtkDataObject* input, const std::string& name, int association);
+
+/// The bounds of every leaf dataset of `input` together; false (bounds untouched) when it has no points.
+bool InputBounds(vtkDataObject* input, double bounds[6]);
+
 /// The resampled field of a non-image input; reused while the input, the array and the dimensions stay the same
 /// (the filter re-executes for live refreshes during training).
 class InputResampler

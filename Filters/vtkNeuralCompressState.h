@@ -8,6 +8,7 @@
 #include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressResample.h"
 
+#include <chrono>
 #include <map>
 #include <memory>
 #include <string>
@@ -67,6 +68,7 @@ struct vtkNeuralCompress::vtkInternals
   /// joins its thread) before anything it uses.
   std::unique_ptr<nvi::Preparation> Preparing;
   uint64_t PreparingSerialShown = ~uint64_t(0); ///< the preparation's serial at the last live refresh
+  std::chrono::steady_clock::time_point PreparingShownAt; ///< and when it was
 };
 
 

@@ -332,6 +332,15 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       in.TfTime = property->GetMTime();
     }
     q.transfer = in.Tf;
+    if (!(q.transfer.unitDistance > 0.0) || !std::isfinite(q.transfer.unitDistance))
+    {
+      // ParaView sets the unit distance from the data when the representation is first shown; shown before the
+      // network existed (its filter still preparing), it got 0: the trained field's mean spacing instead, as
+      // ParaView would have chosen for it.
+      q.transfer.unitDistance = (std::fabs(src.spacing[0]) + std::fabs(src.spacing[1]) + std::fabs(src.spacing[2])) / 3.0;
+      if (!(q.transfer.unitDistance > 0.0))
+        q.transfer.unitDistance = 1.0;
+    }
 
     q.path = static_cast<nv::RenderPath>(this->RenderPath);
     int shading = this->ShadingMode;

@@ -72,6 +72,11 @@ for sampling in ("Resample", "Probe"):
         log("shown while preparing: %r" % messages[0][:300])
         check(shown.Representation == "Neural Volume" and "ERR" not in messages[0] and "rror" not in messages[0],
               "Neural Volume of a filter that prepares: no error (%r)" % messages[0][:200])
+        # Its geometry is the input's box already (ParaView resets the camera to it on the first Apply).
+        preparing_bounds = servermanager.Fetch(nc).GetBounds()
+        grid_bounds = grid.GetDataInformation().GetBounds()
+        check(all(abs(p - g) < 1e-6 * (1 + abs(g)) for p, g in zip(preparing_bounds, grid_bounds)),
+              "the preparing output spans the input's bounds (%r, %r)" % (preparing_bounds, grid_bounds))
     nc.WaitForTraining()
     nc.UpdatePipeline()
     took = time.time() - start
