@@ -43,19 +43,8 @@ SKIPPING_DB = 45.0       # skipping must not change the picture
 DIFFERENT_MAX_DB = 35.0  # a mode that shades differently must show it
 
 paraview.simple._DisableFirstRenderCameraReset()
-wavelet, nc = nvtest.wavelet_network()
-vmin, vmax = wavelet.PointData["RTData"].GetRange()
-view = nvtest.render_view(SIZE)
-display = Show(nc, view)
-display.SetScalarBarVisibility(view, False)
-lut = GetColorTransferFunction("RTData")
-lut.ApplyPreset("Cool to Warm", True)
-lut.RescaleTransferFunction(vmin, vmax)
-lut.AutomaticRescaleRangeMode = "Never"
-pwf = GetOpacityTransferFunction("RTData")
 # Transparent below 65% of the range: empty macrocells for the skipping checks, structure for the shading modes.
-threshold = vmin + 0.65 * (vmax - vmin)
-pwf.Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
+wavelet, nc, view, display = nvtest.wavelet_view(SIZE, 0.65)
 nvtest.set_camera(view, [55.0, -40.0, 75.0])
 display.TargetSamples = TARGET_SAMPLES
 display.SamplesPerPixel = 1

@@ -27,18 +27,7 @@ ABANDON_MAX_MS = 100.0        # measured a few ms
 REFINE_TIMEOUT_S = 300.0
 
 paraview.simple._DisableFirstRenderCameraReset()
-wavelet, nc = nvtest.wavelet_network()
-vmin, vmax = wavelet.PointData["RTData"].GetRange()
-view = nvtest.render_view(SIZE)
-display = Show(nc, view)
-display.SetScalarBarVisibility(view, False)
-lut = GetColorTransferFunction("RTData")
-lut.ApplyPreset("Cool to Warm", True)
-lut.RescaleTransferFunction(vmin, vmax)
-lut.AutomaticRescaleRangeMode = "Never"
-pwf = GetOpacityTransferFunction("RTData")
-threshold = vmin + 0.5 * (vmax - vmin)
-pwf.Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
+wavelet, nc, view, display = nvtest.wavelet_view(SIZE, 0.5)
 nvtest.set_camera(view, [110.0, -80.0, 150.0])
 # The mapper inside ParaView's composite representation (built-in session: its VTK object lives here). The plugin has
 # no Python wrapping: its state is read from its PrintSelf (the same getters).

@@ -268,6 +268,25 @@ def wavelet_network(half=31, **overrides):
     return wavelet, network
 
 
+def wavelet_view(size, threshold_fraction):
+    """The Wavelet network (wavelet_network) shown in a render view of `size`: Cool to Warm over RTData's range
+    (locked), opacity 0 below `threshold_fraction` of the range and rising to 1 at its top, no scalar bar.
+    Returns (wavelet, network, view, display)."""
+    from paraview.simple import GetColorTransferFunction, GetOpacityTransferFunction, Show
+    wavelet, network = wavelet_network()
+    vmin, vmax = wavelet.PointData["RTData"].GetRange()
+    view = render_view(size)
+    display = Show(network, view)
+    display.SetScalarBarVisibility(view, False)
+    lut = GetColorTransferFunction("RTData")
+    lut.ApplyPreset("Cool to Warm", True)
+    lut.RescaleTransferFunction(vmin, vmax)
+    lut.AutomaticRescaleRangeMode = "Never"
+    threshold = vmin + threshold_fraction * (vmax - vmin)
+    GetOpacityTransferFunction("RTData").Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
+    return wavelet, network, view, display
+
+
 def render_view(size, background=(0.32, 0.34, 0.43)):
     """A render view of a fixed size and plain background, no orientation axes."""
     from paraview.simple import CreateView
