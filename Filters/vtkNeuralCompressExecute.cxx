@@ -63,19 +63,12 @@ constexpr double kProbeBudgetShare = 0.2;
 }
 
 // Messages of the steps that may run in a preparation's thread: queued there, printed by the filter's thread.
-#define nvReportError(x)                                                                                          \
+#define nvReport(level, x)                                                                                        \
   do                                                                                                              \
   {                                                                                                               \
     std::ostringstream nvReportText;                                                                              \
     nvReportText << x;                                                                                            \
-    this->Report(nvi::QueuedMessage::Error, nvReportText.str());                                                  \
-  } while (0)
-#define nvReportWarning(x)                                                                                        \
-  do                                                                                                              \
-  {                                                                                                               \
-    std::ostringstream nvReportText;                                                                              \
-    nvReportText << x;                                                                                            \
-    this->Report(nvi::QueuedMessage::Warning, nvReportText.str());                                                \
+    this->Report(nvi::QueuedMessage::level, nvReportText.str());                                                  \
   } while (0)
 
 //------------------------------------------------------------------------------
@@ -223,8 +216,8 @@ nvi::InputIdentity vtkNeuralCompress::IdentityOf(
   identity.Object = request.Source;
   // Images: the selected array and its modification time (as the training key's field); other inputs: InputStamp.
   identity.MTime = request.Array ? request.Array->GetMTime() : request.InputMTime;
-  identity.Array = request.Array ? std::to_string(reinterpret_cast<uintptr_t>(request.Array.GetPointer())) : "";
-  identity.Array += request.ArrayName;
+  identity.ArrayObject = request.Array.GetPointer();
+  identity.Array = request.ArrayName;
   identity.Association = request.Association;
   identity.Settings = canonical;
   identity.Time = time;
@@ -262,7 +255,7 @@ bool vtkNeuralCompress::PrepareField(
   }
   if (!input.Image || !input.Array || input.Image->GetNumberOfPoints() == 0)
   {
-    nvReportError("Neural Compress: the resampled input has no samples of '" << request.ArrayName
+    nvReport(Error, "Neural Compress: the resampled input has no samples of '" << request.ArrayName
                                                                             << "'; nothing to train on.");
     return false;
   }
@@ -307,7 +300,7 @@ bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double t
     std::copy(request.AnnouncedDims, request.AnnouncedDims + 3, dims);
   else if (!nvi::ResolveSamplingDimensions(inputObject, name, assoc, this->SamplingDimensions, dims, problem))
   {
-    nvReportError("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+    nvReport(Error, "Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
                                                           << ". The output is empty.");
     return false;
   }
@@ -320,7 +313,7 @@ bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double t
   if (!in.Resampler.Resample(
         inputObject, name, assoc, dims, input.Resampled, outsideCount, problem, request.Source, request.InputMTime))
   {
-    nvReportError("Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
+    nvReport(Error, "Neural Compress: cannot resample the " << inputObject->GetClassName() << " input: " << problem
                                                           << ". The output is empty.");
     return false;
   }
@@ -351,7 +344,7 @@ bool vtkNeuralCompress::FitResamplingToBudget(
   if (!probe.Resample(request.Object, request.ArrayName, request.Association, trial, image, outside, problem,
         nullptr, 0))
   {
-    nvReportError("Neural Compress: cannot resample the " << request.Object->GetClassName() << " input: " << problem
+    nvReport(Error, "Neural Compress: cannot resample the " << request.Object->GetClassName() << " input: " << problem
                                                           << ". The output is empty.");
     return false;
   }
@@ -365,7 +358,7 @@ bool vtkNeuralCompress::FitResamplingToBudget(
   std::copy(dims, dims + 3, input.DecodedDims); // the output keeps the announced geometry
   for (int a = 0; a < 3; ++a)
     dims[a] = dims[a] > 1 ? std::max(8, int(dims[a] * shrink)) : 1;
-  nvReportWarning("Neural Compress: the input is resampled at " << dims[0] << " x " << dims[1] << " x " << dims[2]
+  nvReport(Warning, "Neural Compress: the input is resampled at " << dims[0] << " x " << dims[1] << " x " << dims[2]
     << " instead of " << input.DecodedDims[0] << " x " << input.DecodedDims[1] << " x " << input.DecodedDims[2]
     << " so that resampling takes at most " << int(kResampleBudgetShare * 100) << "% of the " << timeBudget
     << " s TimeBudget (measured " << perSample * 1e6 << " us per sample); set SamplingDimensions or a larger "
@@ -399,7 +392,7 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   nvi::CheckDecodedOutputMemory(field, this->OutputMode);
   if (dims[0] * dims[1] * dims[2] <= 0)
   {
-    nvReportError("Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
+    nvReport(Error, "Neural Compress: the input image has no " << (field.Cells ? "cells" : "points")
                                                              << "; nothing to train on.");
     return false;
   }
@@ -416,7 +409,7 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   std::string problem;
   if (!nvi::MakeSourceField(array, this->VectorMode, this->VectorComponent, dims, data.Field, problem))
   {
-    nvReportError("Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
+    nvReport(Error, "Neural Compress: cannot use array '" << field.Name << "': " << problem << ".");
     return false;
   }
   field.Description = data.Field.Description;
@@ -434,7 +427,7 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   field.Stats = nv::computeStats(data.Field.View);
   if (field.Stats.valid == 0)
   {
-    nvReportError("Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
+    nvReport(Error, "Neural Compress: all " << field.Stats.invalid << " values of '" << field.Name
                                           << "' are NaN or Inf; nothing to train on.");
     return false;
   }
@@ -457,7 +450,7 @@ bool vtkNeuralCompress::ProbeTrainingPoints(vtkDataObject* inputObject, nvi::Fie
     if (fits < count)
     {
       count = std::max<int64_t>(fits, int64_t(1) << 14);
-      nvReportWarning("Neural Compress: the Probe bank holds " << count << " points instead of " << (int64_t(1) << 20)
+      nvReport(Warning, "Neural Compress: the Probe bank holds " << count << " points instead of " << (int64_t(1) << 20)
         << " so that probing takes at most " << int(kProbeBudgetShare * 100) << "% of the " << budget
         << " s TimeBudget; set ProbePoints or a larger TimeBudget for more.");
     }
@@ -467,7 +460,7 @@ bool vtkNeuralCompress::ProbeTrainingPoints(vtkDataObject* inputObject, nvi::Fie
     in.Resampler.Probe(count, uint64_t(this->Seed), this->VectorMode, this->VectorComponent, problem);
   if (!bank)
   {
-    nvReportError("Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
+    nvReport(Error, "Neural Compress: cannot probe the " << inputObject->GetClassName() << " input: " << problem
                                                        << ". The output is empty.");
     return false;
   }

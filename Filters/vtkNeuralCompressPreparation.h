@@ -43,6 +43,7 @@ struct InputRequest
 struct InputIdentity
 {
   const void* Object = nullptr;
+  const void* ArrayObject = nullptr; ///< images: the selected array
   uint64_t MTime = 0; ///< the selected array's modification time (images) or InputStamp
   std::string Array;
   int Association = -1;
@@ -50,7 +51,8 @@ struct InputIdentity
   double Time = 0.0;
   bool operator==(const InputIdentity& other) const
   {
-    return this->Object == other.Object && this->MTime == other.MTime && this->Array == other.Array &&
+    return this->Object == other.Object && this->ArrayObject == other.ArrayObject && this->MTime == other.MTime &&
+      this->Array == other.Array &&
       this->Association == other.Association && this->Settings == other.Settings && this->Time == other.Time;
   }
   bool operator!=(const InputIdentity& other) const { return !(*this == other); }
