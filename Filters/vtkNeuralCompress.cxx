@@ -11,6 +11,7 @@
 
 #include "Core/Error.h"
 #include "Core/Serialization.h"
+#include "Core/ResourceEstimate.h"
 
 #include "vtkAlgorithmOutput.h"
 #include "vtkCellData.h"
@@ -277,6 +278,12 @@ int vtkNeuralCompress::RequestData(
 //------------------------------------------------------------------------------
 namespace
 {
+/// The execution that started a background job of a small network (at most kFirstBytesWaitParameters) waits at most
+/// this long for its first bytes: installed and serialized within milliseconds, the network is in that execution's
+/// output. A larger one takes longer (0.2 s at 2^16 entries, 3.4 s at 2^21 on 2 cores): shown as preparing at once.
+constexpr double kFirstBytesWaitSeconds = 0.04;
+constexpr int64_t kFirstBytesWaitParameters = int64_t(1) << 20;
+
 
 /// Seconds the run needs for its remaining steps at the rate of its log, or within its time budget (whichever comes
 /// first); NaN when unknown (no rate yet, or a settled run).
@@ -350,7 +357,15 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     return false;
   }
-  const bool live = job.Run && !nvi::IsSettled(status.State);
+  bool live = job.Run && !nvi::IsSettled(status.State);
+  if (live && job.Run->InBackground() && !job.FirstBytesAwaited &&
+    nv::parameterCount(job.NetworkConfig) <= kFirstBytesWaitParameters)
+  {
+    job.FirstBytesAwaited = true; // once per job: a large network's refreshes do not wait again
+    job.WaitForFirstLiveBytes(kFirstBytesWaitSeconds);
+    status = job.Run->Status(); // a small network: shown by the execution that started its job
+    live = !nvi::IsSettled(status.State);
+  }
   nvi::NetworkRecord record;
   vtkSmartPointer<vtkDataArray> decoded;
   if (!this->CurrentNetwork(job, live, record, decoded))
@@ -358,6 +373,18 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     return false;
   }
   in.DecodeRequested = false;
+  if (live && !nvi::HasBytes(record.Bytes))
+  {
+    // The run installs the job's first network in its thread, then its first snapshot is written: the geometry the
+    // network will have, no network yet (Neural Volume draws nothing, without an error).
+    const nv::ModelConfig& config = job.NetworkConfig;
+    nvi::InitializePreparingOutputs(output, log, metrics, this->GetOutputInformation(0), job.Source.bounds);
+    std::ostringstream text;
+    text << "Preparing: " << (status.State == nvi::RunState::Starting ? "initialising" : "writing") << " the network (2^"
+         << config.encoding.log2TableSize << " table, " << config.encoding.levels << " levels)";
+    in.StatusText = text.str();
+    return true;
+  }
   if (!live && !in.SummaryPrinted)
   {
     // Complete for the first time in this job: a network with no run that the cache had for this time step and

@@ -127,11 +127,7 @@ bool vtkNeuralCompress::EmitWhilePreparing(vtkImageData* output, vtkTable* log, 
   }
   // Nothing to show yet: the promised geometry, no network.
   const double* bounds = in.Preparing->Bounds[0] <= in.Preparing->Bounds[1] ? in.Preparing->Bounds : nullptr;
-  nvi::InitializeOutputs(output, log, metrics, this->GetOutputInformation(0), bounds);
-  vtkNew<vtkStringArray> state;
-  state->SetName("NeuralTrainingState");
-  state->InsertNextValue("Preparing");
-  output->GetFieldData()->AddArray(state);
+  nvi::InitializePreparingOutputs(output, log, metrics, this->GetOutputInformation(0), bounds);
   in.StatusText = status;
   return true;
 }

@@ -22,8 +22,12 @@ bool vtkNeuralCompress::GetNeedsUpdate()
   const auto now = std::chrono::steady_clock::now();
   const bool preparing = in.Preparing && !in.Preparing->Adopted &&
     (in.Preparing->Serial() != in.PreparingSerialShown || now - in.PreparingShownAt >= std::chrono::seconds(1));
+  // A run: its status changed, or (while it trains) a live snapshot's bytes were written since the last update.
+  nvi::Job* job = in.Current.get();
+  const nvi::RunStatus status = job && job->Run ? job->Run->Status() : nvi::RunStatus();
   if (preparing ||
-    (in.Current && in.Current->Run && in.Current->Run->Status().Serial != in.Current->EmittedSerial))
+    (job && job->Run &&
+      (status.Serial != job->EmittedSerial || (!nvi::IsSettled(status.State) && job->LiveBytesPending()))))
   {
     if (in.Preparing)
     {
@@ -162,7 +166,7 @@ void vtkNeuralCompress::SetTrainedNetworks(const char* value)
   }
   for (auto& n : networks)
   {
-    in.Restored[n.first] = std::move(n.second);
+    in.Restored[n.first] = nvi::ShareBytes(n.second);
   }
 }
 

@@ -217,7 +217,7 @@ void Job::Finalize(const RunStatus& status)
     record->Time = this->Time;
     model.stats.steps = status.Steps;
     model.stats.seconds = status.Seconds;
-    record->Bytes = nv::serialize(model);
+    record->Bytes = ShareBytes(nv::serialize(model));
     record->M.State = "Interrupted";
     record->M.Steps = status.Steps;
     record->M.Seconds = status.Seconds;
@@ -288,7 +288,7 @@ void Job::Finalize(const RunStatus& status)
   model.stats.maxError = error.maxAbsError;
   model.stats.invalidSamples = this->Field.Stats.invalid;
   model.stats.device = nv::deviceName(this->Session->device());
-  record->Bytes = nv::serialize(model);
+  record->Bytes = ShareBytes(nv::serialize(model));
   Metrics& m = record->M;
   m.State = status.EndReason == "stopped" ? "Stopped" : "Finished";
   m.EndReason = status.EndReason;
@@ -316,8 +316,41 @@ void Job::Finalize(const RunStatus& status)
   this->DecodeError = decodeError;
 }
 
+void Job::InstallInitialNetwork()
+{
+  nv::Model model(this->NetworkConfig);
+  model.source = this->Source;
+  bool warm = false;
+  if (HasBytes(this->WarmSeed))
+  {
+    try
+    {
+      const nv::Model previous = nv::deserialize(this->WarmSeed->data(), this->WarmSeed->size());
+      const nv::ModelConfig& was = previous.config();
+      warm = previous.params().size() == model.params().size() &&
+        was.encoding.log2TableSize == this->NetworkConfig.encoding.log2TableSize &&
+        was.network.width == this->NetworkConfig.network.width &&
+        was.network.hiddenLayers == this->NetworkConfig.network.hiddenLayers &&
+        was.encoding.levels == this->NetworkConfig.encoding.levels;
+      if (warm)
+        model.params() = previous.params();
+    }
+    catch (const nv::Error&)
+    {
+      warm = false; // a seed that does not read is no seed
+    }
+  }
+  this->WarmSeed.reset();
+  if (!warm)
+    model.initialize(this->Train.seed);
+  this->WarmStart = warm;
+  this->Session->setModel(model);
+  this->InitialInstalled = true;
+}
+
 void Job::SetFinal(std::shared_ptr<const NetworkRecord> record)
 {
+  this->InitialInstalled = true; // the session holds this network already
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = std::move(record);
   this->Decoded = nullptr;
@@ -336,19 +369,60 @@ void Job::FinalizeWithoutTraining()
 
 void Job::WriteLiveBytes(const RunStatus& status)
 {
-  nv::Model model = this->Session->currentModel();
-  // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
-  // 8-bit network is coded once, when training ends (Finalize).
-  model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
-  model.stats.steps = status.Steps;
-  model.stats.seconds = status.Seconds;
-  model.stats.device = nv::deviceName(this->Session->device());
-  std::vector<uint8_t> bytes = nv::serialize(model);
+  NetworkBytes bytes;
+  int64_t modelBytes = 0;
+  try
+  {
+    nv::Model model = this->Session->currentModel();
+    // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
+    // 8-bit network is coded once, when training ends (Finalize).
+    model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
+    model.stats.steps = status.Steps;
+    model.stats.seconds = status.Seconds;
+    model.stats.device = nv::deviceName(this->Session->device());
+    bytes = ShareBytes(nv::serialize(model));
+    modelBytes = model.parameterBytes();
+  }
+  catch (const std::exception&)
+  {
+    bytes.reset(); // out of memory for a copy: the previous snapshot stays (the final network is written anyway)
+  }
   std::lock_guard<std::mutex> lock(this->Mutex);
-  this->LiveBytes.swap(bytes);
+  if (bytes)
+  {
+    this->LiveBytes = std::move(bytes);
+    ++this->LiveBytesSerial;
+    this->LiveModelBytes = modelBytes;
+  }
   this->LiveBytesTime = std::chrono::steady_clock::now();
-  this->LiveModelBytes = model.parameterBytes();
   this->LiveWriting = false;
+}
+
+bool Job::LiveBytesPending() const
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  return this->LiveBytesSerial != this->LiveBytesSerialEmitted;
+}
+
+bool Job::WaitForFirstLiveBytes(double seconds)
+{
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;)
+  {
+    const RunState state = this->Run->Status().State;
+    bool writing = false;
+    {
+      std::lock_guard<std::mutex> lock(this->Mutex);
+      if (this->LiveBytes)
+        return true;
+      writing = this->LiveWriting;
+    }
+    if (!writing && state != RunState::Starting && !IsSettled(state))
+      this->Snapshot(); // starts the writer
+    if (std::chrono::steady_clock::now() >= until || IsSettled(state))
+      return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
 }
 
 NetworkRecord Job::Snapshot()
@@ -357,16 +431,16 @@ NetworkRecord Job::Snapshot()
   r.Key = this->Key;
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
-  // The bytes matter to consumers in other processes only (renderers here use the live session): serialized again
-  // at most once a second, in a thread of their own (a large network takes a fifth of a second and more), so live
-  // refreshes cost the filter's thread a copy. The first snapshot waits for its bytes: the output carries a network
-  // from the start.
-  bool start = false, first = false;
+  // The bytes matter to consumers in other processes only (renderers here use the live session): serialized at
+  // most once a second in a thread of their own (a large network takes a second and more), never in the caller's,
+  // and only once the run has installed its initial network (RunState::Starting ends). Until the first ones exist
+  // the record has none (the filter shows the job as starting).
+  bool start = false;
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     const auto now = std::chrono::steady_clock::now();
-    first = this->LiveBytes.empty();
-    if (!this->LiveWriting && (first || now - this->LiveBytesTime > std::chrono::seconds(1)))
+    if (!this->LiveWriting && status.State != RunState::Starting &&
+      (!this->LiveBytes || now - this->LiveBytesTime > std::chrono::seconds(1)))
     {
       start = true;
       this->LiveWriting = true;
@@ -376,15 +450,13 @@ NetworkRecord Job::Snapshot()
   {
     if (this->LiveWriter.joinable())
       this->LiveWriter.join(); // ended: LiveWriting was off
-    if (first)
-      this->WriteLiveBytes(status);
-    else
-      this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
+    this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
   }
   Metrics& m = r.M;
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     r.Bytes = this->LiveBytes;
+    this->LiveBytesSerialEmitted = this->LiveBytesSerial;
     m.ModelBytes = this->LiveModelBytes;
   }
   m.State = RunStateName(status.State);
@@ -392,7 +464,7 @@ NetworkRecord Job::Snapshot()
   m.Seconds = status.Seconds;
   m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
   m.PsnrFinal = false;
-  m.Ratio = static_cast<double>(this->Base.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.Ratio = static_cast<double>(this->Source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());
@@ -447,7 +519,7 @@ void NetworkCache::Trim(int64_t capBytes, double keepTime)
     auto oldest = this->Records.end();
     for (auto it = this->Records.begin(); it != this->Records.end(); ++it)
     {
-      total += static_cast<int64_t>(it->second.Record.Bytes.size());
+      total += it->second.Record.Bytes ? static_cast<int64_t>(it->second.Record.Bytes->size()) : int64_t(0);
       if (it->first != keepTime && (oldest == this->Records.end() || it->second.LastUse < oldest->second.LastUse))
       {
         oldest = it;

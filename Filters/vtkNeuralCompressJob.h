@@ -4,6 +4,7 @@
 #define vtkNeuralCompressJob_h
 
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralNetworkArray.h"
 
 #include "vtkSmartPointer.h"
 
@@ -69,12 +70,24 @@ struct Metrics
 /// cache or a .nvol file; `device`: where it is used now.
 Metrics MetricsOf(const nv::Model& model, const std::string& device);
 
+/// Serialized network bytes (nv::serialize) as the output's NeuralNetwork array, made once and never changed: live
+/// refreshes, re-executions, the cache and state files share them without a copy.
+using NetworkBytes = std::shared_ptr<const vtkNeuralNetworkArray::SharedNetwork>;
+inline NetworkBytes ShareBytes(const std::vector<uint8_t>& bytes)
+{
+  return vtkNeuralNetworkArray::Share(bytes);
+}
+inline bool HasBytes(const NetworkBytes& bytes)
+{
+  return bytes && bytes->size() > 0;
+}
+
 /// A network of one time step, as it is cached and saved with a state file.
 struct NetworkRecord
 {
   uint64_t Key = 0;
   double Time = 0.0;
-  std::vector<uint8_t> Bytes; ///< nv::serialize, stored precision
+  NetworkBytes Bytes; ///< stored precision; null while a training job installs its first network
   Metrics M;
   std::vector<LogRow> Log;
 };
@@ -142,11 +155,12 @@ public:
   double Time = 0.0;
   FieldInfo Field;
   Settings S;
-  nv::Model Base; ///< configuration and source information
+  nv::ModelConfig NetworkConfig; ///< the layout of the job's network
+  nv::SourceInfo Source;          ///< what the network represents (geometry, value range, raw bytes)
   nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)
   nv::Precision Storage = nv::Precision::Float16;
   std::string DeviceNote;
-  bool WarmStart = false;
+  std::atomic<bool> WarmStart{ false }; ///< set where the initial network is installed (the run's prologue)
   std::shared_ptr<nv::NetworkSession> Session;
   std::shared_ptr<TrainingData> Data;
   std::unique_ptr<TrainingRun> Run; ///< null for a constant field (represented exactly)
@@ -176,8 +190,24 @@ public:
   void SetFinal(std::shared_ptr<const NetworkRecord> record);
   /// For a field with no training (constant): finalise at once.
   void FinalizeWithoutTraining();
-  /// The record of the network the session holds now (a snapshot while training; its bytes at most 1 s old).
+  /// The job's initial network becomes the session's: WarmSeed's parameters when its layout is this job's, else a
+  /// seeded random initialisation. Runs in the training run's thread (its prologue), or in the caller's for a job
+  /// without training; may throw (the run fails).
+  void InstallInitialNetwork();
+  /// A network to warm-start from (null: none). InstallInitialNetwork releases it.
+  NetworkBytes WarmSeed;
+  /// True until InstallInitialNetwork ran.
+  bool InitialNetworkPending() const { return !this->InitialInstalled.load(); }
+  /// The record of the network the session holds now (a snapshot while training; its bytes at most 1 s old, null
+  /// until the first ones are written: they are serialized off the caller's thread once the run has installed its
+  /// initial network).
   NetworkRecord Snapshot();
+  /// True when live bytes were written after the last snapshot read them (an update would carry them).
+  bool LiveBytesPending() const;
+  /// Waits at most `seconds` for the first live bytes (a small network has them within milliseconds, so the
+  /// execution that started the job outputs it); true when they exist.
+  bool WaitForFirstLiveBytes(double seconds);
+  bool FirstBytesAwaited = false; ///< the filter waited for them once (its thread only)
 
   mutable std::mutex Mutex;
 
@@ -185,12 +215,15 @@ private:
   /// Serializes the session's network of the moment into LiveBytes (in LiveWriter's thread, or the caller's).
   void WriteLiveBytes(const RunStatus& status);
 
-  std::vector<uint8_t> LiveBytes; ///< under Mutex, as the two below
+  NetworkBytes LiveBytes; ///< under Mutex, as the five below
+  uint64_t LiveBytesSerial = 0;        ///< incremented by every write
+  uint64_t LiveBytesSerialEmitted = 0; ///< the serial the last snapshot read
   std::chrono::steady_clock::time_point LiveBytesTime;
   int64_t LiveModelBytes = 0;
   bool LiveWriting = false;  ///< LiveWriter runs (under Mutex)
   std::thread LiveWriter;    ///< serializes a live snapshot off the filter's thread
   std::shared_ptr<const NetworkRecord> FinalRecord;
+  std::atomic<bool> InitialInstalled{ false };
   vtkSmartPointer<vtkDataArray> Decoded;
   int DecodedMode = 0;
 };

@@ -76,7 +76,8 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
       output->GetPointData()->SetScalars(decoded);
   }
   vtkFieldData* fd = output->GetFieldData();
-  vtkNeuralNetworkArray::Write(fd, record.Bytes, session, live);
+  if (HasBytes(record.Bytes))
+    vtkNeuralNetworkArray::Write(fd, record.Bytes, session, live);
   const Metrics& m = record.M;
   AddFieldValue<vtkDoubleArray>(fd, "NeuralTrainingSeconds", m.Seconds);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", m.Steps);
@@ -190,7 +191,7 @@ std::string EndReasonText(const FieldInfo& field, const Metrics& m)
 
 std::string SmallerModelAdvice(const Job& job)
 {
-  const nv::ModelConfig& config = job.Base.config();
+  const nv::ModelConfig& config = job.NetworkConfig;
   std::string advice;
   if (config.encoding.log2TableSize > 10)
     advice += ", a smaller Log2 Table Size (2^" + std::to_string(config.encoding.log2TableSize) + " now)";
@@ -209,7 +210,7 @@ std::string Summary(
   const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio, bool fromCache)
 {
   const Metrics& m = record.M;
-  const nv::ModelConfig& config = job.Base.config();
+  const nv::ModelConfig& config = job.NetworkConfig;
   std::ostringstream s;
   s.precision(4);
   s << "Neural Compress: '" << field.Name << "' (" << (field.Cells ? "cell" : "point");
@@ -266,13 +267,14 @@ std::string EncodeNetworks(const std::vector<const NetworkRecord*>& records)
   std::string text = "nvnet1";
   for (const NetworkRecord* r : records)
   {
-    if (!r || r->Bytes.empty())
+    if (!r || !HasBytes(r->Bytes))
       continue;
     char key[32];
     std::snprintf(key, sizeof(key), "%016" PRIx64, r->Key);
-    std::vector<unsigned char> b64(r->Bytes.size() * 4 / 3 + 8);
-    const unsigned long n = vtkBase64Utilities::Encode(
-      r->Bytes.data(), static_cast<unsigned long>(r->Bytes.size()), b64.data(), 0);
+    const NetworkBytes& bytes = r->Bytes;
+    std::vector<unsigned char> b64(bytes->size() * 4 / 3 + 8);
+    const unsigned long n =
+      vtkBase64Utilities::Encode(bytes->data(), static_cast<unsigned long>(bytes->size()), b64.data(), 0);
     text += ";";
     text += key;
     text += ":";
@@ -341,6 +343,13 @@ void InitializeOutputs(
     output->SetOrigin(origin);
     output->SetSpacing(spacing);
   }
+}
+
+void InitializePreparingOutputs(
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo, const double* bounds)
+{
+  InitializeOutputs(output, log, metrics, outInfo, bounds);
+  AddString(output->GetFieldData(), "NeuralTrainingState", "Preparing");
 }
 
 } // namespace vtkNeuralCompressInternals

@@ -37,6 +37,10 @@ void InitializeMetrics(vtkTable* metrics);
 /// (optional): a resampled input's bounds, which its image spans (RequestInformation announces only its extent).
 void InitializeOutputs(
   vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo, const double* bounds = nullptr);
+/// Empty outputs over `bounds` (null: none) whose NeuralTrainingState says "Preparing": the field or the job's first
+/// network is still being made; a Neural Volume draws nothing and reports no error.
+void InitializePreparingOutputs(
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, vtkInformation* outInfo, const double* bounds);
 
 /// The line printed when a network is complete; `fromCache`: the network of this time step was trained before and
 /// taken from the filter's cache.

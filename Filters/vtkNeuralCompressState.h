@@ -27,7 +27,7 @@ struct vtkNeuralCompress::vtkInternals
   nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
   nvi::DistributedInput Distributed; ///< MPI: the input gathered to rank 0 (vtkNeuralCompressDistributed.h)
-  std::map<uint64_t, std::vector<uint8_t>> Restored; ///< networks of a loaded state, by training key
+  std::map<uint64_t, nvi::NetworkBytes> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;
   std::string StatusText;

@@ -112,6 +112,53 @@ void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& 
   }
 }
 
+const uint8_t* vtkNeuralNetworkArray::SharedNetwork::data() const
+{
+  return this->Array->GetPointer(0);
+}
+
+size_t vtkNeuralNetworkArray::SharedNetwork::size() const
+{
+  return static_cast<size_t>(this->Array->GetNumberOfValues());
+}
+
+std::shared_ptr<const vtkNeuralNetworkArray::SharedNetwork> vtkNeuralNetworkArray::Share(
+  const std::vector<uint8_t>& bytes)
+{
+  auto shared = std::make_shared<SharedNetwork>();
+  shared->Crc = VerifiedFingerprint(bytes.data(), bytes.size()).Crc;
+  shared->Array = vtkSmartPointer<vtkUnsignedCharArray>::New();
+  shared->Array->SetName(GetArrayName());
+  shared->Array->SetNumberOfTuples(static_cast<vtkIdType>(bytes.size()));
+  std::memcpy(shared->Array->GetPointer(0), bytes.data(), bytes.size());
+  SetKnownRange(shared->Array);
+  return shared;
+}
+
+void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::shared_ptr<const SharedNetwork>& network,
+  const std::shared_ptr<nv::NetworkSession>& session, bool live)
+{
+  if (!fd || !network || !network->Array)
+  {
+    throw nv::Error("no field data to write the network to, or no network");
+  }
+  fd->AddArray(network->Array);
+  fd->RemoveArray(GetSessionKeyArrayName());
+  if (session)
+  {
+    vtkNeuralSessionRegistry::Fingerprint fingerprint;
+    fingerprint.Size = network->size();
+    fingerprint.Crc = network->Crc;
+    const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(session, fingerprint, live);
+    vtkNew<vtkTypeUInt64Array> keyArray;
+    keyArray->SetName(GetSessionKeyArrayName());
+    keyArray->SetNumberOfTuples(2);
+    keyArray->SetValue(0, key.Process);
+    keyArray->SetValue(1, key.Serial);
+    fd->AddArray(keyArray);
+  }
+}
+
 vtkUnsignedCharArray* vtkNeuralNetworkArray::Find(vtkFieldData* fd)
 {
   auto* array =

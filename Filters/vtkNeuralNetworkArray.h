@@ -17,13 +17,15 @@
 
 #include "NeuralVolumeFiltersModule.h" // for export macro
 
+#include "vtkSmartPointer.h"      // for vtkSmartPointer
+#include "vtkUnsignedCharArray.h" // for SharedNetwork::Array
+
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
 
 class vtkFieldData;
-class vtkUnsignedCharArray;
 
 namespace nv
 {
@@ -44,6 +46,22 @@ public:
   /// `live`: the session is still training (the bytes are a snapshot; renderers show its network
   /// of the moment).
   static void Write(vtkFieldData* fd, const std::vector<uint8_t>& bytes,
+    const std::shared_ptr<nv::NetworkSession>& session, bool live = false);
+
+  /// Serialized bytes made into a NeuralNetwork array once -- in any thread: the copy, its byte range and its
+  /// checksum -- then shared read-only by outputs, caches and state files: Write() adds this very array, so a live
+  /// refresh or a re-execution copies nothing and renderers already using it keep their session without checking
+  /// it again. Never change its bytes.
+  struct SharedNetwork
+  {
+    vtkSmartPointer<vtkUnsignedCharArray> Array;
+    uint32_t Crc = 0;
+    const uint8_t* data() const;
+    size_t size() const;
+  };
+  /// Throws nv::Error when `bytes` do not end with their checksum.
+  static std::shared_ptr<const SharedNetwork> Share(const std::vector<uint8_t>& bytes);
+  static void Write(vtkFieldData* fd, const std::shared_ptr<const SharedNetwork>& network,
     const std::shared_ptr<nv::NetworkSession>& session, bool live = false);
 
   /// The NeuralNetwork array of `fd`, or null when there is none or it is not a single-component

@@ -164,7 +164,7 @@ int vtkNeuralVolumeReader::RequestData(
     }
     nvi::NetworkRecord record;
     record.Time = e.Time;
-    record.Bytes = e.Network;
+    record.Bytes = nvi::ShareBytes(e.Network);
     record.M = nvi::MetricsOf(model, model.stats.device);
     record.M.State = "Loaded";
     record.M.Restored = true;

@@ -86,6 +86,16 @@ TrainingRun::~TrainingRun()
 
 std::unique_ptr<nv::Trainer> TrainingRun::CreateTrainer()
 {
+  if (this->Prologue)
+  {
+    const Clock::time_point started = Clock::now();
+    std::function<void()> prologue = std::move(this->Prologue);
+    this->Prologue = nullptr;
+    prologue();
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    if (this->PhaseBudget > 0.0)
+      this->PhaseBudget = std::max(1e-3, this->PhaseBudget - SecondsSince(started));
+  }
   const TrainingData& d = *this->DataPtr;
   if (d.BankValues.empty())
     return this->SessionPtr->createTrainer(d.Field.View, this->Config);

@@ -65,6 +65,11 @@ public:
   void RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress);
   /// Runs the first phase (and every later one) in a background thread; returns at once.
   void StartInBackground();
+  /// Work the run does first, in its own thread (RunHere: the calling thread) before the trainer is created, while
+  /// the state is Starting: installing the session's initial network, so that a caller on a GUI thread never
+  /// allocates or initialises a large table. Its seconds count against the first phase's time budget; an exception
+  /// fails the run. Set before the run starts.
+  void SetPrologue(std::function<void()> prologue) { this->Prologue = std::move(prologue); }
 
   void Pause();
   void Resume();
@@ -88,8 +93,9 @@ public:
   bool InBackground() const { return this->Background; }
 
 private:
-  /// A trainer on the field, or on the bank of points when the data has one.
+  /// A trainer on the field, or on the bank of points when the data has one (after the prologue).
   std::unique_ptr<nv::Trainer> CreateTrainer();
+  std::function<void()> Prologue;
   void Worker();
   void RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
   void EndPhase(const std::string& reason);

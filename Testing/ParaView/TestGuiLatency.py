@@ -1,6 +1,7 @@
 """The GUI answers input while Neural Compress trains on the CPU and while the Neural Volume renders by Sample
 Streaming and In-Shader on the CPU: runs GuiLatencyScript.py in the real paraview executable (xdotool drags the
-mouse over the view; median input latency <= 0.2 s, largest <= 0.5 s, in each phase)."""
+mouse over the view; median input latency <= 0.2 s, largest <= 0.5 s, in each phase), and the Apply of a 2^21-entry
+table returns within 0.1 s, the GUI answering while that network is made and trained."""
 import json
 import os
 import shutil
@@ -32,6 +33,6 @@ except subprocess.TimeoutExpired as e:
 if check(os.path.exists(result_path), "the GUI wrote its figures"):
     with open(result_path) as f:
         figures = json.load(f)
-    check(sorted(figures) == sorted(["watching", "training", "Sample Streaming", "In-Shader"]), "every phase measured: %r"
-          % sorted(figures))
+    phases = ["watching", "training", "Sample Streaming", "In-Shader", "large table apply", "large table"]
+    check(sorted(figures) == sorted(phases), "every phase measured: %r" % sorted(figures))
 nvtest.finish()
