@@ -38,6 +38,12 @@ std::string shown(const char* data, size_t n, bool clipped)
   return clipped ? s + "..." : s;
 }
 
+/// A name in a message: quoted, at most 60 characters of it.
+std::string inQuotes(const std::string& name)
+{
+  return "'" + (name.size() > 60 ? name.substr(0, 60) + "..." : name) + "'";
+}
+
 /// Bytes a metadata value of a known fixed-size type holds (0: any size, e.g. strings or unknown types).
 uint32_t fixedMetadataSize(const std::string& type)
 {
@@ -176,14 +182,14 @@ void VdbFileCheck::readMetadataEntry(const std::string& owner, uint32_t index)
 {
   const std::string entry = "metadata entry " + number(index) + " of " + owner;
   const std::string name = text("the name of " + entry, ~uint32_t(0), false);
-  const std::string type = text("the type name of " + entry + " ('" + name + "')", kMaxTypeNameBytes, true);
+  const std::string type = text("the type name of " + entry + " (" + inQuotes(name) + ")", kMaxTypeNameBytes, true);
   const uint64_t at = pos_;
-  const uint32_t size = u32("the size of " + entry + " ('" + name + "')");
+  const uint32_t size = u32("the size of " + entry + " (" + inQuotes(name) + ")");
   const uint32_t fixed = fixedMetadataSize(type);
   if (fixed != 0 && size != fixed)
-    NV_THROW("metadata '" + name + "' of " + owner + " is a " + type + " of " + number(size) + " bytes (at byte " +
+    NV_THROW("metadata " + inQuotes(name) + " of " + owner + " is a " + type + " of " + number(size) + " bytes (at byte " +
       number(at) + "), not " + number(fixed) + ": the file is corrupt");
-  need(size, "the value of metadata '" + name + "' of " + owner);
+  need(size, "the value of metadata " + inQuotes(name) + " of " + owner);
   pos_ += size;
 }
 
@@ -206,7 +212,7 @@ VdbFileSummary::Grid VdbFileCheck::readDescriptor(uint32_t version, int32_t inde
   g.descriptorPos = pos_;
   const std::string which = "grid descriptor " + number(uint64_t(index));
   g.name = text("the name in " + which, ~uint32_t(0), false);
-  const std::string owner = which + " ('" + g.name + "')";
+  const std::string owner = which + " (" + inQuotes(g.name) + ")";
   g.type = text("the grid type of " + owner, kMaxTypeNameBytes, true);
   static const std::string half = "_HalfFloat";
   if (g.type.size() > half.size() && g.type.compare(g.type.size() - half.size(), half.size(), half) == 0)
@@ -229,7 +235,7 @@ VdbFileSummary::Grid VdbFileCheck::readDescriptor(uint32_t version, int32_t inde
 
 void VdbFileCheck::checkPositions(const VdbFileSummary::Grid& g) const
 {
-  const std::string grid = "grid '" + g.name + "'";
+  const std::string grid = "grid " + inQuotes(g.name);
   if (g.gridPos != pos_)
     NV_THROW("the descriptor of " + grid + " ends at byte " + number(pos_) + " but says the grid starts at byte " +
       number(g.gridPos) + ": the file is corrupt");
@@ -248,7 +254,7 @@ void VdbFileCheck::checkPositions(const VdbFileSummary::Grid& g) const
 
 void VdbFileCheck::readGridHead(VdbFileSummary::Grid& g, uint32_t version)
 {
-  const std::string grid = "grid '" + g.name + "'";
+  const std::string grid = "grid " + inQuotes(g.name);
   if (version >= kVersionGridCompression)
   {
     const uint64_t at = pos_;
@@ -281,8 +287,8 @@ VdbFileSummary VdbFileCheck::run()
     if (!s.hasGridOffsets)
     {
       if (g.gridPos != 0 || g.blockPos != 0 || g.endPos != 0)
-        NV_THROW("the file says it has no grid offsets, but the descriptor of grid '" + g.name +
-          "' holds byte positions: the file is corrupt");
+        NV_THROW("the file says it has no grid offsets, but the descriptor of grid " + inQuotes(g.name) +
+          " holds byte positions: the file is corrupt");
       g.gridPos = pos_;
       readGridHead(g, s.formatVersion); // a streamed file: the next descriptor follows the tree, unparsed here
       s.grids.push_back(g);
@@ -290,7 +296,7 @@ VdbFileSummary VdbFileCheck::run()
     }
     checkPositions(g);
     limit_ = g.instanceParent.empty() ? g.blockPos : g.endPos;
-    limitWhat_ = "the head of grid '" + g.name + "' (its " + (g.instanceParent.empty() ? "block" : "end") +
+    limitWhat_ = "the head of grid " + inQuotes(g.name) + " (its " + (g.instanceParent.empty() ? "block" : "end") +
       " position)";
     readGridHead(g, s.formatVersion);
     limit_ = size_;
