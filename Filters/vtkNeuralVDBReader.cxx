@@ -18,13 +18,18 @@
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStringArray.h"
 
+#include "Core/Error.h"
+#include "Core/VdbFileCheck.h"
+
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <new>
 #include <stdexcept>
 #include <string>
 
@@ -36,6 +41,37 @@ struct vtkNeuralVDBReader::vtkInternals
 
 namespace
 {
+/// Characters of an exception's text in a message: OpenVDB's texts can quote whole strings of a corrupt file.
+constexpr size_t kMaxReportedChars = 300;
+
+/// The text of the exception in flight (called in a catch block), clipped and printable.
+std::string CurrentProblem()
+{
+  std::string text;
+  try
+  {
+    throw;
+  }
+  catch (const std::bad_alloc&)
+  {
+    return "OpenVDB ran out of memory reading it: the file is corrupt, or its grid too large for this process";
+  }
+  catch (const std::exception& e)
+  {
+    text = e.what() ? e.what() : "";
+  }
+  catch (...)
+  {
+    return "an unknown exception while reading it";
+  }
+  const bool clipped = text.size() > kMaxReportedChars;
+  text.resize(std::min(text.size(), kMaxReportedChars));
+  for (char& c : text)
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7e)
+      c = '?';
+  return clipped ? text + "..." : text;
+}
+
 /// The grid `want` (or the first float / double grid; half grids load as float) of a .vdb file.
 openvdb::GridBase::Ptr ReadGrid(const std::string& path, const std::string& want)
 {
@@ -170,6 +206,8 @@ int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector
   {
     if (!this->FileName || !*this->FileName)
       throw std::runtime_error("no file name");
+    // The headers against the file's size first: OpenVDB trusts the lengths and offsets it reads.
+    (void)nv::VdbFileCheck::checkFile(this->FileName);
     openvdb::GridBase::Ptr grid = ReadGrid(this->FileName, this->GridName ? this->GridName : "");
     const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
     if (box.empty())
@@ -181,9 +219,10 @@ int vtkNeuralVDBReader::RequestInformation(vtkInformation*, vtkInformationVector
     this->Internals->Grid = grid;
     this->Internals->Box = box;
   }
-  catch (const std::exception& e)
+  catch (...)
   {
-    vtkErrorMacro("OpenVDB reader: '" << (this->FileName ? this->FileName : "") << "': " << e.what()
+    this->Internals->Grid.reset();
+    vtkErrorMacro("OpenVDB reader: '" << (this->FileName ? this->FileName : "") << "': " << CurrentProblem()
                                       << ". The output is empty.");
     return 1;
   }
@@ -246,9 +285,9 @@ int vtkNeuralVDBReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
       output->GetPointData()->SetScalars(values);
     }
   }
-  catch (const std::exception& e)
+  catch (...)
   {
-    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << e.what() << ". The output is empty.");
+    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << CurrentProblem() << ". The output is empty.");
     output->Initialize();
     return 1;
   }
@@ -347,9 +386,9 @@ int vtkNeuralVDBReader::RequestActiveVoxels(vtkPolyData* output)
     output->GetFieldData()->AddArray(indexToWorld);
     output->GetFieldData()->AddArray(gridName);
   }
-  catch (const std::exception& e)
+  catch (...)
   {
-    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << e.what() << ". The output is empty.");
+    vtkErrorMacro("OpenVDB reader: '" << this->FileName << "': " << CurrentProblem() << ". The output is empty.");
     output->Initialize();
     return 1;
   }

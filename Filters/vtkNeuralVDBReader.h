@@ -7,7 +7,10 @@
  * linear (affine) transforms are supported. Inactive voxels hold the background value. GridName picks
  * the grid (default: the first float, double or half grid). Errors (no such file, not a VDB, no
  * scalar grid, a non-linear transform, a huge bounding box) are reported with vtkErrorMacro and give
- * an empty output. Built when OpenVDB is found (Debian: libopenvdb-dev).
+ * an empty output. Before OpenVDB reads a file, nv::VdbFileCheck (Cuda/Core/VdbFileCheck.h) checks its headers
+ * against its size (a truncated, empty or corrupt file is refused with one message naming what is wrong); every
+ * exception OpenVDB throws (std::bad_alloc and unknown ones included) becomes one message of at most a few hundred
+ * characters. Built when OpenVDB is found (Debian: libopenvdb-dev).
  *
  * OutputType ACTIVE_VOXELS (1) gives a vtkPolyData instead, allocated in proportion to the active voxels only
  * (never to the bounding box): one point per active voxel (tiles expanded to their voxels, background-valued

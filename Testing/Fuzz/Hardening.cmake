@@ -2,7 +2,8 @@
 #   NV_SANITIZE=ON  AddressSanitizer + UndefinedBehaviorSanitizer on everything built (engine, tests), every report
 #                   fatal (-fno-sanitize-recover=all). GCC or Clang; meant for engine-only CPU builds:
 #                   cmake -DNV_ENGINE_ONLY=ON -DNV_ENABLE_CUDA=OFF -DNV_SANITIZE=ON
-#   NV_FUZZ=ON      NV_SANITIZE plus the fuzz target nvFuzzModel and its corpus generator nvFuzzCorpus (Testing/Fuzz);
+#   NV_FUZZ=ON      NV_SANITIZE plus the fuzz targets nvFuzzModel and nvFuzzVdbFile and their corpus generators
+#                   nvFuzzCorpus and nvFuzzVdbCorpus (Testing/Fuzz);
 #                   libFuzzer's coverage instruments the reader's sources only (Testing/Fuzz/CMakeLists.txt), so
 #                   that the engine tests of the same build run at sanitizer speed. Clang only
 #                   (-DCMAKE_CXX_COMPILER=clang++).

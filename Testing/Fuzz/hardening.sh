@@ -8,6 +8,8 @@
 #   hardening.sh fuzz     SOURCE BUILD SECONDS nvFuzzModel for SECONDS from the valid seed corpus; a crash, a leak,
 #                                              an input slower than 10 s or above 2.5 GB fails (the input is kept
 #                                              in BUILD/fuzz-artifacts and printed)
+#   hardening.sh fuzzvdb  SOURCE BUILD SECONDS nvFuzzVdbFile (the OpenVDB header check) likewise, from valid .vdb
+#                                              layouts (nvFuzzVdbCorpus); inputs kept in BUILD/fuzz-vdb-artifacts
 set -euo pipefail
 mode=$1 src=$2 dir=$3
 export ASAN_OPTIONS=halt_on_error=1:abort_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1
@@ -26,7 +28,8 @@ case "$mode" in
         -DNV_FUZZ=ON -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_C_COMPILER="$cc" -DNV_DATA_DIR="$data" >"$dir.configure.log" \
         || { cat "$dir.configure.log"; exit 1; }
     fi
-    cmake --build "$dir" -j "$(nproc)" --target nvFuzzModel nvFuzzCorpus nvEngineTests
+    cmake --build "$dir" -j "$(nproc)" --target nvFuzzModel nvFuzzCorpus nvFuzzVdbFile nvFuzzVdbCorpus \
+      nvEngineTests
     ;;
   sanitize)
     # Every report (ASan, UBSan, LeakSanitizer) is written to BUILD/sanitizer-reports and fails the run, as does a
@@ -66,8 +69,18 @@ case "$mode" in
       -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 -max_len=8192 -print_final_stats=1 \
       -artifact_prefix="$dir/fuzz-artifacts/"
     ;;
+  fuzzvdb)
+    seconds=${4:-30}
+    rm -rf "$dir/fuzz-vdb-seeds" "$dir/fuzz-vdb-corpus"
+    mkdir -p "$dir/fuzz-vdb-seeds" "$dir/fuzz-vdb-corpus" "$dir/fuzz-vdb-artifacts"
+    "$dir/Testing/Fuzz/nvFuzzVdbCorpus" "$dir/fuzz-vdb-seeds"
+    "$dir/Testing/Fuzz/nvFuzzVdbFile" "$dir/fuzz-vdb-corpus" "$dir/fuzz-vdb-seeds" -dict="$src/Testing/Fuzz/vdb.dict" \
+      -seed=1 -max_total_time="$seconds" \
+      -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 -max_len=4096 -print_final_stats=1 \
+      -artifact_prefix="$dir/fuzz-vdb-artifacts/"
+    ;;
   *)
-    echo "usage: hardening.sh build|sanitize|fuzz SOURCE BUILD [DATA|SECONDS]" >&2
+    echo "usage: hardening.sh build|sanitize|fuzz|fuzzvdb SOURCE BUILD [DATA|SECONDS]" >&2
     exit 2
     ;;
 esac
