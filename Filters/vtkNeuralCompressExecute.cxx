@@ -13,6 +13,7 @@
 
 #include "Core/EngineWarnings.h"
 #include "Core/Error.h"
+#include "Core/ResourceEstimate.h"
 #include "Core/ValueRange.h"
 
 #include "vtkCompositeDataSet.h"
@@ -415,8 +416,8 @@ void vtkNeuralCompress::ReportOutputCap(const nvi::OutputGeometry& g)
     return;
   const int* r = this->OutputResolution;
   nvReport(Warning, "Neural Compress: OutputResolution " << r[0] << " " << r[1] << " " << r[2]
-    << " is finer than the network resolves (its finest level has " << g.CapSamples << " samples per axis): the output "
-    "is decoded at " << g.DecodedDims[0] << " x " << g.DecodedDims[1] << " x " << g.DecodedDims[2] << " instead. "
+    << " is finer than the network resolves (its finest level has " << g.CapSamples << " samples per axis, decoded "
+    "at most " << nv::kDecodeOversampling << "x as fine): the output is decoded at " << g.DecodedDims[0] << " x " << g.DecodedDims[1] << " x " << g.DecodedDims[2] << " instead. "
     "Raise FinestResolution for a finer network.");
 }
 

@@ -1,5 +1,7 @@
 #include "vtkNeuralCompressInternals.h"
 
+#include "Core/ResourceEstimate.h"
+
 #include "vtkDataArray.h"
 #include "vtkType.h"
 
@@ -88,10 +90,10 @@ OutputGeometry ComputeGeometry(const int ext[6], const double origin[3], const d
   {
     const int points = std::max(ext[2 * d + 1] - ext[2 * d] + 1, 0);
     int r = res[d] > 0 ? res[d] : g.SourceDims[d];
-    const int64_t cap = std::max<int64_t>(finest, g.SourceDims[d]);
+    const int64_t cap = std::max<int64_t>(finest * nv::kDecodeOversampling, g.SourceDims[d]);
     if (finest > 0 && r > cap)
     {
-      r = static_cast<int>(cap);
+      r = static_cast<int>(std::min<int64_t>(cap, std::numeric_limits<int>::max()));
       g.CapSamples = static_cast<int>(std::min<int64_t>(finest, std::numeric_limits<int>::max()));
     }
     if (cells && points == 1)

@@ -313,11 +313,12 @@ std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[
   bool clamp = false;
   if (own && resolved > 0)
   {
-    // Finer than the finest level only interpolates between its vertices (the source's own dims are kept).
+    // Much finer than the finest level only interpolates between its vertices (the source's own dims are kept).
     bool finer = false;
+    const int64_t most = saturatingMul(resolved, kDecodeOversampling);
     for (int a = 0; a < 3; ++a)
     {
-      const int64_t cap = std::max<int64_t>(resolved, src.dims[a]);
+      const int64_t cap = std::max<int64_t>(most, src.dims[a]);
       if (dims[a] > cap)
       {
         dims[a] = cap;
@@ -325,7 +326,8 @@ std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[
       }
     }
     if (finer)
-      s << "finer than the network resolves (its finest level has " << resolved << " samples per axis); ";
+      s << "finer than the network resolves (its finest level has " << resolved << " samples per axis, decoded at most "
+        << kDecodeOversampling << "x as fine); ";
     clamp = finer;
   }
   bool coarse = false;

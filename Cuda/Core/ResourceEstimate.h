@@ -97,13 +97,18 @@ void checkMemory(const MemoryEstimate& estimate, const std::string& what, const 
 bool clampGrid(const int64_t dims[3], int64_t maxSamples, int64_t out[3]);
 
 struct SourceInfo;
+/// A decode may sample the finest hash-grid level up to this many times per axis (the MLP bends the field inside a
+/// finest cell, so twice its vertices still shows something); finer grids only interpolate, at a cost that grows with
+/// the cube of the resolution.
+constexpr int kDecodeOversampling = 2;
+
 /// Samples per axis that a network of this encoding resolves: the vertices of its finest hash-grid level (a finer
 /// decode interpolates between them). Throws nv::Error for an invalid encoding.
 int resolvedSamplesPerAxis(const EncodingConfig& encoding);
 
 /// The decode grid a renderer on `device` uses for `asked` (DecodeResolution; 0 on an axis: the source's dims,
-/// negative: as 0): at most `resolved` samples per axis (resolvedSamplesPerAxis; never below the source's own dims;
-/// 0: no such cap), kMaxDecodeResolution per axis, kMaxDecodeGridSamples and the memory the machine has (host
+/// negative: as 0): at most kDecodeOversampling x `resolved` samples per axis (resolvedSamplesPerAxis; never below the
+/// source's own dims; 0: no such cap), kMaxDecodeResolution per axis, kMaxDecodeGridSamples and the memory the machine has (host
 /// for the CPU renderer, kDeviceMemoryShare of the GPU's free memory for the CUDA one), its proportions kept. `used`
 /// is all 0 when the source's dims are used unclamped. Returns why it clamped ("" when it did not).
 std::string fitDecodeGrid(

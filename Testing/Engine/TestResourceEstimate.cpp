@@ -208,14 +208,15 @@ NV_TEST(DecodeGridWithinWhatTheNetworkResolves)
   const int cube[3] = { 4096, 4096, 4096 };
   const std::string why = nv::fitDecodeGrid(src, nv::Device::Cpu, cube, used, resolved);
   EXPECT_TRUE(why.find("finer than the network resolves") == 0);
-  EXPECT_TRUE(used[0] == resolved && used[1] == resolved && used[2] == resolved);
+  const int most = resolved * nv::kDecodeOversampling;
+  EXPECT_TRUE(used[0] == most && used[1] == most && used[2] == most);
   const int slab[3] = { 65536, 65536, 2 };
   EXPECT_TRUE(!nv::fitDecodeGrid(src, nv::Device::Cpu, slab, used, resolved).empty());
-  EXPECT_TRUE(used[0] == resolved && used[1] == resolved && used[2] == 2);
+  EXPECT_TRUE(used[0] == most && used[1] == most && used[2] == 2);
   src.dims[0] = 300; // the source's own samples are never cut
-  const int source[3] = { 300, 100, 100 };
+  const int source[3] = { 300, most, 100 };
   EXPECT_TRUE(nv::fitDecodeGrid(src, nv::Device::Cpu, source, used, resolved).empty());
-  EXPECT_TRUE(used[0] == 300 && used[1] == 100 && used[2] == 100);
+  EXPECT_TRUE(used[0] == 300 && used[1] == most && used[2] == 100);
 }
 
 NV_TEST_MAIN()

@@ -27,23 +27,24 @@ CASE_SECONDS = 30.0
 KILL_SECONDS = 120.0  # a child still running then hangs: killed, the case fails
 MB = 1024 * 1024
 # A 16^3 Wavelet and a small network: trains in about a second on two cores; its finest level (the default,
-# FinestResolution 0) is twice the largest dimension: 32 samples per axis.
-BASE = dict(TrainInBackground=0, OutputMode=2, TrainingSteps=300, TimeBudget=5.0, BatchSize=4096, Levels=8,
+# FinestResolution 0) is twice the largest dimension: 32 samples per axis, decoded at most 64 (nv::kDecodeOversampling).
+BASE = dict(TrainInBackground=0, OutputMode=2, TrainingSteps=1000, TimeBudget=5.0, BatchSize=4096, Levels=8,
             FeaturesPerLevel=2, NetworkWidth=16, HiddenLayers=1, Threads=2, PSNRInterval=0, Loss=1)
 CASES = [
     dict(name="OutputResolution 1600^3", set={"OutputResolution": [1600] * 3}, rss_mb=2000,
-         expect="is finer than the network resolves (its finest level has 32 samples per axis)", dims=[32, 32, 32]),
+         expect="is finer than the network resolves (its finest level has 32 samples per axis, decoded at most 2x as "
+         "fine): the output is decoded at 64 x 64 x 64 instead", dims=[64, 64, 64]),
     dict(name="OutputResolution 1600^3, FinestResolution 2048", rss_mb=2000,
          set={"OutputResolution": [1600] * 3, "FinestResolution": [2048]},
          expect="(ulimit -v)", error="the decoded output needs about 16.4 GB of host memory"),
     dict(name="OutputResolution [2^31-1, 1, 1]", set={"OutputResolution": [2 ** 31 - 1, 1, 1]}, rss_mb=2000,
-         expect="is finer than the network resolves", dims=[32, 1, 1]),
+         expect="the output is decoded at 64 x 1 x 1 instead", dims=[64, 1, 1]),
     dict(name="Threads 1024", set={"Threads": [1024]}, rss_mb=2000,
          expect="Threads 1024 is more than 4 x the", dims=[16, 16, 16]),
     dict(name="DecodeResolution 4096^3", render={"DecodeResolution": [4096] * 3}, rss_mb=2500,
-         expect="the network is decoded at 32 x 32 x 32 instead"),
+         expect="the network is decoded at 64 x 64 x 64 instead"),
     dict(name="DecodeResolution 65536 x 65536 x 2", render={"DecodeResolution": [65536, 65536, 2]}, rss_mb=2500,
-         expect="the network is decoded at 32 x 32 x 2 instead"),
+         expect="the network is decoded at 64 x 64 x 2 instead"),
     # 2^20 x 2^8 samples (1 GB of float32), within what a FinestResolution 2^20 network resolves and the limit.
     dict(name="a decode of 2^28 samples aborted", abort=True, rss_mb=3000,
          set={"OutputMode": [2], "FinestResolution": [2 ** 20], "OutputResolution": [2 ** 20, 2 ** 8, 1]},
@@ -85,9 +86,11 @@ def check_values(nc, wavelet, case, verdicts):
         return
     decoded = vtk_to_numpy(array).astype(np.float64)
     vmin, vmax = wavelet.PointData["RTData"].GetRange()
-    verdicts.append(["decoded values finite and within the range",
-                     bool(np.isfinite(decoded).all() and decoded.min() > vmin - 0.1 * (vmax - vmin)
-                          and decoded.max() < vmax + 0.1 * (vmax - vmin))])
+    # Finite and about in the source's range (a 16^3 field after 1000 steps overshoots its extremes by ~10%).
+    verdicts.append(["decoded values finite and within the range +- 25%% (%.1f to %.1f for %.1f to %.1f)"
+                     % (decoded.min(), decoded.max(), vmin, vmax),
+                     bool(np.isfinite(decoded).all() and decoded.min() > vmin - 0.25 * (vmax - vmin)
+                          and decoded.max() < vmax + 0.25 * (vmax - vmin))])
     if min(dims) > 1:
         reference = ResampleToImage(Input=wavelet, UseInputBounds=1, SamplingDimensions=dims)
         ref = vtk_to_numpy(servermanager.Fetch(reference).GetPointData().GetArray("RTData")).astype(np.float64)
