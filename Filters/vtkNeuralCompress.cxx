@@ -137,7 +137,8 @@ int vtkNeuralCompress::RequestInformation(
       {
         const int ext[6] = { 0, voxels.Dims[0] - 1, 0, voxels.Dims[1] - 1, 0, voxels.Dims[2] - 1 };
         const nvi::OutputGeometry g =
-          nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution);
+          nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution,
+          this->FinestResolution, this->BaseResolution);
         outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
       }
       else
@@ -156,7 +157,8 @@ int vtkNeuralCompress::RequestInformation(
     {
       const int ext[6] = { 0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1 };
       const double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
-      const nvi::OutputGeometry g = nvi::ComputeGeometry(ext, origin, spacing, false, this->OutputResolution);
+      const nvi::OutputGeometry g = nvi::ComputeGeometry(
+        ext, origin, spacing, false, this->OutputResolution, this->FinestResolution, this->BaseResolution);
       outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
       std::copy(dims, dims + 3, this->Internals->AnnouncedDims);
     }
@@ -184,7 +186,8 @@ int vtkNeuralCompress::RequestInformation(
     inInfo->Get(vtkDataObject::SPACING(), spacing);
   }
   const nvi::OutputGeometry g = nvi::ComputeGeometry(
-    ext, origin, spacing, IsCellAssociation(this->GetInputArrayInformation(0)), this->OutputResolution);
+    ext, origin, spacing, IsCellAssociation(this->GetInputArrayInformation(0)), this->OutputResolution,
+    this->FinestResolution, this->BaseResolution);
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
   outInfo->Set(vtkDataObject::ORIGIN(), g.Origin, 3);
   outInfo->Set(vtkDataObject::SPACING(), g.Spacing, 3);
@@ -262,6 +265,7 @@ int vtkNeuralCompress::RequestData(
     // Execute reports the engine's and the standard library's errors itself; nothing else may leave the filter.
     vtkErrorMacro("Neural Compress: unexpected failure. The output is empty.");
   }
+  this->ReportEngineWarnings();
   if (!executed)
   {
     // A defined result: no arrays, no network. For an image input the output keeps the promised

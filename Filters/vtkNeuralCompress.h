@@ -71,6 +71,7 @@ namespace vtkNeuralCompressInternals
 {
 class Job;
 struct FieldInfo;
+struct OutputGeometry;
 struct NetworkRecord;
 struct SelectedInput;
 struct InputRequest;
@@ -428,6 +429,10 @@ private:
   /// it (the cost per sample measured on the input), the output keeping the announced ones; false after an error.
   bool FitResamplingToBudget(const vtkNeuralCompressInternals::InputRequest& request, double timeBudget, int dims[3],
     vtkNeuralCompressInternals::SelectedInput& input);
+  /// The engine's warnings posted since the last call (nv::takeWarnings: e.g. fewer threads than Threads asked).
+  void ReportEngineWarnings();
+  /// A warning when OutputResolution was finer than the network resolves (OutputGeometry::CapSamples).
+  void ReportOutputCap(const vtkNeuralCompressInternals::OutputGeometry& geometry);
   /// The field's name, association and geometry; refuses an output the machine cannot hold, or no samples.
   bool DescribeField(
     const vtkNeuralCompressInternals::SelectedInput& input, vtkNeuralCompressInternals::FieldInfo& field);

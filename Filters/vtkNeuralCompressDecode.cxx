@@ -85,9 +85,10 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
   const bool onGrid = !f.Cells || g.OnSourceGrid;
   const int64_t slice = n[0] * n[1];
   const int64_t slabs = std::max<int64_t>(1, kDecodeChunk / slice);
-  if (onGrid && (slabs * n[1] >= kMinRowsPerChunk || count <= kDecodeChunk))
+  if (onGrid && ((slice <= kDecodeChunk && slabs * n[1] >= kMinRowsPerChunk) || count <= kDecodeChunk))
   {
-    // Slabs of z slices: decodeGrid is parallel over their rows.
+    // Slabs of z slices: decodeGrid is parallel over their rows. A slice of more than kDecodeChunk samples is decoded
+    // as points below instead, so that no chunk between two polls is larger than that.
     for (int64_t z0 = 0; z0 < n[2]; z0 += slabs)
     {
       const int64_t z1 = std::min(n[2], z0 + slabs);

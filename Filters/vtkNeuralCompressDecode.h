@@ -27,7 +27,7 @@ class DecodeAborted : public nv::Error
 {
 public:
   DecodeAborted()
-    : nv::Error("decoding the output was aborted")
+    : nv::Error("decoding the output was aborted.")
   {
   }
 };

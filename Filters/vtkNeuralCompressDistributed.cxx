@@ -1,6 +1,7 @@
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressPieces.h"
 
+#include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressInternals.h"
 #include "vtkNeuralCompressResample.h"
 
@@ -256,7 +257,10 @@ void DistributedInput::Announce(vtkAlgorithm* self, vtkInformation* inInfo, vtkI
   }
   const int ext[6] = { 0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1 };
   const double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
-  const OutputGeometry g = ComputeGeometry(ext, origin, spacing, false, outputResolution);
+  // The same cap as rank 0's Execute applies (twice the finest level per axis).
+  vtkNeuralCompress* filter = vtkNeuralCompress::SafeDownCast(self);
+  const OutputGeometry g = ComputeGeometry(ext, origin, spacing, false, outputResolution,
+    filter ? filter->GetFinestResolution() : -1, filter ? filter->GetBaseResolution() : 0);
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
   std::copy(dims, dims + 3, announced);
 }

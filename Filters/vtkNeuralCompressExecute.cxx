@@ -11,7 +11,9 @@
 #include "vtkNeuralCompressSparse.h"
 #include "vtkNeuralCompressState.h"
 
+#include "Core/EngineWarnings.h"
 #include "Core/Error.h"
+#include "Core/ResourceEstimate.h"
 #include "Core/ValueRange.h"
 
 #include "vtkCompositeDataSet.h"
@@ -379,8 +381,9 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   // A resampling coarsened to fit the budget decodes at the dimensions announced (the network is continuous).
   const bool coarsened = input.DecodedDims[0] > 0 &&
     std::all_of(this->OutputResolution, this->OutputResolution + 3, [](int r) { return r <= 0; });
-  field.Geometry = nvi::ComputeGeometry(
-    ext, image->GetOrigin(), image->GetSpacing(), field.Cells, coarsened ? input.DecodedDims : this->OutputResolution);
+  field.Geometry = nvi::ComputeGeometry(ext, image->GetOrigin(), image->GetSpacing(), field.Cells,
+    coarsened ? input.DecodedDims : this->OutputResolution, this->FinestResolution, this->BaseResolution);
+  this->ReportOutputCap(field.Geometry);
   std::copy(image->GetDirectionMatrix()->GetData(), image->GetDirectionMatrix()->GetData() + 9, field.Direction);
   std::copy(ext, ext + 6, field.InputExtent);
   std::copy(image->GetOrigin(), image->GetOrigin() + 3, field.InputOrigin);
@@ -397,6 +400,25 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
     return false;
   }
   return true;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::ReportEngineWarnings()
+{
+  for (const std::string& w : nv::takeWarnings())
+    vtkWarningMacro("Neural Compress: " << w << ".");
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::ReportOutputCap(const nvi::OutputGeometry& g)
+{
+  if (g.CapSamples <= 0)
+    return;
+  const int* r = this->OutputResolution;
+  nvReport(Warning, "Neural Compress: OutputResolution " << r[0] << " " << r[1] << " " << r[2]
+    << " is finer than the network resolves (its finest level has " << g.CapSamples << " samples per axis, decoded "
+    "at most " << nv::kDecodeOversampling << "x as fine): the output is decoded at " << g.DecodedDims[0] << " x " << g.DecodedDims[1] << " x " << g.DecodedDims[2] << " instead. "
+    "Raise FinestResolution for a finer network.");
 }
 
 //------------------------------------------------------------------------------

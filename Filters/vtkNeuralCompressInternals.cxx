@@ -1,5 +1,7 @@
 #include "vtkNeuralCompressInternals.h"
 
+#include "Core/ResourceEstimate.h"
+
 #include "vtkDataArray.h"
 #include "vtkType.h"
 
@@ -66,8 +68,8 @@ bool EngineType(int vtkType, nv::ScalarType& out)
 
 } // namespace
 
-OutputGeometry ComputeGeometry(
-  const int ext[6], const double origin[3], const double spacing[3], bool cells, const int res[3])
+OutputGeometry ComputeGeometry(const int ext[6], const double origin[3], const double spacing[3], bool cells,
+  const int res[3], int finestResolution, int baseResolution)
 {
   OutputGeometry g;
   g.OnSourceGrid = true;
@@ -78,7 +80,22 @@ OutputGeometry ComputeGeometry(
   {
     const int points = std::max(ext[2 * d + 1] - ext[2 * d] + 1, 0);
     g.SourceDims[d] = cells ? std::max(points - 1, points > 0 ? 1 : 0) : points;
+  }
+  // The finest level as the filter trains it (vtkNeuralCompressStartJob: twice the largest dimension by default).
+  const int64_t largest = std::max({ g.SourceDims[0], g.SourceDims[1], g.SourceDims[2] });
+  const int64_t finest = finestResolution > 0 ? finestResolution
+    : finestResolution == 0                   ? std::max<int64_t>(2 * largest, baseResolution)
+                                              : int64_t(0);
+  for (int d = 0; d < 3; ++d)
+  {
+    const int points = std::max(ext[2 * d + 1] - ext[2 * d] + 1, 0);
     int r = res[d] > 0 ? res[d] : g.SourceDims[d];
+    const int64_t cap = std::max<int64_t>(finest * nv::kDecodeOversampling, g.SourceDims[d]);
+    if (finest > 0 && r > cap)
+    {
+      r = static_cast<int>(std::min<int64_t>(cap, std::numeric_limits<int>::max()));
+      g.CapSamples = static_cast<int>(std::min<int64_t>(finest, std::numeric_limits<int>::max()));
+    }
     if (cells && points == 1)
     {
       r = 1; // a flat axis keeps its single layer of cells

@@ -50,9 +50,14 @@ struct OutputGeometry
   int SourceDims[3];  ///< samples per axis of the trained field (points or cells)
   int DecodedDims[3]; ///< samples per axis of the decoded output
   bool OnSourceGrid;  ///< decoded samples coincide with the source samples
+  int CapSamples = 0; ///< the finest level's samples per axis when it lowered OutputResolution (0: it did not)
 };
-OutputGeometry ComputeGeometry(
-  const int ext[6], const double origin[3], const double spacing[3], bool cells, const int res[3]);
+/// The output of a source extent decoded at `res` samples per axis (0 on an axis: the source's own). An axis asked
+/// finer than what the network resolves (nv::kDecodeOversampling x its finest hash-grid level, `finestResolution`
+/// samples per axis; 0: the filter's default, twice the largest source dimension and at least `baseResolution`) and
+/// than the source's own samples is decoded at the larger of the two (CapSamples says so). finestResolution < 0: no cap.
+OutputGeometry ComputeGeometry(const int ext[6], const double origin[3], const double spacing[3], bool cells,
+  const int res[3], int finestResolution = -1, int baseResolution = 0);
 
 } // namespace vtkNeuralCompressInternals
 

@@ -20,6 +20,7 @@
 #include <cstring>
 #include <limits>
 #include <sstream>
+#include <system_error>
 #include <thread>
 
 namespace vtkNeuralCompressInternals
@@ -103,7 +104,14 @@ uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const S
     std::min<int64_t>(std::min<int64_t>(8, std::max<unsigned>(1u, std::thread::hardware_concurrency())), blocks / 4)));
   std::vector<std::thread> threads;
   for (int t = 1; t < parts; ++t)
-    threads.emplace_back(crcOf, blocks * t / parts, blocks * (t + 1) / parts);
+    try
+    {
+      threads.emplace_back(crcOf, blocks * t / parts, blocks * (t + 1) / parts);
+    }
+    catch (const std::system_error&) // no thread to be had (a process limit): this part here
+    {
+      crcOf(blocks * t / parts, blocks * (t + 1) / parts);
+    }
   crcOf(0, blocks / parts);
   for (std::thread& t : threads)
     t.join();

@@ -65,7 +65,9 @@ bool vtkNeuralCompress::ExecuteSparse(
     field.Cells = false;
     field.VtkType = voxels.Values->GetDataType();
     const int ext[6] = { 0, voxels.Dims[0] - 1, 0, voxels.Dims[1] - 1, 0, voxels.Dims[2] - 1 };
-    field.Geometry = nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution);
+    field.Geometry = nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution,
+      this->FinestResolution, this->BaseResolution);
+    this->ReportOutputCap(field.Geometry);
     std::copy(voxels.Direction, voxels.Direction + 9, field.Direction);
     std::copy(ext, ext + 6, field.InputExtent);
     std::copy(voxels.Origin, voxels.Origin + 3, field.InputOrigin);

@@ -405,8 +405,8 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     if (!std::equal(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked) ||
       in.DecodeSession != &session)
     {
-      const std::string why =
-        nv::fitDecodeGrid(session.model().source, session.device(), this->DecodeResolution, in.DecodeUsed);
+      const std::string why = nv::fitDecodeGrid(session.model().source, session.device(), this->DecodeResolution,
+        in.DecodeUsed, nv::resolvedSamplesPerAxis(session.model().config().encoding));
       std::copy(this->DecodeResolution, this->DecodeResolution + 3, in.DecodeAsked);
       in.DecodeSession = &session;
       if (!why.empty())

@@ -9,6 +9,9 @@
 #include <limits>
 #include <sstream>
 
+#include <fstream>
+
+#include <sys/resource.h>
 #include <unistd.h>
 
 #if defined(NV_WITH_CUDA)
@@ -20,6 +23,7 @@ namespace nv
 namespace
 {
 constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+constexpr uint32_t kMaxInt = static_cast<uint32_t>(std::numeric_limits<int>::max());
 
 // Bytes per parameter held while training on the CPU: the trainer's parameters, gradients and two Adam moments
 // (16), the session's model and the filter's base copy (8), the rollback point, its spare buffer and the best network
@@ -54,10 +58,83 @@ int64_t physicalMemoryBytes()
   return saturatingMul(pages, page);
 }
 
+namespace
+{
+/// The soft limit of `resource`, INT64_MAX when unlimited or unknown.
+int64_t softLimit(int resource)
+{
+  struct rlimit r;
+  if (getrlimit(resource, &r) != 0 || r.rlim_cur == RLIM_INFINITY)
+    return kMax;
+  return r.rlim_cur >= static_cast<rlim_t>(kMax) ? kMax : static_cast<int64_t>(r.rlim_cur);
+}
+
+/// "the process may use at most 16 GB (ulimit -v), 1.2 GB of it already in use"
+std::string limitReason(int64_t limit, int64_t used, const char* option)
+{
+  std::ostringstream s;
+  s << "the process may use at most " << formatBytes(limit) << " (ulimit " << option << "), " << formatBytes(used)
+    << " of it already in use";
+  return s.str();
+}
+} // namespace
+
+ProcessMemoryLimits processMemoryLimits()
+{
+  ProcessMemoryLimits l;
+  l.addressSpace = softLimit(RLIMIT_AS);
+  l.data = softLimit(RLIMIT_DATA);
+  if (l.addressSpace == kMax && l.data == kMax)
+    return l; // nothing to subtract from
+  // statm: size resident shared text lib data(+stack) dirty, in pages.
+  std::ifstream statm("/proc/self/statm");
+  int64_t size = 0, resident = 0, shared = 0, text = 0, lib = 0, data = 0;
+  const long page = sysconf(_SC_PAGE_SIZE);
+  if (statm >> size >> resident >> shared >> text >> lib >> data && page > 0)
+  {
+    l.addressSpaceUsed = saturatingMul(size, page);
+    l.dataUsed = saturatingMul(data, page);
+  }
+  return l;
+}
+
+HostMemoryBudget hostMemoryBudget(const ProcessMemoryLimits* limits)
+{
+  HostMemoryBudget b;
+  b.bytes = kMax;
+  const int64_t physical = physicalMemoryBytes();
+  if (physical > 0)
+  {
+    b.bytes = static_cast<int64_t>(static_cast<double>(physical) * kHostMemoryShare);
+    std::ostringstream s;
+    s << static_cast<int>(kHostMemoryShare * 100.0 + 0.5) << "% of this machine's " << formatBytes(physical);
+    b.reason = s.str();
+  }
+  const ProcessMemoryLimits own = limits ? *limits : processMemoryLimits();
+  if (own.addressSpace != kMax)
+  {
+    const int64_t left = std::max<int64_t>(0, own.addressSpace - own.addressSpaceUsed);
+    if (left < b.bytes)
+    {
+      b.bytes = left;
+      b.reason = limitReason(own.addressSpace, own.addressSpaceUsed, "-v");
+    }
+  }
+  if (own.data != kMax)
+  {
+    const int64_t left = std::max<int64_t>(0, own.data - own.dataUsed);
+    if (left < b.bytes)
+    {
+      b.bytes = left;
+      b.reason = limitReason(own.data, own.dataUsed, "-d");
+    }
+  }
+  return b;
+}
+
 int64_t hostMemoryLimit()
 {
-  const int64_t physical = physicalMemoryBytes();
-  return physical > 0 ? static_cast<int64_t>(static_cast<double>(physical) * kHostMemoryShare) : kMax;
+  return hostMemoryBudget().bytes;
 }
 
 bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes)
@@ -165,16 +242,18 @@ MemoryEstimate decodeGridMemory(const int64_t dims[3], Device device)
 void checkMemory(const MemoryEstimate& estimate, const std::string& what, const std::string& advice,
   int64_t deviceFree, int64_t hostLimit)
 {
-  const int64_t physical = physicalMemoryBytes();
-  const int64_t limit = hostLimit >= 0 ? hostLimit : hostMemoryLimit();
-  if (estimate.hostBytes > limit)
+  HostMemoryBudget budget;
+  if (hostLimit >= 0)
+    budget.bytes = hostLimit;
+  else
+    budget = hostMemoryBudget();
+  if (estimate.hostBytes > budget.bytes)
   {
     std::ostringstream s;
     s << what << " needs about " << formatBytes(estimate.hostBytes) << " of host memory (" << estimate.detail
-      << "); the limit is " << formatBytes(limit);
-    if (hostLimit < 0 && physical > 0)
-      s << " (" << static_cast<int>(kHostMemoryShare * 100.0 + 0.5) << "% of this machine's "
-        << formatBytes(physical) << ")";
+      << "); the limit is " << formatBytes(budget.bytes);
+    if (!budget.reason.empty())
+      s << " (" << budget.reason << ")";
     s << ". " << advice << ".";
     throw Error(s.str());
   }
@@ -218,7 +297,13 @@ bool clampGrid(const int64_t dims[3], int64_t maxSamples, int64_t out[3])
   return true;
 }
 
-std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[3], int used[3])
+int resolvedSamplesPerAxis(const EncodingConfig& encoding)
+{
+  const GridLayout layout = makeGridLayout(encoding); // validates it
+  return static_cast<int>(std::min<uint32_t>(layout.level[layout.levels - 1].res, kMaxInt));
+}
+
+std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[3], int used[3], int resolved)
 {
   const bool own = asked[0] > 0 && asked[1] > 0 && asked[2] > 0;
   int64_t dims[3], clamped[3];
@@ -226,14 +311,35 @@ std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[
     dims[a] = std::max<int64_t>(1, own ? asked[a] : src.dims[a]);
   std::ostringstream s;
   bool clamp = false;
+  if (own && resolved > 0)
+  {
+    // Much finer than the finest level only interpolates between its vertices (the source's own dims are kept).
+    bool finer = false;
+    const int64_t most = saturatingMul(resolved, kDecodeOversampling);
+    for (int a = 0; a < 3; ++a)
+    {
+      const int64_t cap = std::max<int64_t>(most, src.dims[a]);
+      if (dims[a] > cap)
+      {
+        dims[a] = cap;
+        finer = true;
+      }
+    }
+    if (finer)
+      s << "finer than the network resolves (its finest level has " << resolved << " samples per axis, decoded at most "
+        << kDecodeOversampling << "x as fine); ";
+    clamp = finer;
+  }
+  bool coarse = false;
   for (int a = 0; a < 3; ++a)
     if (dims[a] > kMaxDecodeResolution)
     {
       dims[a] = kMaxDecodeResolution;
-      clamp = true;
+      coarse = true;
     }
-  if (clamp)
+  if (coarse)
     s << "more than " << kMaxDecodeResolution << " samples per axis; ";
+  clamp = clamp || coarse;
   const bool gpu = device == Device::Cuda;
   const MemoryEstimate one = decodeGridMemory(dims, device);
   int64_t maxSamples = kMaxDecodeGridSamples;
@@ -241,16 +347,23 @@ std::string fitDecodeGrid(const SourceInfo& src, Device device, const int asked[
   const double bytesPerSample =
     static_cast<double>(gpu ? one.deviceBytes : one.hostBytes) / static_cast<double>(std::max<int64_t>(samples, 1));
   int64_t freeBytes = -1, totalBytes = 0;
-  const int64_t limit = !gpu ? hostMemoryLimit()
-    : deviceMemoryInfo(freeBytes, totalBytes) ? static_cast<int64_t>(static_cast<double>(freeBytes) * kDeviceMemoryShare)
-                                              : int64_t(-1);
-  if (limit >= 0 && bytesPerSample > 0.0)
-    maxSamples = std::min<int64_t>(maxSamples, static_cast<int64_t>(static_cast<double>(limit) / bytesPerSample));
+  HostMemoryBudget budget;
+  if (!gpu)
+    budget = hostMemoryBudget();
+  else if (deviceMemoryInfo(freeBytes, totalBytes))
+    budget.bytes = static_cast<int64_t>(static_cast<double>(freeBytes) * kDeviceMemoryShare);
+  else
+    budget.bytes = -1;
+  if (budget.bytes >= 0 && bytesPerSample > 0.0)
+    maxSamples = std::min<int64_t>(maxSamples, static_cast<int64_t>(static_cast<double>(budget.bytes) / bytesPerSample));
   if (clampGrid(dims, maxSamples, clamped))
   {
     s << "a grid of " << dims[0] << " x " << dims[1] << " x " << dims[2] << " samples needs about "
       << formatBytes(gpu ? one.deviceBytes : one.hostBytes) << " of " << (gpu ? "GPU" : "host")
-      << " memory, the limit is " << formatBytes(limit) << " and at most 2^31 samples; ";
+      << " memory, the limit is " << formatBytes(budget.bytes);
+    if (!budget.reason.empty())
+      s << " (" << budget.reason << ")";
+    s << " and at most 2^31 samples; ";
     std::copy(clamped, clamped + 3, dims);
     clamp = true;
   }

@@ -15,6 +15,7 @@
 #include "Config.h"
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 namespace nv
@@ -27,7 +28,30 @@ constexpr double kDeviceMemoryShare = 0.9;
 
 /// Bytes of physical memory of this machine (sysconf); 0 when unknown.
 int64_t physicalMemoryBytes();
-/// kHostMemoryShare of the physical memory; INT64_MAX when unknown (nothing is refused then).
+
+/// What this process may still allocate on the host, and which limit says so.
+struct HostMemoryBudget
+{
+  int64_t bytes = 0;  ///< INT64_MAX when nothing is known
+  std::string reason; ///< "80% of this machine's 23 GB", "the process may use at most 16 GB (ulimit -v), 1.2 GB of
+                      ///< it already in use"; "" when nothing is known
+};
+
+/// The process's address-space and data-segment limits (getrlimit RLIMIT_AS, RLIMIT_DATA; INT64_MAX when unlimited)
+/// and what it already uses of them (/proc/self/statm: the total program size, which RLIMIT_AS is checked against, and
+/// the data + stack size, which RLIMIT_DATA is checked against; resident figures such as getrusage's maxrss do not
+/// count reserved but untouched mappings, which the kernel refuses against the limit all the same).
+struct ProcessMemoryLimits
+{
+  int64_t addressSpace = std::numeric_limits<int64_t>::max(), addressSpaceUsed = 0;
+  int64_t data = std::numeric_limits<int64_t>::max(), dataUsed = 0;
+};
+ProcessMemoryLimits processMemoryLimits();
+
+/// The smaller of kHostMemoryShare of the physical memory and what the process's limits leave
+/// (processMemoryLimits: limit minus use), with its reason. `limits` null: the process's own.
+HostMemoryBudget hostMemoryBudget(const ProcessMemoryLimits* limits = nullptr);
+/// hostMemoryBudget().bytes; INT64_MAX when unknown (nothing is refused then).
 int64_t hostMemoryLimit();
 /// Free and total bytes of the current CUDA device. False in a build without CUDA or without a usable GPU; call it
 /// only where a GPU session exists (it creates the CUDA context otherwise).
@@ -63,7 +87,8 @@ MemoryEstimate decodeGridMemory(const int64_t dims[3], Device device);
 
 /// Throws nv::Error when `estimate` exceeds the host limit (or, when `deviceFree` >= 0, kDeviceMemoryShare of
 /// it): "<what> needs about 9.4 GB of host memory (<detail>); the limit is 18 GB (80% of this machine's 23 GB).
-/// <advice>." `hostLimit` < 0: hostMemoryLimit().
+/// <advice>." or "...; the limit is 6.1 GB (the process may use at most 8.6 GB (ulimit -v), 2.5 GB of it already in
+/// use). <advice>." `hostLimit` < 0: hostMemoryBudget().
 void checkMemory(const MemoryEstimate& estimate, const std::string& what, const std::string& advice,
   int64_t deviceFree = -1, int64_t hostLimit = -1);
 
@@ -72,11 +97,22 @@ void checkMemory(const MemoryEstimate& estimate, const std::string& what, const 
 bool clampGrid(const int64_t dims[3], int64_t maxSamples, int64_t out[3]);
 
 struct SourceInfo;
+/// A decode may sample the finest hash-grid level up to this many times per axis (the MLP bends the field inside a
+/// finest cell, so twice its vertices still shows something); finer grids only interpolate, at a cost that grows with
+/// the cube of the resolution.
+constexpr int kDecodeOversampling = 2;
+
+/// Samples per axis that a network of this encoding resolves: the vertices of its finest hash-grid level (a finer
+/// decode interpolates between them). Throws nv::Error for an invalid encoding.
+int resolvedSamplesPerAxis(const EncodingConfig& encoding);
+
 /// The decode grid a renderer on `device` uses for `asked` (DecodeResolution; 0 on an axis: the source's dims,
-/// negative: as 0): at most kMaxDecodeResolution per axis, kMaxDecodeGridSamples and the memory the machine has (host
+/// negative: as 0): at most kDecodeOversampling x `resolved` samples per axis (resolvedSamplesPerAxis; never below the
+/// source's own dims; 0: no such cap), kMaxDecodeResolution per axis, kMaxDecodeGridSamples and the memory the machine has (host
 /// for the CPU renderer, kDeviceMemoryShare of the GPU's free memory for the CUDA one), its proportions kept. `used`
 /// is all 0 when the source's dims are used unclamped. Returns why it clamped ("" when it did not).
-std::string fitDecodeGrid(const SourceInfo& source, Device device, const int asked[3], int used[3]);
+std::string fitDecodeGrid(
+  const SourceInfo& source, Device device, const int asked[3], int used[3], int resolved = 0);
 
 /// Samples the renderers decode at most (the CPU renderer's limit, kept for both devices).
 constexpr int64_t kMaxDecodeGridSamples = int64_t(1) << 31;

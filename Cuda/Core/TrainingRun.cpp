@@ -4,6 +4,7 @@
 #include "ThreadPriority.h"
 
 #include <algorithm>
+#include <system_error>
 #include <utility>
 #include <chrono>
 #include <cmath>
@@ -127,7 +128,16 @@ void TrainingRun::RunHere(const std::function<bool()>& abort, const std::functio
 void TrainingRun::StartInBackground()
 {
   this->Background = true;
-  this->Thread = std::thread([this]() { this->Worker(); });
+  try
+  {
+    this->Thread = std::thread([this]() { this->Worker(); });
+  }
+  catch (const std::system_error& e) // a process limit: say so instead of an unexplained failure
+  {
+    this->Background = false;
+    NV_THROW(std::string("cannot start the training thread (") + e.what() + "); lower Threads or raise the process's "
+      "limits (ulimit -u, ulimit -v)");
+  }
 }
 
 void TrainingRun::Worker()

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <system_error>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -150,7 +151,17 @@ VolumeStats computeStats(const VolumeView& v)
   std::vector<VolumeStats> partial(static_cast<size_t>(parts));
   std::vector<std::thread> threads;
   for (int t = 1; t < parts; ++t)
-    threads.emplace_back([&, t] { partial[size_t(t)] = rangeStats(v, n * t / parts, n * (t + 1) / parts); });
+  {
+    auto part = [&, t] { partial[size_t(t)] = rangeStats(v, n * t / parts, n * (t + 1) / parts); };
+    try
+    {
+      threads.emplace_back(part);
+    }
+    catch (const std::system_error&) // no thread to be had (a process limit): this part in this thread
+    {
+      part();
+    }
+  }
   partial[0] = rangeStats(v, 0, n / parts);
   for (std::thread& t : threads)
     t.join();

@@ -11,6 +11,7 @@
 #include <exception>
 #include <new>
 #include <string>
+#include <system_error>
 
 namespace nv
 {
@@ -231,7 +232,7 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
   job->block = std::max<int64_t>(1, (int64_t(1) << 18) / (dims[0] * dims[1]));
   job->blocks = (dims[2] + job->block - 1) / job->block;
-  job->thread = std::thread([j, pool, lowPriority] {
+  auto body = [j, pool, lowPriority] {
     if (lowPriority)
       lowerCurrentThreadPriority(); // the pool's worker 0
     try
@@ -261,7 +262,20 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
       j->error = e.what();
     }
     j->done = true;
-  });
+  };
+  try
+  {
+    job->thread = std::thread(body);
+  }
+  catch (const std::system_error&)
+  {
+    // No thread to be had (a process limit): the full grid now, on the session's pool, instead of in the background.
+    Pending = false;
+    Full = decode(Pool, model, version, dims, nullptr);
+    r.grid = Full;
+    r.pending = false;
+    return r;
+  }
   Running = std::move(job);
   r.grid = Coarse;
   r.pending = true;

@@ -1,9 +1,12 @@
 #include "ThreadPool.h"
 
+#include "Core/EngineWarnings.h"
 #include "Core/ThreadPriority.h"
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
+#include <string>
 #if defined(__SSE__) || defined(_M_X64)
 #include <xmmintrin.h>
 #define NV_HAVE_MXCSR 1
@@ -18,17 +21,47 @@ int ThreadPool::defaultThreads()
   return n == 0 ? 1 : static_cast<int>(n);
 }
 
-ThreadPool::ThreadPool(int threads, bool lowPriority)
-  : Count(threads > 0 ? threads : defaultThreads())
-  , LowPriority(lowPriority)
+int ThreadPool::usableThreads(int threads, std::string* warning)
 {
-  for (int i = 1; i < Count; ++i)
+  const int hardware = defaultThreads();
+  if (threads <= 0)
+    return hardware;
+  const int most = hardware > std::numeric_limits<int>::max() / kMaxThreadsPerCore ? std::numeric_limits<int>::max()
+                                                                                    : hardware * kMaxThreadsPerCore;
+  if (threads <= most)
+    return threads;
+  if (warning)
+    *warning = "Threads " + std::to_string(threads) + " is more than " + std::to_string(kMaxThreadsPerCore) +
+      " x the " + std::to_string(hardware) + " hardware threads: " + std::to_string(most) + " threads are used";
+  return most;
+}
+
+ThreadPool::ThreadPool(int threads, bool lowPriority)
+  : LowPriority(lowPriority)
+{
+  std::string capped;
+  Count = usableThreads(threads, &capped);
+  if (!capped.empty())
+    postWarning(capped);
+  const int asked = Count;
+  for (int i = 1; i < asked; ++i)
   {
-    Workers.emplace_back([this, i, lowPriority] {
-      if (lowPriority)
-        lowerCurrentThreadPriority();
-      workerLoop(i);
-    });
+    try
+    {
+      Workers.emplace_back([this, i, lowPriority] {
+        if (lowPriority)
+          lowerCurrentThreadPriority();
+        workerLoop(i);
+      });
+    }
+    catch (const std::exception& e) // std::system_error (EAGAIN), or std::bad_alloc for the thread's state
+    {
+      // Go on with the workers created so far: runOnAll waits for exactly Count - 1 of them.
+      Count = i;
+      postWarning("could create only " + std::to_string(i) + " of " + std::to_string(asked) +
+        " threads (" + e.what() + "): the work runs on " + std::to_string(i) + (i == 1 ? " thread" : " threads"));
+      break;
+    }
   }
 }
 

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -14,8 +15,11 @@ namespace nv
 class ThreadPool
 {
 public:
-  /// threads <= 0: hardware concurrency. lowPriority: the workers run at a lower scheduling priority
-  /// (Core/ThreadPriority.h; worker 0 is the caller's thread and keeps its own).
+  /// threads <= 0: hardware concurrency; more than kMaxThreadsPerCore x the hardware threads: that many (a warning,
+  /// Core/EngineWarnings.h). lowPriority: the workers run at a lower scheduling priority (Core/ThreadPriority.h;
+  /// worker 0 is the caller's thread and keeps its own). A thread the system refuses (std::system_error: a process
+  /// or address-space limit) ends the creation: the pool works with the threads it got, at least the caller's, and
+  /// posts a warning "could create only N of M threads".
   explicit ThreadPool(int threads, bool lowPriority = false);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
@@ -35,6 +39,11 @@ public:
   void parallelChunks(int64_t n, int64_t chunk, const std::function<void(int64_t, int64_t, int)>& fn);
 
   static int defaultThreads();
+  /// `threads` as the pool uses it: <= 0 -> defaultThreads(), at most kMaxThreadsPerCore x defaultThreads()
+  /// (`warning` set, when not null, to why it was capped).
+  static int usableThreads(int threads, std::string* warning = nullptr);
+  /// Threads per hardware thread a pool creates at most.
+  static constexpr int kMaxThreadsPerCore = 4;
 
 private:
   void workerLoop(int id);

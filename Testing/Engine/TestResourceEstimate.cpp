@@ -1,13 +1,18 @@
 // Memory estimates made before allocating (Core/ResourceEstimate.h): exact parameter counts against a constructed
 // model, the batch and table terms, saturation instead of overflow, the refusal message and the grid clamp.
+#include "ForkedChild.h"
 #include "TestHarness.h"
 
+#include "Core/Error.h"
 #include "Core/Model.h"
 #include "Core/ResourceEstimate.h"
 
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <string>
+
+#include <sys/resource.h>
 
 namespace
 {
@@ -117,6 +122,101 @@ NV_TEST(DecodeGridFitsTheMachine)
   const int wide[3] = { 100000, 2, 2 }; // beyond the per-axis cap
   EXPECT_TRUE(!nv::fitDecodeGrid(src, nv::Device::Cpu, wide, used).empty());
   EXPECT_TRUE(used[0] == nv::kMaxDecodeResolution && used[1] == 2 && used[2] == 2);
+}
+
+NV_TEST(BudgetFollowsTheProcessLimits)
+{
+  const int64_t gb = 1000000000;
+  nv::ProcessMemoryLimits none; // unlimited: the physical memory's share
+  const nv::HostMemoryBudget physical = nv::hostMemoryBudget(&none);
+  EXPECT_TRUE(physical.bytes == static_cast<int64_t>(static_cast<double>(nv::physicalMemoryBytes()) * 0.8));
+  EXPECT_TRUE(physical.reason.find("80% of this machine's") == 0);
+  nv::ProcessMemoryLimits as;
+  as.addressSpace = 16 * gb;
+  as.addressSpaceUsed = 3 * gb;
+  const nv::HostMemoryBudget b = nv::hostMemoryBudget(&as);
+  EXPECT_TRUE(b.bytes == std::min<int64_t>(13 * gb, physical.bytes));
+  if (b.bytes == 13 * gb)
+    EXPECT_TRUE(b.reason == "the process may use at most 16 GB (ulimit -v), 3 GB of it already in use");
+  nv::ProcessMemoryLimits data;
+  data.data = 2 * gb;
+  data.dataUsed = 500000000;
+  const nv::HostMemoryBudget d = nv::hostMemoryBudget(&data);
+  EXPECT_TRUE(d.bytes == 1500000000 && d.reason.find("(ulimit -d)") != std::string::npos);
+  data.dataUsed = 3 * gb; // more in use than the limit: nothing left, not a negative budget
+  EXPECT_TRUE(nv::hostMemoryBudget(&data).bytes == 0);
+}
+
+NV_TEST(RefusalUnderALoweredAddressSpaceLimit)
+{
+  // In a child: RLIMIT_AS at what the process uses + 1 GB. The budget is that gigabyte (less what the statm read
+  // itself maps), the refusal names "ulimit -v", and a real allocation of 2 GB fails as the estimate said.
+  const int rc = nvtest::runInChild(
+    [] {
+      const int64_t gb = 1000000000;
+      const nv::ProcessMemoryLimits before = nv::processMemoryLimits();
+      struct rlimit r;
+      getrlimit(RLIMIT_AS, &r);
+      r.rlim_cur = static_cast<rlim_t>(before.addressSpaceUsed + gb);
+      if (setrlimit(RLIMIT_AS, &r) != 0)
+        return 10;
+      const nv::HostMemoryBudget b = nv::hostMemoryBudget();
+      std::printf("    budget %s (%s)\n", nv::formatBytes(b.bytes).c_str(), b.reason.c_str());
+      if (b.bytes > gb || b.bytes < gb * 9 / 10 || nv::hostMemoryLimit() != b.bytes)
+        return 11;
+      if (b.reason.find("the process may use at most") != 0 || b.reason.find("(ulimit -v)") == std::string::npos)
+        return 12;
+      nv::MemoryEstimate e;
+      e.hostBytes = 2 * gb;
+      e.detail = "a test";
+      try
+      {
+        nv::checkMemory(e, "a decode", "Lower it");
+        return 13;
+      }
+      catch (const nv::Error& error)
+      {
+        std::printf("    %s\n", error.what());
+        if (std::string(error.what()).find("(ulimit -v)") == std::string::npos)
+          return 14;
+      }
+      try
+      {
+        std::string big(static_cast<size_t>(2 * gb), 'x'); // what the check spared the caller
+        return big.size() == 0 ? 15 : 16;
+      }
+      catch (const std::bad_alloc&)
+      {
+      }
+      return 0;
+    },
+    60.0);
+  EXPECT_TRUE(rc == 0);
+}
+
+NV_TEST(DecodeGridWithinWhatTheNetworkResolves)
+{
+  nv::EncodingConfig e;
+  e.levels = 8;
+  e.baseResolution = 16;
+  e.finestResolution = 128;
+  const int resolved = nv::resolvedSamplesPerAxis(e);
+  EXPECT_TRUE(resolved >= 128 && resolved <= 129);
+  nv::SourceInfo src;
+  src.dims[0] = src.dims[1] = src.dims[2] = 64;
+  int used[3];
+  const int cube[3] = { 4096, 4096, 4096 };
+  const std::string why = nv::fitDecodeGrid(src, nv::Device::Cpu, cube, used, resolved);
+  EXPECT_TRUE(why.find("finer than the network resolves") == 0);
+  const int most = resolved * nv::kDecodeOversampling;
+  EXPECT_TRUE(used[0] == most && used[1] == most && used[2] == most);
+  const int slab[3] = { 65536, 65536, 2 };
+  EXPECT_TRUE(!nv::fitDecodeGrid(src, nv::Device::Cpu, slab, used, resolved).empty());
+  EXPECT_TRUE(used[0] == most && used[1] == most && used[2] == 2);
+  src.dims[0] = 300; // the source's own samples are never cut
+  const int source[3] = { 300, most, 100 };
+  EXPECT_TRUE(nv::fitDecodeGrid(src, nv::Device::Cpu, source, used, resolved).empty());
+  EXPECT_TRUE(used[0] == 300 && used[1] == most && used[2] == 100);
 }
 
 NV_TEST_MAIN()

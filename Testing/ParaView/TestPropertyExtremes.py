@@ -95,15 +95,17 @@ def filter_cases():
                                "FeaturesPerLevel": [4], "NetworkWidth": [64]},
                           expect="of host memory"))
     if gib < 42:  # 34.4 GB estimated
-        cases.append(dict(kind="filter", label="OutputResolution 2048^3", set={"OutputResolution": [2048] * 3},
+        # With a network fine enough for it (the default one of a 16^3 input resolves 64 samples per axis at most).
+        cases.append(dict(kind="filter", label="OutputResolution 2048^3", set={"OutputResolution": [2048] * 3,
+                                                                              "FinestResolution": [4096]},
                           expect="the decoded output needs about"))
     cases.append(dict(kind="filter", label="OutputResolution 2^31-1 x 2^31-1 x 1",
-                      set={"OutputResolution": [INT_MAX, INT_MAX, 1]}, expect="the decoded output needs about"))
+                      set={"OutputResolution": [INT_MAX, INT_MAX, 1]}, expect="is finer than the network resolves"))
     cases.append(dict(kind="filter", label="BatchSize 2^24 with a 5 s TimeBudget", input=32, budget=5.0,
                       set={"BatchSize": [2 ** 24], "TimeBudget": [5.0], "TrainingSteps": [1000000]},
                       expect="capped"))
     cases.append(dict(kind="filter", label="a decode of 2^28 samples aborted", abort=True,
-                      set={"OutputResolution": [2 ** 28, 1, 1]}, expect="aborted"))
+                      set={"FinestResolution": [2 ** 20], "OutputResolution": [2 ** 20, 2 ** 8, 1]}, expect="aborted"))
     return cases
 
 
@@ -198,7 +200,8 @@ def worker(kind, first, last, progress_path):
                     nc = new_filter(case)
                     for k, v in case["set"].items():
                         set_raw(nc, k, v)
-                    # A long decode (OutputResolution 2^31-1 x 1 x 1 fits in memory) reports progress and is aborted.
+                    # A long decode (2^20 x 2^8 samples of a FinestResolution 2^20 network) reports progress and is
+                    # aborted.
                     nc.GetClientSideObject().AddObserver("ProgressEvent", stop_long_decodes)
                     nc.UpdatePipeline()
                     data = servermanager.Fetch(nc)
