@@ -213,8 +213,8 @@ int vtkNeuralCompress::RequestUpdateExtent(
 int vtkNeuralCompress::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  // An abort request belongs to the execution it interrupted.
-  this->SetAbortExecute(0);
+  // An abort request belongs to the execution it interrupts: the executive clears it before this execution's first
+  // progress event (vtkDemandDrivenPipeline::ExecuteDataStart), so an abort asked at that event is kept.
   vtkDataObject* inputObject = vtkDataObject::GetData(inputVector[0], 0);
   vtkImageData* output = vtkImageData::GetData(outputVector, 0);
   vtkTable* log = vtkTable::GetData(outputVector, 1);
@@ -345,6 +345,8 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     std::lock_guard<std::mutex> lock(job.Mutex);
     job.OutputMode = this->OutputMode;
   }
+  // OutputResolution is not part of the training: a change decodes the same network on the new grid.
+  job.SetOutputGeometry(nvi::OutputGeometryOf(job.Field, this->OutputResolution));
   nvi::RunStatus status;
   if (job.Run && !this->ReportRunStatus(job, status))
   {
@@ -497,7 +499,24 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
       << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
   }
-  if (std::isinf(record.M.MaxError))
+  if (record.M.State == "Aborted")
+  {
+    vtkWarningMacro("Neural Compress: training aborted (AbortExecute) at step "
+      << record.M.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
+  }
+  if (nvi::UntrainedByRequest(job.Field, record.M))
+  {
+    vtkWarningMacro("Neural Compress: Training Steps is 0: no training was asked for, so the network is "
+      << (record.M.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR " << record.M.Psnr
+      << " dB). Set Training Steps above 0 to train it.");
+  }
+  if (nvi::MaxErrorOverflows(record.M))
+  {
+    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.M)
+                                                        << ", is too large for a double: NeuralMaxError is inf and "
+                                                           "NeuralMaxErrorOfRange holds it; every decoded value is finite.");
+  }
+  else if (std::isinf(record.M.MaxError))
   {
     vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
                   "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
