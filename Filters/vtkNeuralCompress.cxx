@@ -197,6 +197,8 @@ int vtkNeuralCompress::RequestInformation(
 int vtkNeuralCompress::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
+  // An abort left set from before does not cut this update short (cleared here, before its first progress event).
+  this->SetAbortExecute(0);
   // Training needs the whole field.
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
   if (inInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
@@ -213,8 +215,8 @@ int vtkNeuralCompress::RequestUpdateExtent(
 int vtkNeuralCompress::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  // An abort request belongs to the execution it interrupts: the executive clears it before this execution's first
-  // progress event (vtkDemandDrivenPipeline::ExecuteDataStart), so an abort asked at that event is kept.
+  // An abort request belongs to the execution it interrupts: one left from before was cleared by
+  // RequestUpdateExtent, and one asked at this execution's first progress event (before RequestData) is kept.
   vtkDataObject* inputObject = vtkDataObject::GetData(inputVector[0], 0);
   vtkImageData* output = vtkImageData::GetData(outputVector, 0);
   vtkTable* log = vtkTable::GetData(outputVector, 1);

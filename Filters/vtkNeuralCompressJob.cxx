@@ -186,6 +186,35 @@ static nv::ErrorStats SourceError(
   return e;
 }
 
+/// The error of the phase's network: of its decoded output as it is (on the source's grid), else of the network on the
+/// source's grid; a resampled input's at its own samples (`resampledPsnr`: the one on the resampled image).
+static nv::ErrorStats MeasureNetwork(nv::NetworkSession& session, const nv::Model& model, const nv::VolumeView& view,
+  const FieldInfo& field, vtkDataArray* decoded, int threads, double& resampledPsnr, int64_t& sourceSamples)
+{
+  nv::ErrorStats error;
+  if (!view.data)
+  {
+    // A sparse input (vtkNeuralCompressSparse.h) has no dense field: it is measured at its samples below.
+  }
+  else if (decoded && field.Geometry.OnSourceGrid)
+  {
+    // The output as it is (rounded, clamped or thresholded to the input's type): the figures are the output's.
+    error = CompareDecodedOutput(decoded, view, field.Stats.min, field.Stats.max, threads);
+  }
+  else
+  {
+    error = nv::compareToSource(session, view);
+  }
+  if (field.Samples)
+  {
+    // A resampled input: the error that counts is the one at the source's own samples.
+    resampledPsnr = view.data ? error.psnr : std::numeric_limits<double>::quiet_NaN();
+    error = SourceError(session, model, *field.Samples, field.Stats.min, field.Stats.max);
+    sourceSamples = error.count;
+  }
+  return error;
+}
+
 Metrics MetricsOf(const nv::Model& model, const std::string& device)
 {
   Metrics m;
@@ -287,30 +316,10 @@ void Job::Finalize(const RunStatus& status)
   {
     decodeError = e.what(); // the network stays; the output has no decoded field
   }
-  const nv::VolumeView& view = this->Data->Field.View;
-  nv::ErrorStats error;
-  if (!view.data)
-  {
-    // A sparse input (vtkNeuralCompressSparse.h) has no dense field: it is measured at its samples below.
-  }
-  else if (decoded && field.Geometry.OnSourceGrid)
-  {
-    // The output as it is (rounded, clamped or thresholded to the input's type): the figures are the output's.
-    error = CompareDecodedOutput(decoded, view, field.Stats.min, field.Stats.max, this->S.Threads);
-  }
-  else
-  {
-    error = nv::compareToSource(*this->Session, view);
-  }
   double resampledPsnr = std::numeric_limits<double>::quiet_NaN();
   int64_t sourceSamples = 0;
-  if (this->Field.Samples)
-  {
-    // A resampled input: the error that counts is the one at the source's own samples.
-    resampledPsnr = view.data ? error.psnr : std::numeric_limits<double>::quiet_NaN();
-    error = SourceError(*this->Session, model, *this->Field.Samples, this->Field.Stats.min, this->Field.Stats.max);
-    sourceSamples = error.count;
-  }
+  const nv::ErrorStats error = MeasureNetwork(
+    *this->Session, model, this->Data->Field.View, field, decoded, this->S.Threads, resampledPsnr, sourceSamples);
 
   auto record = std::make_shared<NetworkRecord>();
   record->Key = this->Key;
