@@ -201,6 +201,8 @@ int vtkNeuralCompress::RequestInformation(
 int vtkNeuralCompress::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
+  // An abort left set from before does not cut this update short (cleared here, before its first progress event).
+  this->SetAbortExecute(0);
   // Training needs the whole field.
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
   if (inInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
@@ -217,8 +219,8 @@ int vtkNeuralCompress::RequestUpdateExtent(
 int vtkNeuralCompress::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  // An abort request belongs to the execution it interrupted.
-  this->SetAbortExecute(0);
+  // An abort request belongs to the execution it interrupts: one left from before was cleared by
+  // RequestUpdateExtent, and one asked at this execution's first progress event (before RequestData) is kept.
   vtkDataObject* inputObject = vtkDataObject::GetData(inputVector[0], 0);
   vtkImageData* output = vtkImageData::GetData(outputVector, 0);
   vtkTable* log = vtkTable::GetData(outputVector, 1);
@@ -356,6 +358,8 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     std::lock_guard<std::mutex> lock(job.Mutex);
     job.OutputMode = this->OutputMode;
   }
+  // OutputResolution is not part of the training: a change decodes the same network on the new grid.
+  job.SetOutputGeometry(nvi::OutputGeometryOf(job.Field, this->OutputResolution));
   nvi::RunStatus status;
   if (job.Run && !this->ReportRunStatus(job, status))
   {
@@ -528,7 +532,24 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
       << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
   }
-  if (std::isinf(record.M.MaxError))
+  if (record.M.State == "Aborted")
+  {
+    vtkWarningMacro("Neural Compress: training aborted (AbortExecute) at step "
+      << record.M.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
+  }
+  if (nvi::UntrainedByRequest(job.Field, record.M))
+  {
+    vtkWarningMacro("Neural Compress: Training Steps is 0: no training was asked for, so the network is "
+      << (record.M.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR " << record.M.Psnr
+      << " dB). Set Training Steps above 0 to train it.");
+  }
+  if (nvi::MaxErrorOverflows(record.M))
+  {
+    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.M)
+                                                        << ", is too large for a double: NeuralMaxError is inf and "
+                                                           "NeuralMaxErrorOfRange holds it; every decoded value is finite.");
+  }
+  else if (std::isinf(record.M.MaxError))
   {
     vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
                   "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");

@@ -132,7 +132,8 @@ public:
 
   ///@{
   /// Training length: stops at TrainingSteps or after TimeBudget seconds (0 = no time limit).
-  vtkSetClampMacro(TrainingSteps, int, 0, VTK_INT_MAX);
+  /// A negative count is refused: TrainingSteps becomes 0 (no training) with a warning.
+  void SetTrainingSteps(int steps);
   vtkGetMacro(TrainingSteps, int);
   vtkSetClampMacro(TimeBudget, double, 0.0, VTK_DOUBLE_MAX);
   vtkGetMacro(TimeBudget, double);

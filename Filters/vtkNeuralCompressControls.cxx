@@ -75,6 +75,21 @@ void vtkNeuralCompress::ExtendTraining(int64_t steps, bool fastForward)
   this->Modified();
 }
 
+void vtkNeuralCompress::SetTrainingSteps(int steps)
+{
+  if (steps < 0)
+  {
+    vtkWarningMacro("Neural Compress: Training Steps " << steps << " is negative: set to 0 (no training; the network "
+                                                       "stays its initialisation). Set a positive number of steps.");
+    steps = 0;
+  }
+  if (steps != this->TrainingSteps)
+  {
+    this->TrainingSteps = steps;
+    this->Modified();
+  }
+}
+
 void vtkNeuralCompress::PauseTraining()
 {
   if (nvi::TrainingRun* run = this->CurrentRun())

@@ -6,6 +6,7 @@
 #include "Core/ResourceEstimate.h"
 #include "Core/ValueRange.h"
 
+#include "vtkBitArray.h"
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
 #include "vtkFloatArray.h"
@@ -69,7 +70,7 @@ void DecodePointsChunk(nv::NetworkSession& session, const float* xyz, int64_t co
   normalised.resize(static_cast<size_t>(count));
   session.inferPoints(xyz, count, normalised.data(), nv::Memory::Host);
   for (int64_t i = 0; i < count; ++i)
-    out[i] = static_cast<T>(range.denormalize(static_cast<double>(normalised[static_cast<size_t>(i)])));
+    out[i] = nv::storedValue<T>(range.denormalize(static_cast<double>(normalised[static_cast<size_t>(i)])));
 }
 
 /// Decoded values (source units) of the output samples, in float or double, in chunks of about kDecodeChunk.
@@ -152,6 +153,18 @@ void StoreAs(const In* in, int64_t n, Out* out)
   }
 }
 
+/// A bit array (vtkTemplateMacro has no VTK_BIT case): 1 where the decoded value is at least 0.5, else 0 (NaN too).
+void StoreAsBits(vtkDataArray* decoded, int64_t n, vtkBitArray* out)
+{
+  auto* d = vtkDoubleArray::SafeDownCast(decoded);
+  auto* f = vtkFloatArray::SafeDownCast(decoded);
+  for (int64_t i = 0; i < n; ++i)
+  {
+    const double v = d ? d->GetValue(i) : static_cast<double>(f->GetValue(i));
+    out->SetValue(i, v >= 0.5 ? 1 : 0);
+  }
+}
+
 /// NaN at the decoded points whose nearest source sample is outside the domain of a resampled input.
 void MaskOutside(const FieldInfo& f, vtkDataArray* array)
 {
@@ -222,6 +235,11 @@ vtkSmartPointer<vtkDataArray> Typed(const FieldInfo& f, int outputMode, vtkDataA
   if (!typed)
     return nullptr;
   typed->SetNumberOfTuples(count);
+  if (auto* bits = vtkBitArray::SafeDownCast(typed))
+  {
+    StoreAsBits(decoded, count, bits);
+    return typed;
+  }
   void* out = typed->GetVoidPointer(0);
   if (auto* d = vtkDoubleArray::SafeDownCast(decoded))
   {
@@ -324,6 +342,20 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(
   }
   array->SetName(f.Name.c_str());
   return array;
+}
+
+nv::ErrorStats CompareDecodedOutput(
+  vtkDataArray* decoded, const nv::VolumeView& source, double valueMin, double valueMax, int threads)
+{
+  if (auto* f = vtkFloatArray::SafeDownCast(decoded))
+    return nv::compareDecoded(f->GetPointer(0), source, valueMin, valueMax, threads);
+  if (auto* d = vtkDoubleArray::SafeDownCast(decoded))
+    return nv::compareDecoded(d->GetPointer(0), source, valueMin, valueMax, threads);
+  // Integers and bits: their values as doubles (a 64-bit integer rounds by at most 2^-53 of itself).
+  std::vector<double> values(static_cast<size_t>(decoded->GetNumberOfTuples()));
+  for (vtkIdType i = 0; i < decoded->GetNumberOfTuples(); ++i)
+    values[static_cast<size_t>(i)] = decoded->GetComponent(i, 0);
+  return nv::compareDecoded(values.data(), source, valueMin, valueMax, threads);
 }
 
 } // namespace vtkNeuralCompressInternals

@@ -44,6 +44,11 @@ void CheckDecodedOutputMemory(const FieldInfo& field, int outputMode);
 vtkSmartPointer<vtkDataArray> DecodeOutput(
   nv::NetworkSession& session, const FieldInfo& field, int outputMode, const DecodeControl& control = DecodeControl());
 
+/// The error of a decoded output on the source's grid against the source, measured on the output's own values
+/// (rounded, clamped or thresholded to the input's type), as nv::compareDecoded measures a float grid.
+nv::ErrorStats CompareDecodedOutput(
+  vtkDataArray* decoded, const nv::VolumeView& source, double valueMin, double valueMax, int threads);
+
 } // namespace vtkNeuralCompressInternals
 
 #endif

@@ -389,6 +389,7 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   std::copy(image->GetOrigin(), image->GetOrigin() + 3, field.InputOrigin);
   std::copy(image->GetSpacing(), image->GetSpacing() + 3, field.InputSpacing);
   field.Outside = input.Outside;
+  std::copy(input.DecodedDims, input.DecodedDims + 3, field.CoarsenedDims);
   const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
     field.Geometry.SourceDims[2] };
   // A decoded output the machine cannot hold is refused before any training (the estimate and the limit).

@@ -39,6 +39,21 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
 
 } // namespace
 
+bool SameDecodedGrid(const OutputGeometry& a, const OutputGeometry& b)
+{
+  return std::equal(a.DecodedDims, a.DecodedDims + 3, b.DecodedDims) && std::equal(a.Extent, a.Extent + 6, b.Extent) &&
+    std::equal(a.Origin, a.Origin + 3, b.Origin) && std::equal(a.Spacing, a.Spacing + 3, b.Spacing) &&
+    a.OnSourceGrid == b.OnSourceGrid;
+}
+
+OutputGeometry OutputGeometryOf(const FieldInfo& field, const int outputResolution[3])
+{
+  const bool automatic =
+    std::all_of(outputResolution, outputResolution + 3, [](int r) { return r <= 0; }) && field.CoarsenedDims[0] > 0;
+  return ComputeGeometry(field.InputExtent, field.InputOrigin, field.InputSpacing, field.Cells,
+    automatic ? field.CoarsenedDims : outputResolution);
+}
+
 bool Float32Holds(double lo, double hi)
 {
   const double m = std::max(std::fabs(lo), std::fabs(hi));
@@ -61,9 +76,8 @@ std::string Settings::Canonical() const
     << (Deterministic ? 0.0 : TargetPsnr) << ' ' << BatchSize << ' ' << Seed << ' ' << Loss << ' ' << Schedule
     << ' ' << Levels << ' ' << Features << ' ' << Log2TableSize << ' ' << BaseResolution << ' '
     << FinestResolution << ' ' << Width << ' ' << HiddenLayers << ' ' << Precision << ' ' << Device << ' '
-    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << OutputResolution[0] << ' '
-    << OutputResolution[1] << ' ' << OutputResolution[2] << ' ' << PsnrInterval << ' ' << Deterministic << ' '
-    << WarmStart;
+    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << "0 0 0" // v1's OutputResolution: no longer a setting
+    << ' ' << PsnrInterval << ' ' << Deterministic << ' ' << WarmStart;
   if (Sampling != 0)
     s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
   if (!KeepBest)
@@ -80,9 +94,11 @@ uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const S
   h = Fnv(h, &field.Cells, sizeof(field.Cells));
   h = Fnv(h, &field.VtkType, sizeof(field.VtkType));
   h = Fnv(h, view.dims, sizeof(view.dims));
-  h = Fnv(h, field.Geometry.Origin, sizeof(field.Geometry.Origin));
-  h = Fnv(h, field.Geometry.Spacing, sizeof(field.Geometry.Spacing));
-  h = Fnv(h, field.Geometry.Extent, sizeof(field.Geometry.Extent));
+  // The input's geometry (the output's at OutputResolution 0 0 0, as keys of saved states hold it): the output
+  // resolution decides no training.
+  h = Fnv(h, field.InputOrigin, sizeof(field.InputOrigin));
+  h = Fnv(h, field.InputSpacing, sizeof(field.InputSpacing));
+  h = Fnv(h, field.InputExtent, sizeof(field.InputExtent));
   h = Fnv(h, field.Direction, sizeof(field.Direction));
   const int type = static_cast<int>(view.type);
   h = Fnv(h, &type, sizeof(type));
@@ -163,11 +179,12 @@ static nv::ErrorStats SourceError(
     const double dn = range.spans() ? range.normalize(v) - range.normalize(src) : v - src;
     se += dn * dn;
     e.maxAbsError = std::max(e.maxAbsError, std::fabs(range.spans() ? range.span(dn) : dn));
+    e.maxErrorOfRange = std::max(e.maxErrorOfRange, std::fabs(dn));
   }
   if (e.nonFinite > 0)
   {
     e.mse = e.psnr = std::numeric_limits<double>::quiet_NaN();
-    e.maxAbsError = std::numeric_limits<double>::infinity();
+    e.maxAbsError = e.maxErrorOfRange = std::numeric_limits<double>::infinity();
     return e;
   }
   e.mse = e.count > 0 ? se / double(e.count) : 0.0;
@@ -175,6 +192,35 @@ static nv::ErrorStats SourceError(
     : e.mse > 0.0       ? 10.0 * std::log10(1.0 / e.mse)
                         : std::numeric_limits<double>::infinity();
   return e;
+}
+
+/// The error of the phase's network: of its decoded output as it is (on the source's grid), else of the network on the
+/// source's grid; a resampled input's at its own samples (`resampledPsnr`: the one on the resampled image).
+static nv::ErrorStats MeasureNetwork(nv::NetworkSession& session, const nv::Model& model, const nv::VolumeView& view,
+  const FieldInfo& field, vtkDataArray* decoded, int threads, double& resampledPsnr, int64_t& sourceSamples)
+{
+  nv::ErrorStats error;
+  if (!view.data)
+  {
+    // A sparse input (vtkNeuralCompressSparse.h) has no dense field: it is measured at its samples below.
+  }
+  else if (decoded && field.Geometry.OnSourceGrid)
+  {
+    // The output as it is (rounded, clamped or thresholded to the input's type): the figures are the output's.
+    error = CompareDecodedOutput(decoded, view, field.Stats.min, field.Stats.max, threads);
+  }
+  else
+  {
+    error = nv::compareToSource(session, view);
+  }
+  if (field.Samples)
+  {
+    // A resampled input: the error that counts is the one at the source's own samples.
+    resampledPsnr = view.data ? error.psnr : std::numeric_limits<double>::quiet_NaN();
+    error = SourceError(session, model, *field.Samples, field.Stats.min, field.Stats.max);
+    sourceSamples = error.count;
+  }
+  return error;
 }
 
 Metrics MetricsOf(const nv::Model& model, const std::string& device)
@@ -185,6 +231,11 @@ Metrics MetricsOf(const nv::Model& model, const std::string& device)
   m.Psnr = model.stats.psnr;
   m.PsnrFinal = true;
   m.MaxError = model.stats.maxError;
+  // Not stored with the network: from the max error (unknown where that overflowed to inf in a finite PSNR).
+  const nv::ValueRange range(model.source.valueMin, model.source.valueMax);
+  m.MaxErrorOfRange = std::isinf(m.MaxError) && std::isfinite(m.Psnr) ? std::numeric_limits<double>::quiet_NaN()
+    : range.spans()                                                  ? range.perWidth(m.MaxError)
+                                                                     : m.MaxError;
   m.ModelBytes = model.parameterBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = model.stats.invalidSamples;
@@ -210,6 +261,16 @@ void Job::KeepDecoded(vtkSmartPointer<vtkDataArray> decoded, int outputMode)
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->Decoded = decoded;
   this->DecodedMode = outputMode;
+}
+
+bool Job::SetOutputGeometry(const OutputGeometry& geometry)
+{
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  if (SameDecodedGrid(geometry, this->Field.Geometry))
+    return false;
+  this->Field.Geometry = geometry;
+  this->Decoded = nullptr; // the network is the same; its field is decoded again on the new grid
+  return true;
 }
 
 void Job::Finalize(const RunStatus& status)
@@ -239,52 +300,34 @@ void Job::Finalize(const RunStatus& status)
   }
   this->Session->setModel(model);
   int mode = 0;
+  FieldInfo field; // a copy: the filter's thread may change the output geometry meanwhile (SetOutputGeometry)
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     mode = this->OutputMode;
+    field = this->Field;
   }
   vtkSmartPointer<vtkDataArray> decoded;
   std::string decodeError;
+  // An abort that ended the training asked for the network of the moment, not for no field: only one raised
+  // during the decode stops it.
+  const bool abortedBefore = this->DecodeAbort && this->DecodeAbort();
   try
   {
-    // An abort that ended the training asked for the network of the moment, not for no field: only one raised
-    // during the decode stops it.
-    const bool abortedBefore = this->DecodeAbort && this->DecodeAbort();
     DecodeControl control;
     control.Abort = [this, abortedBefore]() {
       return this->Retiring.load() || (!abortedBefore && this->DecodeAbort && this->DecodeAbort());
     };
     control.Progress = this->DecodeProgress;
-    decoded = DecodeOutput(*this->Session, this->Field, mode, control);
+    decoded = DecodeOutput(*this->Session, field, mode, control);
   }
   catch (const std::exception& e)
   {
     decodeError = e.what(); // the network stays; the output has no decoded field
   }
-  const nv::VolumeView& view = this->Data->Field.View;
-  nv::ErrorStats error;
-  if (!view.data)
-  {
-    // A sparse input (vtkNeuralCompressSparse.h) has no dense field: it is measured at its samples below.
-  }
-  else if (decoded && this->Field.Geometry.OnSourceGrid && vtkFloatArray::SafeDownCast(decoded))
-  {
-    error = nv::compareDecoded(vtkFloatArray::SafeDownCast(decoded)->GetPointer(0), view, this->Field.Stats.min,
-      this->Field.Stats.max, this->S.Threads);
-  }
-  else
-  {
-    error = nv::compareToSource(*this->Session, view);
-  }
   double resampledPsnr = std::numeric_limits<double>::quiet_NaN();
   int64_t sourceSamples = 0;
-  if (this->Field.Samples)
-  {
-    // A resampled input: the error that counts is the one at the source's own samples.
-    resampledPsnr = view.data ? error.psnr : std::numeric_limits<double>::quiet_NaN();
-    error = SourceError(*this->Session, model, *this->Field.Samples, this->Field.Stats.min, this->Field.Stats.max);
-    sourceSamples = error.count;
-  }
+  const nv::ErrorStats error = MeasureNetwork(
+    *this->Session, model, this->Data->Field.View, field, decoded, this->S.Threads, resampledPsnr, sourceSamples);
 
   auto record = std::make_shared<NetworkRecord>();
   record->Key = this->Key;
@@ -298,13 +341,15 @@ void Job::Finalize(const RunStatus& status)
   model.stats.device = nv::deviceName(this->Session->device());
   record->Bytes = ShareBytes(nv::serialize(model));
   Metrics& m = record->M;
-  m.State = status.EndReason == "stopped" ? "Stopped" : "Finished";
-  m.EndReason = status.EndReason;
+  const bool aborted = status.EndReason == "stopped" && abortedBefore; // the filter's AbortExecute, not Stop
+  m.State = aborted ? "Aborted" : status.EndReason == "stopped" ? "Stopped" : "Finished";
+  m.EndReason = aborted ? "aborted" : status.EndReason;
   m.Steps = status.Steps;
   m.Seconds = status.Seconds;
   m.Psnr = error.psnr;
   m.PsnrFinal = true;
   m.MaxError = error.maxAbsError;
+  m.MaxErrorOfRange = error.maxErrorOfRange;
   m.ResampledPsnr = resampledPsnr;
   m.SourceSamples = sourceSamples;
   m.ModelBytes = model.parameterBytes();
@@ -319,7 +364,8 @@ void Job::Finalize(const RunStatus& status)
   }
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
-  this->Decoded = decoded;
+  // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
+  this->Decoded = SameDecodedGrid(field.Geometry, this->Field.Geometry) ? decoded : nullptr;
   this->DecodedMode = mode;
   this->DecodeError = decodeError;
 }

@@ -34,7 +34,6 @@ struct Settings
   int BatchSize = 0, Seed = 0, Loss = 0, Schedule = 0;
   int Levels = 0, Features = 0, Log2TableSize = 0, BaseResolution = 0, FinestResolution = 0;
   int Width = 0, HiddenLayers = 0, Precision = 0, Device = 0, Threads = 0, Strategy = 0;
-  int OutputResolution[3] = { 0, 0, 0 };
   int PsnrInterval = 0;
   bool Deterministic = false, WarmStart = true;
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
@@ -51,7 +50,8 @@ struct Metrics
   double Seconds = 0.0;
   double Psnr = std::numeric_limits<double>::quiet_NaN(); ///< dB over every source sample (an estimate while training)
   bool PsnrFinal = false;
-  double MaxError = std::numeric_limits<double>::quiet_NaN();
+  double MaxError = std::numeric_limits<double>::quiet_NaN(); ///< source units (inf where it exceeds DBL_MAX)
+  double MaxErrorOfRange = std::numeric_limits<double>::quiet_NaN(); ///< MaxError / (max - min), always finite
   /// Resampled inputs: Psnr and MaxError are measured at the source's own samples (SourceSamples); this is the PSNR
   /// on the resampled image the network was trained on. NaN for image inputs.
   double ResampledPsnr = std::numeric_limits<double>::quiet_NaN();
@@ -128,7 +128,15 @@ struct FieldInfo
   /// Seconds from the execution that asked for this field until it was ready (resampling, reading, probing,
   /// hashing): TimeBudget counts them.
   double PreparationSeconds = 0.0;
+  /// A resampling coarsened to fit the TimeBudget: the dimensions the output keeps at OutputResolution 0 0 0 (0: none).
+  int CoarsenedDims[3] = { 0, 0, 0 };
 };
+
+/// The output geometry of `field` at `outputResolution` (vtkNeuralCompress::OutputResolution): a change re-decodes the
+/// network, it never retrains it.
+OutputGeometry OutputGeometryOf(const FieldInfo& field, const int outputResolution[3]);
+/// True when two geometries decode the same samples.
+bool SameDecodedGrid(const OutputGeometry& a, const OutputGeometry& b);
 
 /// True when float32 holds values in [lo, hi] to well within a network's accuracy (no overflow, no underflow, its
 /// rounding at that magnitude below 1e-4 of the range); else "Decoded, float32" gives float64.
@@ -183,6 +191,9 @@ public:
   /// Keeps the decoded field of the final network (decoded on demand for a restored or cached one) so that
   /// re-executions in the same output mode do not decode it again.
   void KeepDecoded(vtkSmartPointer<vtkDataArray> decoded, int outputMode);
+  /// A new output geometry (OutputResolution changed): the decoded field is dropped (decoded again on demand), the
+  /// network kept. False when the geometry is the same.
+  bool SetOutputGeometry(const OutputGeometry& geometry);
   /// Runs in the training thread at the end of a phase: the stored-precision network becomes the session's, it is
   /// measured over every source sample, serialized and (for decoded output modes) decoded.
   void Finalize(const RunStatus& status);

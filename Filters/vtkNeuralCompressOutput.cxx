@@ -83,6 +83,7 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", m.Steps);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", m.Psnr);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralMaxError", m.MaxError);
+  AddFieldValue<vtkDoubleArray>(fd, "NeuralMaxErrorOfRange", m.MaxErrorOfRange); // finite where MaxError overflows
   if (m.SourceSamples > 0)
   {
     // A resampled input: NeuralPSNR and NeuralMaxError are at the source's own samples.
@@ -178,15 +179,62 @@ void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& rec
   }
 }
 
+bool UntrainedByRequest(const FieldInfo& field, const Metrics& m)
+{
+  // Job::FinalizeWithoutTraining serves both: a field that is not constant got no step because none was asked.
+  return m.EndReason == "constant field" && field.Stats.max > field.Stats.min;
+}
+
 std::string EndReasonText(const FieldInfo& field, const Metrics& m)
 {
-  if (m.EndReason == "constant field" && field.Stats.max > field.Stats.min)
+  if (UntrainedByRequest(field, m))
   {
     // Job::FinalizeWithoutTraining serves both: a field that is not constant got no step because none was asked.
     return "Training Steps is 0: the network is untrained (" + std::string(m.WarmStart ? "the warm start's" : "its random") +
       " initialisation)";
   }
   return m.EndReason;
+}
+
+bool MaxErrorOverflows(const Metrics& m)
+{
+  return std::isinf(m.MaxError) && std::isfinite(m.Psnr) && std::isfinite(m.MaxErrorOfRange);
+}
+
+std::string MaxErrorText(const FieldInfo& field, const Metrics& m)
+{
+  std::ostringstream s;
+  s.precision(4);
+  if (!MaxErrorOverflows(m))
+  {
+    s << m.MaxError;
+    return s.str();
+  }
+  // Beyond the largest double in source units (a range wider than it): in extended precision, and of the range.
+  const long double error =
+    static_cast<long double>(m.MaxErrorOfRange) * (static_cast<long double>(field.Stats.max) - field.Stats.min);
+  s << error << " (" << m.MaxErrorOfRange << " of the range, above the largest double)";
+  return s.str();
+}
+
+std::string SpacingAdvice(const double spacing[3], const int64_t dims[3])
+{
+  std::string zero;
+  bool negative = false;
+  for (int a = 0; a < 3; ++a)
+  {
+    if (spacing[a] == 0.0 && dims[a] > 1)
+      zero += std::string(zero.empty() ? "" : ", ") + "xyz"[a];
+    negative = negative || spacing[a] < 0.0;
+  }
+  if (!zero.empty())
+    return "The image has zero spacing on axis " + zero + ": set a positive spacing where the image is made (e.g. " +
+      "the reader's Data Spacing) or with a Programmable Filter (output.ShallowCopy(inputs[0].VTKObject); " +
+      "output.SetSpacing(1, 1, 1))";
+  if (negative)
+    return "Flip an image with negative spacing first (e.g. Filters > Transform with a negative scale and Resample "
+           "With Dataset)";
+  return "The image's origin and spacing must be finite";
 }
 
 std::string SmallerModelAdvice(const Job& job)
@@ -236,7 +284,7 @@ std::string Summary(
     if (fromCache)
       s << ")";
   }
-  s << "; PSNR " << m.Psnr << " dB, max error " << m.MaxError;
+  s << "; PSNR " << m.Psnr << " dB, max error " << MaxErrorText(field, m);
   if (m.SourceSamples > 0)
   {
     s << " at " << m.SourceSamples << " source samples";

@@ -50,10 +50,22 @@ std::string Summary(
 /// Why a network was not trained further, in words ("constant field", "Training Steps is 0: ...", "target PSNR"):
 /// the record's end reason, except that a field that is not constant and got no step was not trained on request.
 std::string EndReasonText(const FieldInfo& field, const Metrics& metrics);
+/// True for a network that had no training because TrainingSteps was 0 (a field that is not constant).
+bool UntrainedByRequest(const FieldInfo& field, const Metrics& metrics);
+/// What to do about an image whose geometry a network cannot state (zero or negative spacing on an axis of more than
+/// one sample), for the error that refuses it.
+std::string SpacingAdvice(const double spacing[3], const int64_t dims[3]);
 
 /// What makes a smaller model of `job`'s configuration (a ratio below 1:1: the model is larger than the field),
 /// e.g. "a smaller Log2 Table Size, fewer Levels, 8-bit (entropy coded) storage"; empty when nothing does.
 std::string SmallerModelAdvice(const Job& job);
+
+/// True when the max error in source units exceeds the largest double (MaxError inf) while every decoded value is
+/// finite (its share of the range, MaxErrorOfRange, is finite): a figure too large for a double, not a divergence.
+bool MaxErrorOverflows(const Metrics& metrics);
+/// The max error for messages: in source units (computed in extended precision where it exceeds the largest double,
+/// with its share of the range).
+std::string MaxErrorText(const FieldInfo& field, const Metrics& metrics);
 
 /// "nvnet1;<key hex>:<base64>;..." and back (entries that do not parse are skipped; `error` says why).
 std::string EncodeNetworks(const std::vector<const NetworkRecord*>& records);

@@ -39,7 +39,6 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.Device = this->Device;
   s.Threads = this->Threads;
   s.Strategy = this->TrainingStrategy;
-  std::copy(this->OutputResolution, this->OutputResolution + 3, s.OutputResolution);
   s.PsnrInterval = this->PSNRInterval;
   s.Deterministic = this->Deterministic;
   s.WarmStart = this->WarmStart;
@@ -138,9 +137,8 @@ nv::SourceInfo SourceOf(const nvi::FieldInfo& field, const nvi::TrainingData& da
   }
   catch (const nv::Error& e)
   {
-    throw nv::Error(std::string("the input's geometry cannot be stored with a network: ") + e.what() +
-      ". Flip an image with negative spacing first (e.g. Filters > Transform with a negative scale and "
-      "Resample With Dataset)");
+    throw nv::Error(std::string("the input's geometry cannot be stored with a network: ") + e.what() + ". " +
+      nvi::SpacingAdvice(field.InputSpacing, dims));
   }
   return src;
 }

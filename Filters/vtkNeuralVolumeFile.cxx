@@ -1,6 +1,7 @@
 #include "vtkNeuralVolumeFile.h"
 
 #include "Core/Error.h"
+#include "Core/Model.h"
 #include "Core/Serialization.h"
 
 #include <cmath>
@@ -56,7 +57,42 @@ struct In
       v[i] = get<T>(what);
   }
 };
+/// The image of an entry: its extent holds one point per decoded sample (a cell array: one cell per sample, so one
+/// point more on each axis but a flat one), at most nv::kMaxSourceSamples points in all.
+void CheckExtent(const VolumeFileEntry& e)
+{
+  int64_t points = 1; // each axis below 2^20 + 1 points (checked before): no overflow
+  for (int a = 0; a < 3; ++a)
+  {
+    const int64_t n = int64_t(e.Extent[2 * a + 1]) - e.Extent[2 * a] + 1;
+    const int64_t samples = e.Cells && n > 1 ? n - 1 : n;
+    NV_CHECK(samples == e.DecodedDims[a],
+      "corrupt NeuralVolume file: the extent's " + std::to_string(n) + " points on axis " + "xyz"[a] + " hold " +
+        std::to_string(samples) + (e.Cells ? " cells" : " points") + ", the entry decodes " +
+        std::to_string(e.DecodedDims[a]));
+    points *= n;
+  }
+  NV_CHECK(points <= nv::kMaxSourceSamples,
+    "the image extent " + std::to_string(e.Extent[1] - e.Extent[0] + 1) + " x " +
+      std::to_string(e.Extent[3] - e.Extent[2] + 1) + " x " + std::to_string(e.Extent[5] - e.Extent[4] + 1) + " (" +
+      std::to_string(points) + " points) exceeds the 2^34 points a NeuralVolume image may have");
+}
 } // namespace
+
+void CheckEntryAgainstNetwork(const VolumeFileEntry& e, const nv::SourceInfo& source)
+{
+  for (int a = 0; a < 3; ++a)
+  {
+    NV_CHECK(e.SourceDims[a] == source.dims[a],
+      "the entry's source grid " + std::to_string(e.SourceDims[0]) + " x " + std::to_string(e.SourceDims[1]) + " x " +
+        std::to_string(e.SourceDims[2]) + " is not its network's (" + std::to_string(source.dims[0]) + " x " +
+        std::to_string(source.dims[1]) + " x " + std::to_string(source.dims[2]) + ")");
+    NV_CHECK(!e.OnSourceGrid || e.DecodedDims[a] == e.SourceDims[a],
+      "the entry's image is on the network's source grid but decodes " + std::to_string(e.DecodedDims[a]) +
+        " samples on axis " + "xyz"[a] + " of its " + std::to_string(e.SourceDims[a]));
+  }
+  NV_CHECK(e.Cells == source.association, "the entry's association is not its network's");
+}
 
 std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries)
 {
@@ -142,6 +178,7 @@ std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
     }
     NV_CHECK(finite, "corrupt NeuralVolume file: non-finite geometry, time or range");
     NV_CHECK(e.Cells == 0 || e.Cells == 1, "corrupt NeuralVolume file: unknown association");
+    CheckExtent(e);
   }
   NV_CHECK(r.at == r.n, "corrupt NeuralVolume file: " + std::to_string(r.n - r.at) + " unexpected trailing bytes");
   return out;

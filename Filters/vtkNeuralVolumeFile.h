@@ -13,6 +13,11 @@
 #include <string>
 #include <vector>
 
+namespace nv
+{
+struct SourceInfo;
+}
+
 namespace vtkNeuralCompressInternals
 {
 
@@ -38,6 +43,9 @@ struct VolumeFileEntry
 std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries);
 /// Throws nv::Error with a clear message on a file that is not an .nvol, of a newer version, truncated or corrupt.
 std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size);
+/// Throws nv::Error unless an entry states its network's source grid (dims, association) and, on that grid, decodes
+/// it sample for sample.
+void CheckEntryAgainstNetwork(const VolumeFileEntry& entry, const nv::SourceInfo& source);
 /// The bytes of a file (at most 4 GiB); throws nv::Error when it cannot be read.
 std::vector<uint8_t> ReadFileBytes(const std::string& path);
 

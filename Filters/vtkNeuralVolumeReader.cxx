@@ -80,7 +80,8 @@ int vtkNeuralVolumeReader::RequestInformation(
     {
       if (!std::equal(e.Extent, e.Extent + 6, entries[0].Extent))
         throw nv::Error("the time steps of the file have different extents");
-      nv::deserialize(e.Network); // the network's own format, version and checksum
+      // The network's own format, version and checksum; the image the entry states is its network's.
+      nvi::CheckEntryAgainstNetwork(e, nv::deserialize(e.Network).source);
     }
   }
   catch (const std::exception& err)

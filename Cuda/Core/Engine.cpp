@@ -53,7 +53,7 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
   ErrorStats r;
   const ValueRange range(valueMin, valueMax);
   ThreadPool pool(threads);
-  std::vector<double> se(pool.size(), 0.0), mx(pool.size(), 0.0);
+  std::vector<double> se(pool.size(), 0.0), mx(pool.size(), 0.0), mxn(pool.size(), 0.0);
   std::vector<int64_t> cnt(pool.size(), 0), bad(pool.size(), 0);
   pool.parallelFor(v.count(), [&](int64_t b, int64_t e, int w) {
     for (int64_t i = b; i < e; ++i)
@@ -72,6 +72,7 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
                                       : static_cast<double>(decoded[i]) - x;
       se[w] += dn * dn;
       mx[w] = std::max(mx[w], std::fabs(range.spans() ? range.span(dn) : dn));
+      mxn[w] = std::max(mxn[w], std::fabs(dn));
       ++cnt[w];
     }
   });
@@ -80,13 +81,14 @@ ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMi
   {
     sum += se[w];
     r.maxAbsError = std::max(r.maxAbsError, mx[w]);
+    r.maxErrorOfRange = std::max(r.maxErrorOfRange, mxn[w]);
     r.count += cnt[w];
     r.nonFinite += bad[w];
   }
   if (r.nonFinite > 0)
   {
     r.mse = r.psnr = std::numeric_limits<double>::quiet_NaN();
-    r.maxAbsError = std::numeric_limits<double>::infinity();
+    r.maxAbsError = r.maxErrorOfRange = std::numeric_limits<double>::infinity();
     return r;
   }
   r.mse = r.count > 0 ? sum / static_cast<double>(r.count) : 0.0;

@@ -73,9 +73,12 @@ struct ErrorStats
   double psnr = 0.0;
   double mse = 0.0;
   double maxAbsError = 0.0;
+  /// The max abs error in units of the range (max |error| / (max - min); a constant field: in source units): finite
+  /// where maxAbsError is not representable (an error above DBL_MAX in a range wider than the largest double).
+  double maxErrorOfRange = 0.0;
   int64_t count = 0;
   /// Valid source samples where the network's value is NaN or Inf (a diverged network): then psnr and mse are NaN
-  /// and maxAbsError is +inf -- never a perfect score. count includes them.
+  /// and maxAbsError and maxErrorOfRange are +inf -- never a perfect score. count includes them.
   int64_t nonFinite = 0;
 };
 /// Error of an already decoded grid of the source resolution (source units) against the source.

@@ -57,7 +57,7 @@ void decodeValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t
   s.decodeGrid(nx, ny, nz, z0, z1, norm, Memory::Host);
   const ValueRange range = s.model().valueRange();
   for (int64_t i = 0; i < n; ++i)
-    out[i] = static_cast<T>(range.denormalize(static_cast<double>(norm[i])));
+    out[i] = storedValue<T>(range.denormalize(static_cast<double>(norm[i]))); // never inf in float
 }
 } // namespace
 

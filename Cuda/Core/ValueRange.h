@@ -65,4 +65,20 @@ private:
   bool Halved;
 };
 
+/// A de-normalised value stored in a decoded output of type T (float or double): a float saturates at +-FLT_MAX, so
+/// a network that overshoots a float32 field reaching FLT_MAX never decodes to inf (a double needs nothing:
+/// denormalize saturates at +-DBL_MAX). NaN stays NaN.
+template <typename T>
+NV_HD T storedValue(double v);
+template <>
+NV_HD float storedValue<float>(double v)
+{
+  return v > double(FLT_MAX) ? FLT_MAX : v < -double(FLT_MAX) ? -FLT_MAX : static_cast<float>(v);
+}
+template <>
+NV_HD double storedValue<double>(double v)
+{
+  return v;
+}
+
 } // namespace nv

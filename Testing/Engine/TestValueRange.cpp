@@ -171,17 +171,37 @@ NV_TEST(a_field_wider_than_the_largest_double_trains_decodes_and_measures)
   EXPECT_NEAR_REL(psnr, eb.psnr, 0.0, 0.01);
   const ErrorStats ed = compareDecoded(decoded.data(), bigVol, bigVol.valueMin, bigVol.valueMax, 2);
   EXPECT_NEAR_REL(ed.psnr, eb.psnr, 0.0, 1e-9);
+  // The max error in units of the range: the small field's (finite also where the source-unit figure overflows).
+  EXPECT_NEAR_REL(ed.maxErrorOfRange, es.maxErrorOfRange, 0.01, 0.0);
+  EXPECT_NEAR_REL(ed.maxErrorOfRange * 2.0 * (bigVol.valueMax / 2.0 - bigVol.valueMin / 2.0), ed.maxAbsError, 0.0, 1e-9);
+  // An error of more than DBL_MAX in source units: maxAbsError inf, its share of the range finite (not a divergence).
+  std::vector<double> far(decoded);
+  far[3] = bigData[3] > 0.0 ? -DBL_MAX : DBL_MAX; // farther from the source value than DBL_MAX
+  const ErrorStats over = compareDecoded(far.data(), bigVol, bigVol.valueMin, bigVol.valueMax, 2);
+  EXPECT_TRUE(over.nonFinite == 0 && std::isfinite(over.psnr) && std::isinf(over.maxAbsError));
+  const double share = std::fabs(far[3] / 2.0 - bigData[3] / 2.0) / (bigVol.valueMax / 2.0 - bigVol.valueMin / 2.0);
+  EXPECT_NEAR_REL(over.maxErrorOfRange, share, 0.0, 1e-12);
 
   // A NaN in the decoded values is never a score.
   decoded[17] = std::nan("");
   const ErrorStats bad = compareDecoded(decoded.data(), bigVol, bigVol.valueMin, bigVol.valueMax, 2);
-  EXPECT_TRUE(bad.nonFinite == 1 && std::isnan(bad.psnr) && std::isinf(bad.maxAbsError));
+  EXPECT_TRUE(bad.nonFinite == 1 && std::isnan(bad.psnr) && std::isinf(bad.maxAbsError) &&
+    std::isinf(bad.maxErrorOfRange));
 
   // The network file keeps the range and decodes the same values.
   const Model back = deserialize(serialize(mb));
   EXPECT_TRUE(back.source.valueMin == mb.source.valueMin && back.source.valueMax == mb.source.valueMax);
   const ErrorStats eback = nvtest::compareToSource(back, bigVol, Device::Cpu, 2);
   EXPECT_TRUE(eback.psnr == eb.psnr);
+}
+
+NV_TEST(a_float_output_saturates_at_the_largest_float)
+{
+  // A network overshooting a float32 field that reaches FLT_MAX decodes to FLT_MAX, never to inf.
+  EXPECT_TRUE(storedValue<float>(3.5e38) == FLT_MAX && storedValue<float>(-1e300) == -FLT_MAX);
+  EXPECT_TRUE(storedValue<float>(1.5) == 1.5f && storedValue<float>(double(FLT_MAX)) == FLT_MAX);
+  EXPECT_TRUE(std::isnan(storedValue<float>(std::nan(""))));
+  EXPECT_TRUE(storedValue<double>(DBL_MAX) == DBL_MAX && storedValue<double>(-3.5e38) == -3.5e38);
 }
 
 NV_TEST(a_range_wider_than_the_largest_double_renders)
