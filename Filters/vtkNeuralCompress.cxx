@@ -359,7 +359,11 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     job.OutputMode = this->OutputMode;
   }
   // OutputResolution is not part of the training: a change decodes the same network on the new grid.
-  job.SetOutputGeometry(nvi::OutputGeometryOf(job.Field, this->OutputResolution));
+  // The same cap as the announced extent (RequestInformation): at most what the network resolves.
+  const nvi::OutputGeometry geometry =
+    nvi::OutputGeometryOf(job.Field, this->OutputResolution, this->FinestResolution, this->BaseResolution);
+  if (job.SetOutputGeometry(geometry))
+    this->ReportOutputCap(geometry);
   nvi::RunStatus status;
   if (job.Run && !this->ReportRunStatus(job, status))
   {

@@ -181,7 +181,15 @@ void vtkNeuralCompress::SetTrainedNetworks(const char* value)
   }
   for (auto& n : networks)
   {
-    in.Restored[n.first] = nvi::ShareBytes(n.second);
+    try
+    {
+      in.Restored[n.first] = nvi::ShareBytes(n.second);
+    }
+    catch (const std::exception& e)
+    {
+      vtkWarningMacro("Neural Compress: TrainedNetworks: a network of the state cannot be used ("
+        << e.what() << "); it is trained again.");
+    }
   }
 }
 

@@ -46,12 +46,13 @@ bool SameDecodedGrid(const OutputGeometry& a, const OutputGeometry& b)
     a.OnSourceGrid == b.OnSourceGrid;
 }
 
-OutputGeometry OutputGeometryOf(const FieldInfo& field, const int outputResolution[3])
+OutputGeometry OutputGeometryOf(
+  const FieldInfo& field, const int outputResolution[3], int finestResolution, int baseResolution)
 {
   const bool automatic =
     std::all_of(outputResolution, outputResolution + 3, [](int r) { return r <= 0; }) && field.CoarsenedDims[0] > 0;
   return ComputeGeometry(field.InputExtent, field.InputOrigin, field.InputSpacing, field.Cells,
-    automatic ? field.CoarsenedDims : outputResolution);
+    automatic ? field.CoarsenedDims : outputResolution, finestResolution, baseResolution);
 }
 
 bool Float32Holds(double lo, double hi)
@@ -504,7 +505,14 @@ NetworkRecord Job::Snapshot()
   {
     if (this->LiveWriter.joinable())
       this->LiveWriter.join(); // ended: LiveWriting was off
-    this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
+    try
+    {
+      this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
+    }
+    catch (const std::system_error&)
+    {
+      this->WriteLiveBytes(status); // the system gives no thread: written in the caller's
+    }
   }
   Metrics& m = r.M;
   {

@@ -134,7 +134,8 @@ struct FieldInfo
 
 /// The output geometry of `field` at `outputResolution` (vtkNeuralCompress::OutputResolution): a change re-decodes the
 /// network, it never retrains it.
-OutputGeometry OutputGeometryOf(const FieldInfo& field, const int outputResolution[3]);
+OutputGeometry OutputGeometryOf(
+  const FieldInfo& field, const int outputResolution[3], int finestResolution, int baseResolution);
 /// True when two geometries decode the same samples.
 bool SameDecodedGrid(const OutputGeometry& a, const OutputGeometry& b);
 

@@ -3,6 +3,7 @@
 #include <exception>
 #include <new>
 #include <sstream>
+#include <system_error>
 
 namespace vtkNeuralCompressInternals
 {
@@ -17,7 +18,17 @@ Preparation::Preparation(const InputIdentity& identity, Work work, std::unique_p
 {
   if (previous)
     previous->Cancel();
-  this->Thread = std::thread(&Preparation::Main, this, std::move(work), std::move(previous));
+  Preparation* replaced = previous.release(); // ends in Main, in whichever thread runs it
+  try
+  {
+    this->Thread = std::thread([this, work, replaced]() { this->Main(work, std::unique_ptr<Preparation>(replaced)); });
+  }
+  catch (const std::system_error&)
+  {
+    // The system gives no thread (its limit on threads or memory): prepared in the caller's thread, as a blocking
+    // execution would.
+    this->Main(std::move(work), std::unique_ptr<Preparation>(replaced));
+  }
 }
 
 Preparation::~Preparation()

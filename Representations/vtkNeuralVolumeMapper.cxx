@@ -28,6 +28,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -82,6 +83,7 @@ struct vtkNeuralVolumeMapper::vtkInternals
 
   // Progressive mode (ProgressiveRefinement on, CPU engine): the background renderer and what the image shows.
   std::unique_ptr<vtkNeuralProgressiveRenderer> Worker;
+  bool WorkerRefused = false; ///< the system gave no thread for it: renders block
   double ImageScale = 1.0;
   int ImageLevel = 0;
   int ImageLevels = 1;
@@ -461,23 +463,27 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       in.HaveImage = true;
     };
 
-    if (this->ProgressiveRefinement && session.device() == nv::Device::Cpu)
+    if (this->ProgressiveRefinement && session.device() == nv::Device::Cpu && !in.WorkerRefused)
     {
       // In the background: this render only starts or continues the work and draws the newest image.
       const int frames = pathTracing && !interactive
         ? std::max(1, (this->TargetSamples + q.samplesPerPixel - 1) / q.samplesPerPixel)
         : 1;
       std::string error;
-      if (!this->RenderInBackground(q, Mix(key, static_cast<uint64_t>(frames)),
-            Mix(sceneKey, static_cast<uint64_t>(frames)), frames, scale, error))
+      const bool drawn = this->RenderInBackground(q, Mix(key, static_cast<uint64_t>(frames)),
+        Mix(sceneKey, static_cast<uint64_t>(frames)), frames, scale, error);
+      if (!drawn && !in.WorkerRefused)
       {
         fail(error, true);
         return;
       }
-      in.LastError.clear();
-      in.Reported.clear();
-      this->DrawImage(ren);
-      return;
+      if (drawn)
+      {
+        in.LastError.clear();
+        in.Reported.clear();
+        this->DrawImage(ren);
+        return;
+      }
     }
     if (in.Worker)
     {
@@ -566,9 +572,17 @@ bool vtkNeuralVolumeMapper::RenderInBackground(const nv::RenderRequest& q, uint6
   int frames, double viewScale, std::string& error)
 {
   vtkInternals& in = *this->Internals;
-  if (!in.Worker)
+  try
   {
-    in.Worker.reset(new vtkNeuralProgressiveRenderer);
+    if (!in.Worker)
+      in.Worker.reset(new vtkNeuralProgressiveRenderer);
+  }
+  catch (const std::system_error& e)
+  {
+    in.WorkerRefused = true; // this render and the next ones block instead
+    vtkWarningMacro("Neural Volume: the system refused a thread for progressive rendering ("
+      << e.what() << "); frames render in the GUI thread.");
+    return false;
   }
   vtkNeuralProgressiveRenderer& worker = *in.Worker;
   // A network that trains publishes ~10 versions a second: a refinement of the same scene goes on (its later levels

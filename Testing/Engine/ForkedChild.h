@@ -13,6 +13,28 @@
 
 namespace nvtest
 {
+/// AddressSanitizer reserves terabytes of shadow address space: a child with a lowered RLIMIT_AS cannot run under it
+/// (its reports say "Failed to mmap"); such checks are skipped in the sanitized build and run in the plain one.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
+/// True (after saying so) when address-space limits cannot be tested in this build.
+inline bool skipAddressSpaceLimits()
+{
+  if (kAddressSanitizer)
+    std::printf("    skipped under AddressSanitizer (address-space limits; the plain build runs it)\n");
+  return kAddressSanitizer;
+}
+
 /// Exit status of fn() run in a child; 128 + signal when it was killed by one; -1 when it ran past `seconds` (it is
 /// killed then) or could not be forked. Call it before the process starts threads of its own.
 inline int runInChild(const std::function<int()>& fn, double seconds)

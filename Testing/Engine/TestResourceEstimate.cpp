@@ -149,6 +149,8 @@ NV_TEST(BudgetFollowsTheProcessLimits)
 
 NV_TEST(RefusalUnderALoweredAddressSpaceLimit)
 {
+  if (nvtest::skipAddressSpaceLimits())
+    return;
   // In a child: RLIMIT_AS at what the process uses + 1 GB. The budget is that gigabyte (less what the statm read
   // itself maps), the refusal names "ulimit -v", and a real allocation of 2 GB fails as the estimate said.
   const int rc = nvtest::runInChild(

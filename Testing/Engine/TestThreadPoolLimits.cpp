@@ -64,6 +64,8 @@ NV_TEST(AbsurdThreadCountsAreCapped)
 
 NV_TEST(RefusedThreadsLeaveAWorkingPool)
 {
+  if (nvtest::skipAddressSpaceLimits())
+    return;
   // In a child: the address space capped 20 MB above what the process maps, so that only a few 8 MB thread stacks
   // fit. The pool works with the threads it got (at least the caller's), posts "could create only N of M threads",
   // and its destructor returns (it joins only the threads that exist).
