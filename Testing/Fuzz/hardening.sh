@@ -14,6 +14,20 @@ set -euo pipefail
 mode=$1 src=$2 dir=$3
 export ASAN_OPTIONS=halt_on_error=1:abort_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+# run_fuzzer PREFIX SEED-GENERATOR TARGET DICTIONARY MAX-LEN SECONDS: the target from the generator's valid seeds;
+# new inputs go to BUILD/fuzz-PREFIXcorpus (started empty, so that a run depends on the sources only), failing inputs
+# to BUILD/fuzz-PREFIXartifacts.
+run_fuzzer() {
+  local prefix=$1 generator=$2 target=$3 dict=$4 maxlen=$5 seconds=$6
+  local seeds="$dir/fuzz-${prefix}seeds" corpus="$dir/fuzz-${prefix}corpus" artifacts="$dir/fuzz-${prefix}artifacts"
+  rm -rf "$seeds" "$corpus"
+  mkdir -p "$seeds" "$corpus" "$artifacts"
+  "$dir/Testing/Fuzz/$generator" "$seeds"
+  "$dir/Testing/Fuzz/$target" "$corpus" "$seeds" -dict="$src/Testing/Fuzz/$dict" -seed=1 -max_total_time="$seconds" \
+    -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 -max_len="$maxlen" -print_final_stats=1 \
+    -artifact_prefix="$artifacts/"
+}
+
 case "$mode" in
   build)
     data=${4:-$src/../shared/data}
@@ -59,25 +73,10 @@ case "$mode" in
     fi
     ;;
   fuzz)
-    seconds=${4:-60}
-    rm -rf "$dir/fuzz-seeds" "$dir/fuzz-corpus"
-    mkdir -p "$dir/fuzz-seeds" "$dir/fuzz-corpus" "$dir/fuzz-artifacts"
-    "$dir/Testing/Fuzz/nvFuzzCorpus" "$dir/fuzz-seeds"
-    # New inputs go to fuzz-corpus (started empty, so that a run depends on the sources only).
-    "$dir/Testing/Fuzz/nvFuzzModel" "$dir/fuzz-corpus" "$dir/fuzz-seeds" -dict="$src/Testing/Fuzz/model.dict" \
-      -seed=1 -max_total_time="$seconds" \
-      -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 -max_len=8192 -print_final_stats=1 \
-      -artifact_prefix="$dir/fuzz-artifacts/"
+    run_fuzzer "" nvFuzzCorpus nvFuzzModel model.dict 8192 "${4:-60}"
     ;;
   fuzzvdb)
-    seconds=${4:-30}
-    rm -rf "$dir/fuzz-vdb-seeds" "$dir/fuzz-vdb-corpus"
-    mkdir -p "$dir/fuzz-vdb-seeds" "$dir/fuzz-vdb-corpus" "$dir/fuzz-vdb-artifacts"
-    "$dir/Testing/Fuzz/nvFuzzVdbCorpus" "$dir/fuzz-vdb-seeds"
-    "$dir/Testing/Fuzz/nvFuzzVdbFile" "$dir/fuzz-vdb-corpus" "$dir/fuzz-vdb-seeds" -dict="$src/Testing/Fuzz/vdb.dict" \
-      -seed=1 -max_total_time="$seconds" \
-      -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 -max_len=4096 -print_final_stats=1 \
-      -artifact_prefix="$dir/fuzz-vdb-artifacts/"
+    run_fuzzer vdb- nvFuzzVdbCorpus nvFuzzVdbFile vdb.dict 4096 "${4:-30}"
     ;;
   *)
     echo "usage: hardening.sh build|sanitize|fuzz|fuzzvdb SOURCE BUILD [DATA|SECONDS]" >&2

@@ -8,8 +8,8 @@ at most CASE_SECONDS, at most the case's RSS bound. The child checks what it pro
 dims, its values against the source resampled at those dims) and writes its verdicts to a JSON file.
 
 Cases: OutputResolution 1600^3 (capped at the network's finest level, and with FinestResolution 2048 refused against
-the process's limit "(ulimit -v)"), OutputResolution [2^31-1, 1, 1], Threads 1024, DecodeResolution 4096^3 and
-65536 x 65536 x 2 of the Neural Volume representation, and a long decode (2^28 samples, within the caps) aborted from
+the process's limit "(ulimit -v)"), OutputResolution [2^31-1, 1, 1], Threads 1024, DecodeResolution 4096^3,
+2048 x 2048 x 1024 and 65536 x 65536 x 2 of the Neural Volume representation, and a long decode (2^28 samples, within the caps) aborted from
 a progress observer, which must stop within a second.
 """
 import json
@@ -42,6 +42,8 @@ CASES = [
     dict(name="Threads 1024", set={"Threads": [1024]}, rss_mb=2000,
          expect="Threads 1024 is more than 4 x the", dims=[16, 16, 16]),
     dict(name="DecodeResolution 4096^3", render={"DecodeResolution": [4096] * 3}, rss_mb=2500,
+         expect="the network is decoded at 64 x 64 x 64 instead"),
+    dict(name="DecodeResolution 2048 x 2048 x 1024", render={"DecodeResolution": [2048, 2048, 1024]}, rss_mb=2500,
          expect="the network is decoded at 64 x 64 x 64 instead"),
     dict(name="DecodeResolution 65536 x 65536 x 2", render={"DecodeResolution": [65536, 65536, 2]}, rss_mb=2500,
          expect="the network is decoded at 64 x 64 x 2 instead"),
