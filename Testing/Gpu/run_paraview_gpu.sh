@@ -9,7 +9,8 @@
 set -u
 here=$(pwd)
 root=$here/.devcarry/pvrt-root
-out=${OUT:-$here/gpu-paraview-out}
+out=$here/.devcarry/gpu-paraview-out   # pictures stay there while the machine is held; logs also go to $OUT
+back=${OUT:-$out}
 mkdir -p "$out"
 if [ ! -f "$root/env.sh" ]; then
   bash "$here/.devcarry/unpack.sh" "$here/.devcarry/pvrt" "$root" > "$out/unpack.log" 2>&1 || { cat "$out/unpack.log"; exit 1; }
@@ -35,4 +36,5 @@ for t in ${@:-TestGpuParaView}; do
   echo "rc=$rc"; tail -25 "$out/$t.log"
   [ $rc -eq 0 ] || status=1
 done
+[ "$back" = "$out" ] || cp "$out"/*.log "$out"/*.json "$out"/gpu.txt "$back"/ 2>/dev/null
 exit $status
