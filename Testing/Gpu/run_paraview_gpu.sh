@@ -22,7 +22,7 @@ fi
 source "$root/env.sh"
 plugin_dir=$here/.devcarry/plugin/NeuralVolume
 export LD_LIBRARY_PATH=$plugin_dir:$LD_LIBRARY_PATH
-export __GLX_VENDOR_LIBRARY_NAME=nvidia
+export __GLX_VENDOR_LIBRARY_NAME=nvidia PYTHONUNBUFFERED=1
 export NV_PLUGIN=$plugin_dir/NeuralVolume.so NV_TEST_OUTPUT=$out NV_PVBATCH=$root/usr/bin/pvbatch
 export NV_DATA_DIR=$here/.devcarry/data NV_BASELINE_DIR=$here/Testing/ParaView/Baseline
 pgrep -f "Xvfb :57" > /dev/null || { Xvfb :57 -screen 0 1920x1200x24 -nolisten tcp -xkbdir "$NV_XKB_DIR" > "$out/xvfb.log" 2>&1 & sleep 2; }
