@@ -464,19 +464,42 @@ bool Job::WaitForFirstLiveBytes(double seconds)
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (;;)
   {
-    const RunState state = this->Run->Status().State;
-    bool writing = false;
+    const RunStatus status = this->Run->Status();
     {
       std::lock_guard<std::mutex> lock(this->Mutex);
       if (this->LiveBytes)
         return true;
-      writing = this->LiveWriting;
     }
-    if (!writing && state != RunState::Starting && !IsSettled(state))
-      this->Snapshot(); // starts the writer
-    if (std::chrono::steady_clock::now() >= until || IsSettled(state))
+    if (std::chrono::steady_clock::now() >= until || IsSettled(status.State))
       return false;
+    this->StartLiveWriterIfDue(status);
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+void Job::StartLiveWriterIfDue(const RunStatus& status)
+{
+  // The bytes matter to consumers in other processes only (renderers here use the live session): serialized at
+  // most once a second in a thread of their own (a large network takes a second and more), never in the caller's,
+  // and only once the run has installed its initial network (RunState::Starting ends). Until the first ones exist
+  // a snapshot has none (the filter shows the job as starting).
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    const auto now = std::chrono::steady_clock::now();
+    if (this->LiveWriting || status.State == RunState::Starting ||
+      (this->LiveBytes && now - this->LiveBytesTime <= std::chrono::seconds(1)))
+      return;
+    this->LiveWriting = true;
+  }
+  if (this->LiveWriter.joinable())
+    this->LiveWriter.join(); // ended: LiveWriting was off
+  try
+  {
+    this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
+  }
+  catch (const std::system_error&)
+  {
+    this->WriteLiveBytes(status); // the system gives no thread: written in the caller's
   }
 }
 
@@ -486,34 +509,7 @@ NetworkRecord Job::Snapshot()
   r.Key = this->Key;
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
-  // The bytes matter to consumers in other processes only (renderers here use the live session): serialized at
-  // most once a second in a thread of their own (a large network takes a second and more), never in the caller's,
-  // and only once the run has installed its initial network (RunState::Starting ends). Until the first ones exist
-  // the record has none (the filter shows the job as starting).
-  bool start = false;
-  {
-    std::lock_guard<std::mutex> lock(this->Mutex);
-    const auto now = std::chrono::steady_clock::now();
-    if (!this->LiveWriting && status.State != RunState::Starting &&
-      (!this->LiveBytes || now - this->LiveBytesTime > std::chrono::seconds(1)))
-    {
-      start = true;
-      this->LiveWriting = true;
-    }
-  }
-  if (start)
-  {
-    if (this->LiveWriter.joinable())
-      this->LiveWriter.join(); // ended: LiveWriting was off
-    try
-    {
-      this->LiveWriter = std::thread([this, status]() { this->WriteLiveBytes(status); });
-    }
-    catch (const std::system_error&)
-    {
-      this->WriteLiveBytes(status); // the system gives no thread: written in the caller's
-    }
-  }
+  this->StartLiveWriterIfDue(status);
   Metrics& m = r.M;
   {
     std::lock_guard<std::mutex> lock(this->Mutex);

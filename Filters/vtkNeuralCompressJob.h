@@ -224,6 +224,8 @@ public:
   mutable std::mutex Mutex;
 
 private:
+  /// Starts LiveWriter when a snapshot's bytes are due (none yet, or older than a second) and none is being written.
+  void StartLiveWriterIfDue(const RunStatus& status);
   /// Serializes the session's network of the moment into LiveBytes (in LiveWriter's thread, or the caller's).
   void WriteLiveBytes(const RunStatus& status);
 

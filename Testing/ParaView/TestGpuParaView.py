@@ -42,15 +42,8 @@ def picture_name(tag, path, mode):
 
 def styled_view(source, array, vmin, vmax):
     view = nvtest.render_view(SIZE)
-    display = Show(source, view)
+    display = nvtest.show_styled(source, view, array, vmin, vmax, 0.55)
     display.Representation = "Neural Volume"
-    display.SetScalarBarVisibility(view, False)
-    lut = GetColorTransferFunction(array)
-    lut.ApplyPreset("Cool to Warm", True)
-    lut.RescaleTransferFunction(vmin, vmax)
-    lut.AutomaticRescaleRangeMode = "Never"
-    threshold = vmin + 0.55 * (vmax - vmin)
-    GetOpacityTransferFunction(array).Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
     nvtest.set_camera(view, (130.0, -90.0, 70.0), focal=(0.0, 0.0, 0.0))
     display.TargetSamples = TARGET_SAMPLES
     return view, display

@@ -28,13 +28,7 @@ paraview.simple._DisableFirstRenderCameraReset()
 wavelet, nc = nvtest.wavelet_network()
 vmin, vmax = wavelet.PointData["RTData"].GetRange()
 view = nvtest.render_view(SIZE, BACKGROUND)
-display = Show(nc, view)
-display.SetScalarBarVisibility(view, False)
-lut = GetColorTransferFunction("RTData")
-lut.ApplyPreset("Cool to Warm", True)
-lut.RescaleTransferFunction(vmin, vmax)
-lut.AutomaticRescaleRangeMode = "Never"
-GetOpacityTransferFunction("RTData").RescaleTransferFunction(vmin, vmax)
+display = nvtest.show_styled(nc, view, "RTData", vmin, vmax)
 display.ScalarOpacityUnitDistance = 4.0  # dense enough that the half behind the plane matters
 
 

@@ -272,19 +272,30 @@ def wavelet_view(size, threshold_fraction):
     """The Wavelet network (wavelet_network) shown in a render view of `size`: Cool to Warm over RTData's range
     (locked), opacity 0 below `threshold_fraction` of the range and rising to 1 at its top, no scalar bar.
     Returns (wavelet, network, view, display)."""
-    from paraview.simple import GetColorTransferFunction, GetOpacityTransferFunction, Show
     wavelet, network = wavelet_network()
     vmin, vmax = wavelet.PointData["RTData"].GetRange()
     view = render_view(size)
-    display = Show(network, view)
+    display = show_styled(network, view, "RTData", vmin, vmax, threshold_fraction)
+    return wavelet, network, view, display
+
+
+def show_styled(source, view, array, vmin, vmax, threshold_fraction=None):
+    """`source` shown in `view` without a scalar bar, `array` coloured Cool to Warm over [vmin, vmax] (locked); the
+    opacity ramps over that range, or (threshold_fraction) is 0 below that share of it and rises to 1 at its top."""
+    from paraview.simple import GetColorTransferFunction, GetOpacityTransferFunction, Show
+    display = Show(source, view)
     display.SetScalarBarVisibility(view, False)
-    lut = GetColorTransferFunction("RTData")
+    lut = GetColorTransferFunction(array)
     lut.ApplyPreset("Cool to Warm", True)
     lut.RescaleTransferFunction(vmin, vmax)
     lut.AutomaticRescaleRangeMode = "Never"
-    threshold = vmin + threshold_fraction * (vmax - vmin)
-    GetOpacityTransferFunction("RTData").Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
-    return wavelet, network, view, display
+    opacity = GetOpacityTransferFunction(array)
+    if threshold_fraction is None:
+        opacity.RescaleTransferFunction(vmin, vmax)
+    else:
+        threshold = vmin + threshold_fraction * (vmax - vmin)
+        opacity.Points = [vmin, 0.0, 0.5, 0.0, threshold, 0.0, 0.5, 0.0, vmax, 1.0, 0.5, 0.0]
+    return display
 
 
 def render_view(size, background=(0.32, 0.34, 0.43)):
