@@ -1,5 +1,7 @@
 #include "vtkNeuralImageCompositor.h"
 
+#include "Core/GlImageTarget.h"
+
 #include "vtkOpenGLQuadHelper.h"
 #include "vtkOpenGLRenderUtilities.h"
 #include "vtkOpenGLRenderWindow.h"
@@ -11,8 +13,18 @@
 #include "vtk_glew.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <exception>
 #include <utility>
+
+namespace
+{
+double MillisecondsSince(std::chrono::steady_clock::time_point start)
+{
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+} // namespace
 
 vtkNeuralImageCompositor::vtkNeuralImageCompositor() = default;
 vtkNeuralImageCompositor::~vtkNeuralImageCompositor() = default;
@@ -85,6 +97,7 @@ void vtkNeuralImageCompositor::SetImage(std::vector<float>&& rgba, int width, in
   this->Width = width;
   this->Height = height;
   this->Uploaded = false;
+  this->OnDevice = false;
 }
 
 void vtkNeuralImageCompositor::Clear()
@@ -92,6 +105,96 @@ void vtkNeuralImageCompositor::Clear()
   this->Image.clear();
   this->Width = this->Height = 0;
   this->Uploaded = false;
+  this->OnDevice = false;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralImageCompositor::PrepareTexture(vtkWindow* window)
+{
+  auto* context = vtkOpenGLRenderWindow::SafeDownCast(window);
+  if (!context)
+  {
+    return false;
+  }
+  if (!this->Texture)
+  {
+    this->Texture = vtkSmartPointer<vtkTextureObject>::New();
+  }
+  vtkTextureObject* texture = this->Texture;
+  if (texture->GetHandle() != 0 && texture->GetContext() == context &&
+    static_cast<int>(texture->GetWidth()) == this->Width && static_cast<int>(texture->GetHeight()) == this->Height)
+  {
+    return true;
+  }
+  this->Target.reset(); // registered with the texture that is replaced
+  texture->SetContext(context);
+  texture->SetMinificationFilter(vtkTextureObject::Linear);
+  texture->SetMagnificationFilter(vtkTextureObject::Linear);
+  texture->SetWrapS(vtkTextureObject::ClampToEdge);
+  texture->SetWrapT(vtkTextureObject::ClampToEdge);
+  return texture->Allocate2D(
+    static_cast<unsigned int>(this->Width), static_cast<unsigned int>(this->Height), 4, VTK_FLOAT);
+}
+
+bool vtkNeuralImageCompositor::SetDeviceImage(
+  vtkRenderer* ren, const float* deviceRgba, int width, int height, std::string& why)
+{
+  const auto start = std::chrono::steady_clock::now();
+  this->Image.clear();
+  this->Width = width;
+  this->Height = height;
+  this->Uploaded = false;
+  this->OnDevice = false;
+  if (!this->PrepareTexture(ren->GetRenderWindow()))
+  {
+    why = "no OpenGL texture for the image";
+    return false;
+  }
+  try
+  {
+    if (!this->Target || this->Target->texture() != this->Texture->GetHandle())
+    {
+      this->Target = nv::GlImageTarget::create(this->Texture->GetHandle(), width, height);
+    }
+    this->Target->write(deviceRgba);
+  }
+  catch (const std::exception& e)
+  {
+    this->Target.reset();
+    why = e.what();
+    return false;
+  }
+  this->Uploaded = true;
+  this->OnDevice = true;
+  this->UploadMilliseconds = MillisecondsSince(start);
+  return true;
+}
+
+const std::vector<float>& vtkNeuralImageCompositor::GetImage()
+{
+  if (this->OnDevice && this->Texture && this->Texture->GetContext())
+  {
+    this->Texture->GetContext()->MakeCurrent();
+    this->ReadBack();
+  }
+  return this->Image;
+}
+
+void vtkNeuralImageCompositor::ReadBack()
+{
+  if (!this->OnDevice || !this->Target)
+  {
+    return;
+  }
+  try
+  {
+    this->Target->read(this->Image);
+  }
+  catch (const std::exception&)
+  {
+    this->Image.clear(); // the next Draw() has nothing to upload: it draws nothing rather than a stale picture
+  }
+  this->OnDevice = false;
 }
 
 //------------------------------------------------------------------------------
@@ -102,21 +205,29 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   {
     return;
   }
-  if (!this->Texture)
+  const bool lostTexture = !this->Texture || this->Texture->GetHandle() == 0 || this->Texture->GetContext() != window;
+  if (this->OnDevice && lostTexture)
   {
-    this->Texture = vtkSmartPointer<vtkTextureObject>::New();
+    this->ReadBack(); // a new context: the picture comes back from the old texture to the host
   }
-  if (!this->Uploaded || this->Texture->GetHandle() == 0 || this->Texture->GetContext() != window)
+  if (!this->Uploaded || lostTexture)
   {
-    this->Texture->SetContext(window);
-    this->Texture->SetMinificationFilter(vtkTextureObject::Linear);
-    this->Texture->SetMagnificationFilter(vtkTextureObject::Linear);
-    this->Texture->SetWrapS(vtkTextureObject::ClampToEdge);
-    this->Texture->SetWrapT(vtkTextureObject::ClampToEdge);
-    this->Texture->Create2DFromRaw(static_cast<unsigned int>(this->Width),
-      static_cast<unsigned int>(this->Height), 4, VTK_FLOAT, this->Image.data());
+    const auto start = std::chrono::steady_clock::now();
+    if (this->Image.size() != static_cast<size_t>(this->Width) * static_cast<size_t>(this->Height) * 4 ||
+      !this->PrepareTexture(window))
+    {
+      return;
+    }
+    // In place: the texture keeps its storage while the image size does not change.
+    this->Texture->Activate();
+    vtkOpenGLState* uploadState = window->GetState();
+    uploadState->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, this->Width, this->Height, GL_RGBA, GL_FLOAT, this->Image.data());
+    this->Texture->Deactivate();
     this->Uploaded = true;
+    this->UploadMilliseconds = MillisecondsSince(start);
   }
+  const auto drawStart = std::chrono::steady_clock::now();
 
   vtkOpenGLState* state = window->GetState();
   vtkOpenGLState::ScopedglEnableDisable blend(state, GL_BLEND);
@@ -154,6 +265,7 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
     this->Quad->Render();
   }
   this->Texture->Deactivate();
+  this->DrawMilliseconds = MillisecondsSince(drawStart);
 }
 
 //------------------------------------------------------------------------------
@@ -195,6 +307,8 @@ void vtkNeuralImageCompositor::DrawProgress(vtkRenderer* ren, double fraction)
 //------------------------------------------------------------------------------
 void vtkNeuralImageCompositor::ReleaseGraphicsResources(vtkWindow* window)
 {
+  this->ReadBack(); // the host keeps a GPU picture for the next context
+  this->Target.reset(); // unregistered while its texture still exists
   if (this->Texture)
   {
     this->Texture->ReleaseGraphicsResources(window);

@@ -1,7 +1,9 @@
 // Private to NeuralVolume::Representations: the OpenGL side of vtkNeuralVolumeMapper. Reads the window depth of
 // the opaque geometry already drawn in the renderer's viewport, and draws the engine's premultiplied RGBA image as
 // a textured quad over the viewport (blend ONE, ONE_MINUS_SRC_ALPHA) so that it composites over what is in the
-// framebuffer, and a progress bar for long refinements. Works on any OpenGL 3.2 context (Mesa/Xvfb included); every GL state it changes is restored.
+// framebuffer, and a progress bar for long refinements. Works on any OpenGL 3.2 context (Mesa/Xvfb included); every
+// GL state it changes is restored. Where the context is NVIDIA's and the engine renders on the GPU, the image goes
+// from the engine's device memory into the texture through CUDA-OpenGL interop (SetDeviceImage).
 #ifndef vtkNeuralImageCompositor_h
 #define vtkNeuralImageCompositor_h
 
@@ -11,6 +13,10 @@
 #include <string>
 #include <vector>
 
+namespace nv
+{
+class GlImageTarget;
+}
 class vtkOpenGLQuadHelper;
 class vtkRenderer;
 class vtkTextureObject;
@@ -31,9 +37,19 @@ public:
   /// Replace the image drawn by Draw(): width * height premultiplied RGBA floats, row 0 at the bottom (kept on the
   /// host too, so that a new OpenGL context gets it again without a new engine render).
   void SetImage(std::vector<float>&& rgba, int width, int height);
+  /// Write an image that lies in GPU memory (an engine render to nv::Memory::Device) straight into the texture through
+  /// CUDA-OpenGL interop: no host copy, no upload. False, with the reason, when interop is not possible here (the
+  /// caller renders to the host instead); the texture is (re)registered when its size or context changes.
+  bool SetDeviceImage(vtkRenderer* ren, const float* deviceRgba, int width, int height, std::string& why);
   bool HasImage() const { return this->Width > 0; }
-  const std::vector<float>& GetImage() const { return this->Image; }
+  /// The image on the host (read back from the texture when it came from SetDeviceImage).
+  const std::vector<float>& GetImage();
   void Clear();
+
+  /// Wall time of the last image's way into the texture: the upload of a host image (glTexSubImage2D), or the
+  /// device-to-device copy of a GPU image; and of the last Draw() (the blended quad).
+  double GetUploadMilliseconds() const { return this->UploadMilliseconds; }
+  double GetDrawMilliseconds() const { return this->DrawMilliseconds; }
 
   /// Composite the uploaded image over the renderer's viewport (scaled to it, linear filtering).
   void Draw(vtkRenderer* ren);
@@ -45,12 +61,21 @@ public:
   void ReleaseGraphicsResources(vtkWindow* window);
 
 private:
+  /// The texture (RGBA32F) of the current image's size in `window`'s context, allocated when missing or resized.
+  bool PrepareTexture(vtkWindow* window);
+  /// A GPU image copied from the texture to Image (the texture's context current).
+  void ReadBack();
+
   vtkSmartPointer<vtkTextureObject> Texture;
   std::unique_ptr<vtkOpenGLQuadHelper> Quad;
+  std::unique_ptr<nv::GlImageTarget> Target; ///< the texture registered with CUDA (SetDeviceImage)
   std::vector<float> Image;
   int Width = 0;
   int Height = 0;
   bool Uploaded = false;
+  bool OnDevice = false; ///< the texture holds a GPU image that Image does not have yet
+  double UploadMilliseconds = 0.0;
+  double DrawMilliseconds = 0.0;
   std::vector<float> Scratch;
 };
 

@@ -7,11 +7,14 @@
 #include "vtkImageData.h"
 #include "vtkLight.h"
 #include "vtkLightCollection.h"
+#include "vtkMath.h"
 #include "vtkMatrix3x3.h"
 #include "vtkMatrix4x4.h"
 #include "vtkNew.h"
 #include "vtkOpenGLCamera.h"
 #include "vtkPiecewiseFunction.h"
+#include "vtkProp.h"
+#include "vtkPropCollection.h"
 #include "vtkRenderer.h"
 #include "vtkVolume.h"
 #include "vtkVolumeProperty.h"
@@ -176,6 +179,29 @@ bool ViewLightDirection(vtkRenderer* ren, double direction[3])
   camera->GetDirectionOfProjection(dop);
   for (int k = 0; k < 3; ++k)
     direction[k] = -dop[k];
+  return false;
+}
+
+//------------------------------------------------------------------------------
+bool ShowsOpaqueGeometry(vtkRenderer* ren, vtkVolume* volume)
+{
+  vtkPropCollection* props = ren->GetViewProps();
+  vtkCollectionSimpleIterator it;
+  props->InitTraversal(it);
+  while (vtkProp* prop = props->GetNextProp(it))
+  {
+    // Volumes (this one, others) write no depth; 2D props are drawn in the overlay, after the volumes.
+    if (prop == volume || !prop->GetVisibility() || prop->IsA("vtkVolume") || prop->IsA("vtkActor2D"))
+    {
+      continue;
+    }
+    // A prop with no bounds draws nothing (ParaView keeps empty actors visible, e.g. a selection's).
+    const double* bounds = prop->GetBounds();
+    if (bounds && vtkMath::AreBoundsInitialized(bounds) && prop->HasOpaqueGeometry())
+    {
+      return true;
+    }
+  }
   return false;
 }
 

@@ -32,6 +32,10 @@ void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::Transf
 /// light first); the camera's direction towards the viewer when no light is on. Returns false in that case.
 bool ViewLightDirection(vtkRenderer* ren, double direction[3]);
 
+/// True when the renderer shows opaque geometry besides the volumes (a visible 3D prop other than a vtkVolume):
+/// only then can something in the depth buffer hide part of `volume`.
+bool ShowsOpaqueGeometry(vtkRenderer* ren, vtkVolume* volume);
+
 } // namespace vtkNeuralRenderRequest
 
 #endif

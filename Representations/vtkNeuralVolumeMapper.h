@@ -38,14 +38,17 @@
 #include "NeuralVolumeRepresentationsModule.h" // for export macro
 #include "vtkVolumeMapper.h"
 
+#include <chrono>  // for the frame timings
 #include <cstdint> // for uint64_t
 #include <memory>  // for std::unique_ptr
 #include <string>  // for std::string
 
 class vtkFloatArray;
+class vtkImageData;
 namespace nv
 {
 struct RenderRequest;
+enum class BlendMode : int;
 }
 
 class NEURALVOLUMEREPRESENTATIONS_EXPORT vtkNeuralVolumeMapper : public vtkVolumeMapper
@@ -159,6 +162,24 @@ public:
   ///@}
 
   ///@{
+  /// On (default): where the engine renders on the GPU and the view's OpenGL runs on that NVIDIA GPU, the image goes
+  /// from the engine's GPU memory into the view's texture through CUDA-OpenGL interop (no copy through the host);
+  /// elsewhere, or off, it is copied to the host and uploaded. GetLastDisplayPath says which one the last frame took.
+  vtkSetMacro(CudaGLInterop, bool);
+  vtkGetMacro(CudaGLInterop, bool);
+  ///@}
+
+  ///@{
+  /// Where the last frame's time went, wall milliseconds in the render thread: [0] reading the view's depth buffer
+  /// (0 when no opaque geometry is shown), [1] the engine's render call (kernels, or CPU rays, and the copy of the
+  /// image to the host), [2] of which the copy to the host (GPU engine), [3] the image's way into the texture (the
+  /// upload of a host image, or the interop copy), [4] drawing the blended quad, [5] the whole mapper Render.
+  void GetLastFrameTimings(double timings[6]) const;
+  /// "CUDA-OpenGL interop", "host copy", or "host copy (interop: <reason>)" for the last frame.
+  const char* GetLastDisplayPath() const;
+  ///@}
+
+  ///@{
   /// About the last render: the path the engine ran, field evaluations, evaluations of a plain
   /// marcher (no skipping), Sample Streaming wavefronts, path-tracing frames accumulated, the image
   /// size, whether the Decode path showed a coarser grid, and the engine's render time.
@@ -229,6 +250,7 @@ protected:
   double InteractiveImageScale = 0.5;
   bool ProgressiveRefinement = false;
   double FrameBudget = 50.0;
+  bool CudaGLInterop = true;
 
 private:
   vtkNeuralVolumeMapper(const vtkNeuralVolumeMapper&) = delete;
@@ -239,8 +261,33 @@ private:
   /// image. False (and `error`) when the background render failed.
   bool RenderInBackground(const nv::RenderRequest& request, uint64_t key, uint64_t sceneKey, int frames,
     double viewScale, std::string& error);
+  /// Draw nothing on failure: forget the last image and say why once (`report`: as an error).
+  void Fail(const std::string& message, bool report);
+  /// The session of the input's network (made again when the array changes). False (after Fail) without one.
+  bool UpdateSession(vtkImageData* image);
+  /// The picture's key without the network's version (a training network publishes new versions of one scene).
+  uint64_t SceneKey(const nv::RenderRequest& q) const;
+  /// Progressive mode (CPU engine): the background renderer's newest image of `q` (RenderInBackground).
+  bool RenderProgressive(const nv::RenderRequest& q, bool interactive, double scale, std::string& error);
+  /// The engine renders `q` in this thread unless the image is that of `q` already; a still render waits for the
+  /// full decode grid and accumulates path tracing to TargetSamples (FinishStillPicture).
+  void RenderBlocking(vtkRenderer* ren, const nv::RenderRequest& q, bool interactive, double scale);
+  void RenderOnce(vtkRenderer* ren, const nv::RenderRequest& q, uint64_t key);
+  void FinishStillPicture(vtkRenderer* ren, const nv::RenderRequest& q, uint64_t key);
   /// Composite the current image (and the progress bar of a long refinement).
-  void DrawImage(vtkRenderer* ren);
+  void DrawImage(vtkRenderer* ren, std::chrono::steady_clock::time_point frameStart);
+  /// The engine request of this frame from the renderer, the volume and this mapper's settings (without the depth
+  /// buffer). "" on success, else why the volume cannot be drawn.
+  std::string BuildRequest(vtkRenderer* ren, vtkVolume* vol, vtkImageData* image, bool interactive, double scale,
+    nv::RenderRequest& q);
+  /// The engine's blend mode for BlendMode (Isosurface and Slice: Composite, with a warning once).
+  nv::BlendMode EngineBlendMode();
+  /// The Decode path's grid for DecodeResolution and this machine (a warning when it is clamped).
+  void FitDecodeGrid();
+  /// The depth of the opaque geometry already drawn, when there is any (q.depth), else q.depth stays null.
+  void ReadSceneDepth(vtkRenderer* ren, vtkVolume* vol, nv::RenderRequest& q);
+  /// One engine render of `q` into the compositor: on the GPU through CUDA-OpenGL interop where possible.
+  void RenderToCompositor(vtkRenderer* ren, const nv::RenderRequest& q);
 
   struct vtkInternals;
   std::unique_ptr<vtkInternals> Internals;

@@ -89,6 +89,11 @@ void vtkNeuralVolumeRepresentation::SetProgressiveRefinement(int progressive)
   this->NeuralMapper->SetProgressiveRefinement(progressive != 0);
 }
 
+void vtkNeuralVolumeRepresentation::SetCudaGLInterop(int interop)
+{
+  this->NeuralMapper->SetCudaGLInterop(interop != 0);
+}
+
 //------------------------------------------------------------------------------
 int vtkNeuralVolumeRepresentation::GetLastRenderPath()
 {
@@ -114,6 +119,15 @@ int* vtkNeuralVolumeRepresentation::GetLastImageSize()
 {
   this->NeuralMapper->GetLastImageSize(this->LastImageSize);
   return this->LastImageSize;
+}
+double* vtkNeuralVolumeRepresentation::GetLastFrameTimings()
+{
+  this->NeuralMapper->GetLastFrameTimings(this->LastFrameTimings);
+  return this->LastFrameTimings;
+}
+const char* vtkNeuralVolumeRepresentation::GetLastDisplayPath()
+{
+  return this->NeuralMapper->GetLastDisplayPath();
 }
 double vtkNeuralVolumeRepresentation::GetLastRenderMilliseconds()
 {

@@ -44,6 +44,7 @@ public:
   void SetDecodeResolution(int x, int y, int z);
   void SetInteractiveImageScale(double scale);
   void SetProgressiveRefinement(int progressive);
+  void SetCudaGLInterop(int interop);
   ///@}
 
   ///@{
@@ -55,6 +56,8 @@ public:
   int GetLastAccumulatedFrames();
   int* GetLastImageSize() VTK_SIZEHINT(2);
   double GetLastRenderMilliseconds();
+  double* GetLastFrameTimings() VTK_SIZEHINT(6);
+  const char* GetLastDisplayPath();
   int GetEngineRenderCount();
   int GetWorkPending();
   int GetSessionFromBytes();
@@ -81,6 +84,7 @@ protected:
   int HasNetwork = 0;
   bool ReportedMissing = false;
   int LastImageSize[2] = { 0, 0 };
+  double LastFrameTimings[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
   vtkNew<vtkNeuralVolumeMapper> NeuralMapper;
   vtkSmartPointer<vtkDataObject> RepresentedData; ///< see GetRenderedDataObject
 

@@ -128,6 +128,7 @@ struct RenderStats
                                 ///< image was returned without rendering
   double decodeMilliseconds = 0.0;    ///< decoding and macrocell refresh done by this call
   double renderMilliseconds = 0.0;    ///< marching / tracing
+  double hostCopyMilliseconds = 0.0;  ///< GPU backend, a render to Memory::Host: copying the image to the host
 };
 
 struct RenderResult

@@ -84,8 +84,6 @@ ProcessMemoryLimits processMemoryLimits()
   ProcessMemoryLimits l;
   l.addressSpace = softLimit(RLIMIT_AS);
   l.data = softLimit(RLIMIT_DATA);
-  if (l.addressSpace == kMax && l.data == kMax)
-    return l; // nothing to subtract from
   // statm: size resident shared text lib data(+stack) dirty, in pages.
   std::ifstream statm("/proc/self/statm");
   int64_t size = 0, resident = 0, shared = 0, text = 0, lib = 0, data = 0;

@@ -1,6 +1,7 @@
 // NeuralVolume engine: the CUDA entry points of a build without a CUDA compiler (see Core/Backends.h).
 #include "Core/Backends.h"
 #include "Core/Error.h"
+#include "Core/GlImageTarget.h"
 
 namespace nv
 {
@@ -15,6 +16,11 @@ bool cudaBackendUsable(std::string* why)
 std::unique_ptr<NetworkSession> createCudaSession(const Model&, const SessionOptions&)
 {
   NV_THROW("CUDA device requested but this build of NeuralVolume has no CUDA support");
+}
+
+std::unique_ptr<GlImageTarget> GlImageTarget::create(unsigned int, int, int)
+{
+  NV_THROW("this build of NeuralVolume has no CUDA support (no CUDA-OpenGL interop)");
 }
 
 } // namespace nv

@@ -433,9 +433,12 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   }
   else
   {
+    const auto copyStart = std::chrono::steady_clock::now();
     result.rgba.resize(size_t(pixels) * 4);
     NV_CUDA(cudaMemcpyAsync(result.rgba.data(), Image.get(), pixels * sizeof(float4), cudaMemcpyDeviceToHost, St));
     NV_CUDA(cudaStreamSynchronize(St));
+    st.hostCopyMilliseconds =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - copyStart).count();
     result.deviceRgba = nullptr;
   }
   result.stats = st;

@@ -5,8 +5,10 @@ decode grid while the full one decodes in the background), the full-quality pict
 SaveScreenshot does), the steps trained on load (must be 0), and whether the decoded field is the saved one bit for bit.
 Sources: "wavelet" (ParaView's Wavelet, regenerated on load) or "file" (a 256^3 float32 raw volume written by numpy and
 read by ParaView's NRRD reader: the source's cost is then reading 64 MB, not computing the field).
+With --stock the same source is also saved shown as ParaView's stock Volume, and that state is loaded the same way: the
+figure the network's restore is compared with. --device CUDA trains (and so renders) on the GPU.
 Usage: xvfb-run -a pvbatch --force-offscreen-rendering state_restore.py <plugin.so> <out folder>
-                 [--source wavelet|file] [--n 256] [--steps 100] [--repeat 3]
+                 [--source wavelet|file] [--n 256] [--steps 100] [--repeat 3] [--device CPU|CUDA] [--stock]
 GUI: Testing/Benchmarks/state_restore_gui.sh <plugin.so> <out folder>/restore_<source>.pvsm"""
 import argparse
 import json
@@ -31,6 +33,17 @@ def load(plugin, state, npy):
     LoadState(state)
     loadstate = time.time() - t0
     nc = FindSource("Restore")
+    if nc is None:  # the stock state: the source shown as Volume
+        view = GetRenderViews()[0]
+        view.ViewSize = VIEW_SIZE
+        view.InteractiveRender()
+        first = time.time() - t0
+        Render(view)
+        full = time.time() - t0
+        print("RESULT " + json.dumps(dict(what="paraview_stock_state_restore", plugin_s=round(plugin_s, 3),
+                                          loadstate_s=round(loadstate, 3), first_picture_s=round(first, 3),
+                                          full_picture_s=round(full, 3))), flush=True)
+        os._exit(0)
     t = time.time()
     nc.Input.UpdatePipeline()
     source = time.time() - t
@@ -66,7 +79,7 @@ def load(plugin, state, npy):
     os._exit(0)  # no view teardown (GLX, see Testing/ParaView/nvtest.py)
 
 
-def save(plugin, out, source, n, steps):
+def save(plugin, out, source, n, steps, device):
     os.makedirs(out, exist_ok=True)
     LoadPlugin(plugin, remote=False, ns=globals())
     if source == "file":
@@ -83,7 +96,7 @@ def save(plugin, out, source, n, steps):
     else:
         src, array = Wavelet(WholeExtent=[0, n - 1] * 3), "RTData"
     nc = NeuralCompress(registrationName="Restore", Input=src, SelectInputScalars=["POINTS", array],
-                        TrainingSteps=steps, TrainInBackground=0, BatchSize=16384, Device="CPU")
+                        TrainingSteps=steps, TrainInBackground=0, BatchSize=16384, Device=device)
     nc.UpdatePipeline()
     view = CreateRenderView()
     layout = CreateLayout("Restore")
@@ -97,6 +110,11 @@ def save(plugin, out, source, n, steps):
     nc.UpdatePipeline()
     data = servermanager.Fetch(nc)
     saved = vtk_to_numpy(data.GetPointData().GetArray(array)).copy()
+    Delete(nc)
+    stock = Show(src, view)
+    ColorBy(stock, ("POINTS", array))
+    stock.SetRepresentationType("Volume")
+    SaveState(os.path.join(out, "stock_%s.pvsm" % source))
     print("RESULT " + json.dumps(dict(
         what="paraview_state_saved", source=source, n=n, steps=steps, state_bytes=os.path.getsize(state),
         model_bytes=int(data.GetFieldData().GetArray("NeuralModelBytes").GetValue(0)),
@@ -112,12 +130,14 @@ def main():
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument("--steps", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--device", default="CPU")
+    parser.add_argument("--stock", action="store_true")
     parser.add_argument("--load", help=argparse.SUPPRESS)
     parser.add_argument("--npy", help=argparse.SUPPRESS)
     a = parser.parse_args()
     if a.load:
         load(a.plugin, a.load, a.npy)
-    state, saved = save(a.plugin, a.out, a.source, a.n, a.steps)
+    state, saved = save(a.plugin, a.out, a.source, a.n, a.steps, a.device)
     runs = []
     for k in range(a.repeat):
         npy = os.path.join(a.out, "restored_%d.npy" % k)
@@ -131,12 +151,26 @@ def main():
         r["bit_identical"] = bool(os.path.exists(npy) and np.array_equal(np.load(npy), saved))
         print("RESULT " + json.dumps(r), flush=True)
         runs.append(r)
+    stock_runs = []
+    for k in range(a.repeat if a.stock else 0):
+        child = subprocess.run(["pvbatch", "--force-offscreen-rendering", os.path.abspath(__file__), a.plugin, a.out,
+                                "--load", os.path.join(a.out, "stock_%s.pvsm" % a.source)],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        lines = [l for l in child.stdout.decode(errors="replace").splitlines() if l.startswith("RESULT ")]
+        if lines:
+            print(lines[-1], flush=True)
+            stock_runs.append(json.loads(lines[-1][7:]))
     keys = ["loadstate_s", "source_s", "filter_s", "network_restored_s", "first_picture_s", "full_picture_s",
             "decoded_after_render_s"]
     summary = {k: [min(r[k] for r in runs), max(r[k] for r in runs)] for k in keys if runs}
     summary.update(what="paraview_state_restore_summary", source=a.source, runs=len(runs),
                    steps_trained=sorted({r["steps_trained"] for r in runs}),
-                   bit_identical=all(r["bit_identical"] for r in runs) and bool(runs))
+                   bit_identical=all(r["bit_identical"] for r in runs) and bool(runs), device=a.device)
+    if stock_runs:
+        summary["stock_first_picture_s"] = [min(r["first_picture_s"] for r in stock_runs),
+                                            max(r["first_picture_s"] for r in stock_runs)]
+        summary["stock_full_picture_s"] = [min(r["full_picture_s"] for r in stock_runs),
+                                           max(r["full_picture_s"] for r in stock_runs)]
     print("RESULT " + json.dumps(summary), flush=True)
     os._exit(0)
 

@@ -78,10 +78,18 @@ def scene(z, volume="Neural Volume", with_plane=True, with_volume=True):
 volume_alone = scene(0.0, with_plane=False)
 background = np.all(np.abs(volume_alone - 255.0 * np.array(BACKGROUND)) <= 2.0, axis=2)
 check(background.any() and (~background).any(), "the volume covers part of the view")
+# Without opaque geometry the depth buffer is not read; the frame's parts add up within the whole.
+timings, path = nvtest.info(display, "LastFrameTimings"), nvtest.info(display, "LastDisplayPath")
+log("frame timings, volume alone (depth, engine, host copy, upload, draw, total ms): %r; %s" % (timings, path))
+check(timings[0] == 0.0 and timings[5] > 0.0 and 0.0 <= timings[1] + timings[3] + timings[4] <= timings[5],
+      "volume alone: no depth read, the parts within the frame's %.2f ms" % timings[5])
+check(path == "host copy", "the CPU engine's image goes through the host (%s)" % path)
 
 for z, where in ((0.0, "through the middle"), (60.0, "in front"), (-60.0, "behind")):
     plane_alone = scene(z, with_volume=False)
     both = scene(z)
+    depth_ms = nvtest.info(display, "LastFrameTimings")[0]
+    check(depth_ms > 0.0, "plane %s: the depth of the opaque plane is read (%.3f ms)" % (where, depth_ms))
     stock = scene(z, volume="Volume")
     plane_pixels = np.any(np.abs(plane_alone - 255.0 * np.array(BACKGROUND)) > 2.0, axis=2)
     covered = ~grow(~np.all(plane_alone >= 250.0, axis=2), 2)  # white inside, away from the outline

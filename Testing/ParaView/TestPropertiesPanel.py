@@ -147,7 +147,8 @@ check(render_groups.get("Neural Volume") == ["RenderPath", "ShadingMode", "Strea
                                               "TargetSamples"]
       and render_groups.get("Neural Volume Lighting") == ["FollowViewLight", "LightDirection", "MaxBounces"]
       and render_groups.get("Neural Volume Quality") == ["SampleDistance", "DecodeResolution",
-                                                         "EmptySpaceSkipping", "InteractiveImageScale"],
+                                                         "EmptySpaceSkipping", "InteractiveImageScale",
+                                                         "CudaGLInterop"],
       "render settings grouped: %r" % render_groups)
 
 

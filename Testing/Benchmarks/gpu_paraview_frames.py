@@ -1,0 +1,186 @@
+"""The frame as ParaView shows it, on the GPU machine (issue 24): pvbatch Render() times of every Neural Volume
+ray-marching path against stock Volume of the original field and an empty view, at 1280x720 and 1920x1080, with
+CUDA-OpenGL interop on and off, and where each Neural Volume frame's time goes (LastFrameTimings: depth read, engine
+call, host copy, upload or interop copy, draw, the mapper's whole draw). Then training beside a rotating view (steps
+per second against the same training alone) and a path-tracing still render against one pass.
+
+    pvbatch --force-offscreen-rendering gpu_paraview_frames.py PLUGIN OUT_JSON [--data NHDR] [--n 256]
+            [--device CUDA] [--small]        (--device CPU --small --n 32: a quick run of the script itself)
+
+Without --data the field is ParaView's Wavelet at n^3; with it, a raw volume read by ParaView's NRRD reader (the
+stent). Every figure is wall time in the script's thread (the frame as ParaView shows it) unless named engine."""
+import argparse
+import json
+import statistics
+import time
+
+from paraview.simple import *  # noqa: F401,F403
+from paraview import servermanager
+import paraview.simple
+
+SIZES = [(1280, 720), (1920, 1080)]
+DEVICE = "CUDA"
+PATHS = ["Decode", "Sample Streaming", "In-Shader"]
+ORBIT = 30
+
+
+def orbit_ms(view, render, display=None):
+    """Median ms of a Render() while the camera turns 3 degrees a frame; with a display, the medians of its
+    LastFrameTimings too."""
+    camera = view.GetActiveCamera()
+    render(view)
+    seconds, parts = [], []
+    for _ in range(ORBIT):
+        camera.Azimuth(3.0)
+        started = time.perf_counter()
+        render(view)
+        seconds.append(time.perf_counter() - started)
+        if display is not None:
+            display.SMProxy.UpdatePropertyInformation()
+            parts.append(list(display.GetPropertyValue("LastFrameTimings")))
+    result = {"render_ms": round(1000 * statistics.median(seconds), 3)}
+    if parts:
+        names = ["depth_ms", "engine_call_ms", "host_copy_ms", "upload_ms", "draw_ms", "mapper_ms"]
+        for k, name in enumerate(names):
+            result[name] = round(statistics.median(p[k] for p in parts), 3)
+        display.SMProxy.UpdatePropertyInformation()
+        result["engine_kernel_ms"] = round(display.GetPropertyValue("LastRenderMilliseconds"), 3)
+        result["display_path"] = display.GetPropertyValue("LastDisplayPath")
+    return result
+
+
+def still(view):
+    Render(view)
+
+
+def interactive(view):
+    view.SMProxy.InteractiveRender()
+
+
+def frames(source, array, nc, size):
+    view = CreateRenderView()
+    view.ViewSize = list(size)
+    view.OrientationAxesVisibility = 0
+    out = {"empty_ms": orbit_ms(view, still)["render_ms"]}
+    stock = Show(source, view)
+    ColorBy(stock, ("POINTS", array))
+    stock.SetRepresentationType("Volume")
+    HideAllScalarBars(view)
+    view.ResetCamera()
+    out["stock_volume"] = orbit_ms(view, still)
+    Hide(source, view)
+    neural = Show(nc, view)
+    ColorBy(neural, ("POINTS", array))
+    neural.SetRepresentationType("Neural Volume")
+    HideAllScalarBars(view)  # the same overlay for both (a colour legend costs ParaView ~1 ms of text a frame)
+    for path in PATHS:
+        neural.RenderPath = path
+        for interop in (1, 0):
+            neural.CudaGLInterop = interop
+            key = "%s_%s" % (path, "interop" if interop else "host")
+            out[key] = orbit_ms(view, still, neural)
+            out[key + "_interactive"] = orbit_ms(view, interactive, neural)
+    neural.CudaGLInterop = 1
+    neural.RenderPath = "Decode"
+    neural.ShadingMode = "Path Tracing + Next-Event Estimation"
+    neural.TargetSamples = 64
+    view.GetActiveCamera().Azimuth(5.0)
+    started = time.perf_counter()
+    Render(view)
+    out["pt_nee_still_64spp_ms"] = round(1000 * (time.perf_counter() - started), 3)
+    neural.SMProxy.UpdatePropertyInformation()
+    out["pt_nee_frames"] = neural.GetPropertyValue("LastAccumulatedFrames")
+    neural.TargetSamples = 1
+    view.GetActiveCamera().Azimuth(5.0)
+    started = time.perf_counter()
+    Render(view)
+    out["pt_nee_one_pass_ms"] = round(1000 * (time.perf_counter() - started), 3)
+    neural.ShadingMode = "Ray Marching"
+    Delete(view)
+    return out
+
+
+def training_share(source, array, size, seconds=3.0):
+    """Steps per second of the same training alone and while a view of `size` turns (interactive renders as
+    fast as they come, then the still render)."""
+    def run(with_view):
+        nc = NeuralCompress(Input=source, SelectInputScalars=["POINTS", array], Device=DEVICE, TrainInBackground=1,
+                            TrainingSteps=10 ** 7, TimeBudget=0, PSNRInterval=0, Log2TableSize=19)
+        nc.UpdatePipeline()
+        renders = 0
+        view = None
+        if with_view:
+            view = CreateRenderView()
+            view.ViewSize = list(size)
+            view.OrientationAxesVisibility = 0
+            d = Show(nc, view)
+            ColorBy(d, ("POINTS", array))
+            d.SetRepresentationType("Neural Volume")
+            HideAllScalarBars(view)
+            view.ResetCamera()
+        nc.SMProxy.UpdatePropertyInformation()
+        steps0, t0 = nc.GetPropertyValue("TotalStepsTrained"), time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            if view is not None:
+                view.GetActiveCamera().Azimuth(2.0)
+                nc.SMProxy.GetClientSideObject().Modified()  # the live network's refresh, as the GUI's timer
+                nc.SMProxy.MarkModified(nc.SMProxy)
+                view.SMProxy.InteractiveRender()
+                renders += 1
+            else:
+                time.sleep(0.05)
+        nc.SMProxy.UpdatePropertyInformation()
+        steps = nc.GetPropertyValue("TotalStepsTrained") - steps0
+        elapsed = time.perf_counter() - t0
+        nc.StopTraining()
+        nc.WaitForTraining()
+        if view is not None:
+            Delete(view)
+        Delete(nc)
+        return steps / elapsed, renders / elapsed
+    alone, _ = run(False)
+    beside, fps = run(True)
+    return {"steps_per_s_alone": round(alone, 1), "steps_per_s_beside_view": round(beside, 1),
+            "share": round(beside / alone, 3) if alone > 0 else None, "interactive_fps": round(fps, 1)}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("plugin")
+    parser.add_argument("out")
+    parser.add_argument("--data")
+    parser.add_argument("--n", type=int, default=256)
+    parser.add_argument("--device", default="CUDA")
+    parser.add_argument("--small", action="store_true")
+    a = parser.parse_args()
+    global DEVICE, SIZES, ORBIT
+    DEVICE = a.device
+    if a.small:
+        SIZES, ORBIT = [(160, 90)], 3
+    LoadPlugin(a.plugin, remote=False, ns=globals())
+    paraview.simple._DisableFirstRenderCameraReset()
+    if a.data:
+        source, array, name = OpenDataFile(a.data), "ImageFile", a.data.split("/")[-1]
+    else:
+        source, array, name = Wavelet(WholeExtent=[0, a.n - 1] * 3), "RTData", "wavelet%d" % a.n
+    source.UpdatePipeline()
+    nc = NeuralCompress(Input=source, SelectInputScalars=["POINTS", array], Device=DEVICE, TrainInBackground=0,
+                        TrainingSteps=300 if a.small else 3000, PSNRInterval=0, Log2TableSize=19)
+    t = time.perf_counter()
+    nc.UpdatePipeline()
+    data = servermanager.Fetch(nc)
+    result = {"data": name, "train_s": round(time.perf_counter() - t, 3),
+              "psnr": data.GetFieldData().GetArray("NeuralPSNR").GetValue(0),
+              "device": data.GetFieldData().GetAbstractArray("NeuralDevice").GetValue(0)}
+    for size in SIZES:
+        result["%dx%d" % size] = frames(source, array, nc, size)
+        print("RESULT " + json.dumps({"size": size, **result["%dx%d" % size]}), flush=True)
+    result["training_share"] = training_share(source, array, SIZES[-1], 1.0 if a.small else 3.0)
+    print("RESULT " + json.dumps(result["training_share"]), flush=True)
+    with open(a.out, "w") as f:
+        json.dump(result, f, indent=1)
+    import os
+    os._exit(0)  # no view teardown (GLX, see Testing/ParaView/nvtest.py)
+
+
+main()

@@ -1,0 +1,26 @@
+# Sourced by run_paraview_gpu.sh and run_paraview_gpu_bench.sh on the device machine: unpacks Debian's ParaView
+# (.devcarry/pvrt parts, once, into .devcarry/pvrt-root) and the plugin (.devcarry/plugin.tar.xz), puts pvserver
+# (.devcarry/bin/pvserver, carried from this machine: the packed runtime lacks it) beside pvbatch, starts Xvfb :57
+# with NVIDIA's GLX, and exports what the tests read (NV_PLUGIN, NV_TEST_OUTPUT, NV_PVBATCH, ...).
+here=$(pwd)
+root=$here/.devcarry/pvrt-root
+out=$here/.devcarry/gpu-paraview-out   # pictures stay there while the machine is held
+
+mkdir -p "$out"
+if [ ! -f "$root/env.sh" ]; then
+  bash "$here/.devcarry/unpack.sh" "$here/.devcarry/pvrt" "$root" > "$out/unpack.log" 2>&1 || { cat "$out/unpack.log"; exit 1; }
+fi
+if [ ! -d "$here/.devcarry/plugin/NeuralVolume" ]; then
+  mkdir -p "$here/.devcarry/plugin" && tar -xJf "$here/.devcarry/plugin.tar.xz" -C "$here/.devcarry/plugin"
+fi
+[ -e "$root/usr/bin/pvserver" ] || [ ! -f "$here/.devcarry/bin/pvserver" ] || install -m 755 "$here/.devcarry/bin/pvserver" "$root/usr/bin/pvserver"
+# shellcheck disable=SC1091
+source "$root/env.sh"
+plugin_dir=$here/.devcarry/plugin/NeuralVolume
+export LD_LIBRARY_PATH=$plugin_dir:$LD_LIBRARY_PATH
+export __GLX_VENDOR_LIBRARY_NAME=nvidia PYTHONUNBUFFERED=1
+export NV_PLUGIN=$plugin_dir/NeuralVolume.so NV_TEST_OUTPUT=$out NV_PVBATCH=$root/usr/bin/pvbatch
+export NV_DATA_DIR=$here/.devcarry/data NV_BASELINE_DIR=$here/Testing/ParaView/Baseline
+pgrep -f "Xvfb :57" > /dev/null || { Xvfb :57 -screen 0 1920x1200x24 -nolisten tcp -xkbdir "$NV_XKB_DIR" > "$out/xvfb.log" 2>&1 & sleep 2; }
+export DISPLAY=:57
+nvidia-smi --query-gpu=name,driver_version --format=csv > "$out/gpu.txt"
