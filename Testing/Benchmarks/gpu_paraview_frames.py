@@ -65,14 +65,14 @@ def frames(source, array, nc, size):
     stock = Show(source, view)
     ColorBy(stock, ("POINTS", array))
     stock.SetRepresentationType("Volume")
-    HideAllScalarBars(view)
+    stock.SetScalarBarVisibility(view, False)
     view.ResetCamera()
     out["stock_volume"] = orbit_ms(view, still)
     Hide(source, view)
     neural = Show(nc, view)
     ColorBy(neural, ("POINTS", array))
     neural.SetRepresentationType("Neural Volume")
-    HideAllScalarBars(view)  # the same overlay for both (a colour legend costs ParaView ~1 ms of text a frame)
+    neural.SetScalarBarVisibility(view, False)  # as for stock (a colour legend costs ParaView ~1 ms of text a frame)
     for path in PATHS:
         neural.RenderPath = path
         for interop in (1, 0):
@@ -116,7 +116,7 @@ def training_share(source, array, size, seconds=3.0):
             d = Show(nc, view)
             ColorBy(d, ("POINTS", array))
             d.SetRepresentationType("Neural Volume")
-            HideAllScalarBars(view)
+            d.SetScalarBarVisibility(view, False)
             view.ResetCamera()
         nc.SMProxy.UpdatePropertyInformation()
         steps0, t0 = nc.GetPropertyValue("TotalStepsTrained"), time.perf_counter()
