@@ -281,22 +281,7 @@ void Job::Finalize(const RunStatus& status)
   model.quantize(this->Storage);
   if (this->Retiring)
   {
-    // Replaced by another job: the network (for warm starts and the cache), no decode, no measurement.
-    auto record = std::make_shared<NetworkRecord>();
-    record->Key = this->Key;
-    record->Time = this->Time;
-    model.stats.steps = status.Steps;
-    model.stats.seconds = status.Seconds;
-    record->Bytes = ShareBytes(nv::serialize(model));
-    record->M.State = "Interrupted";
-    record->M.Steps = status.Steps;
-    record->M.Seconds = status.Seconds;
-    record->M.ModelBytes = model.parameterBytes();
-    record->M.Device = nv::deviceName(this->Session->device());
-    record->M.WarmStart = this->WarmStart;
-    std::lock_guard<std::mutex> lock(this->Mutex);
-    this->FinalRecord = record;
-    this->Decoded = nullptr;
+    this->KeepInterruptedNetwork(model, status);
     return;
   }
   this->Session->setModel(model);
@@ -307,11 +292,46 @@ void Job::Finalize(const RunStatus& status)
     mode = this->OutputMode;
     field = this->Field;
   }
-  vtkSmartPointer<vtkDataArray> decoded;
-  std::string decodeError;
   // An abort that ended the training asked for the network of the moment, not for no field: only one raised
   // during the decode stops it.
   const bool abortedBefore = this->DecodeAbort && this->DecodeAbort();
+  std::string decodeError;
+  vtkSmartPointer<vtkDataArray> decoded = this->DecodeAtPhaseEnd(field, mode, abortedBefore, decodeError);
+  PhaseMeasurement measured;
+  measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
+    this->S.Threads, measured.ResampledPsnr, measured.SourceSamples);
+  std::shared_ptr<NetworkRecord> record = this->MeasuredRecord(model, status, measured, abortedBefore);
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = record;
+  // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
+  this->Decoded = SameDecodedGrid(field.Geometry, this->Field.Geometry) ? decoded : nullptr;
+  this->DecodedMode = mode;
+  this->DecodeError = decodeError;
+}
+
+void Job::KeepInterruptedNetwork(nv::Model& model, const RunStatus& status)
+{
+  // Replaced by another job: the network (for warm starts and the cache), no decode, no measurement.
+  auto record = std::make_shared<NetworkRecord>();
+  record->Key = this->Key;
+  record->Time = this->Time;
+  model.stats.steps = status.Steps;
+  model.stats.seconds = status.Seconds;
+  record->Bytes = ShareBytes(nv::serialize(model));
+  record->M.State = "Interrupted";
+  record->M.Steps = status.Steps;
+  record->M.Seconds = status.Seconds;
+  record->M.ModelBytes = model.parameterBytes();
+  record->M.Device = nv::deviceName(this->Session->device());
+  record->M.WarmStart = this->WarmStart;
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = record;
+  this->Decoded = nullptr;
+}
+
+vtkSmartPointer<vtkDataArray> Job::DecodeAtPhaseEnd(
+  const FieldInfo& field, int mode, bool abortedBefore, std::string& decodeError)
+{
   try
   {
     DecodeControl control;
@@ -319,17 +339,19 @@ void Job::Finalize(const RunStatus& status)
       return this->Retiring.load() || (!abortedBefore && this->DecodeAbort && this->DecodeAbort());
     };
     control.Progress = this->DecodeProgress;
-    decoded = DecodeOutput(*this->Session, field, mode, control);
+    return DecodeOutput(*this->Session, field, mode, control);
   }
   catch (const std::exception& e)
   {
     decodeError = e.what(); // the network stays; the output has no decoded field
   }
-  double resampledPsnr = std::numeric_limits<double>::quiet_NaN();
-  int64_t sourceSamples = 0;
-  const nv::ErrorStats error = MeasureNetwork(
-    *this->Session, model, this->Data->Field.View, field, decoded, this->S.Threads, resampledPsnr, sourceSamples);
+  return nullptr;
+}
 
+std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
+  nv::Model& model, const RunStatus& status, const PhaseMeasurement& measured, bool abortedBefore)
+{
+  const nv::ErrorStats& error = measured.Error;
   auto record = std::make_shared<NetworkRecord>();
   record->Key = this->Key;
   record->Time = this->Time;
@@ -351,8 +373,8 @@ void Job::Finalize(const RunStatus& status)
   m.PsnrFinal = true;
   m.MaxError = error.maxAbsError;
   m.MaxErrorOfRange = error.maxErrorOfRange;
-  m.ResampledPsnr = resampledPsnr;
-  m.SourceSamples = sourceSamples;
+  m.ResampledPsnr = measured.ResampledPsnr;
+  m.SourceSamples = measured.SourceSamples;
   m.ModelBytes = model.parameterBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
@@ -363,12 +385,7 @@ void Job::Finalize(const RunStatus& status)
   {
     record->Log = this->Run->Log();
   }
-  std::lock_guard<std::mutex> lock(this->Mutex);
-  this->FinalRecord = record;
-  // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
-  this->Decoded = SameDecodedGrid(field.Geometry, this->Field.Geometry) ? decoded : nullptr;
-  this->DecodedMode = mode;
-  this->DecodeError = decodeError;
+  return record;
 }
 
 void Job::InstallInitialNetwork()

@@ -224,6 +224,23 @@ public:
   mutable std::mutex Mutex;
 
 private:
+  /// What the phase end measured of the network: over every source sample, and at a resampled input's own samples.
+  struct PhaseMeasurement
+  {
+    nv::ErrorStats Error;
+    double ResampledPsnr = std::numeric_limits<double>::quiet_NaN();
+    int64_t SourceSamples = 0;
+  };
+  /// Finalize of a job being replaced: the stored-precision `model` kept for warm starts and the cache, state
+  /// "Interrupted", without a decode or a measurement.
+  void KeepInterruptedNetwork(nv::Model& model, const RunStatus& status);
+  /// The output field decoded at a phase end (decoded modes; null for the others, or after an abort or a failure,
+  /// whose message goes to `decodeError`).
+  vtkSmartPointer<vtkDataArray> DecodeAtPhaseEnd(
+    const FieldInfo& field, int mode, bool abortedBefore, std::string& decodeError);
+  /// The record of the network at a phase end: `model` with its statistics, serialized, and the user's figures.
+  std::shared_ptr<NetworkRecord> MeasuredRecord(
+    nv::Model& model, const RunStatus& status, const PhaseMeasurement& measured, bool abortedBefore);
   /// Starts LiveWriter when a snapshot's bytes are due (none yet, or older than a second) and none is being written.
   void StartLiveWriterIfDue(const RunStatus& status);
   /// Serializes the session's network of the moment into LiveBytes (in LiveWriter's thread, or the caller's).

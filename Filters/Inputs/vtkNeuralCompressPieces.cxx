@@ -43,10 +43,6 @@
 
 namespace vtkNeuralCompressInternals
 {
-// Field-data arrays of an image piece: its geometry (origin, spacing, direction: the legacy format that carries
-// data objects between processes writes the geometry as text) and what the rank found.
-const char* const kGeometryName = "vtkNeuralCompressPieceGeometry";
-const char* const kFoundName = "vtkNeuralCompressPieceArray";
 
 
 Selection Selected(vtkAlgorithm* self)
@@ -109,7 +105,7 @@ static vtkDataArray* ImageArray(vtkImageData* image, const Selection& sel, int& 
 }
 
 /// Index ranges of an image's samples along each axis: points, or cells (a flat axis keeps its one index).
-static void SampleRange(const int ext[6], bool cells, int lo[3], int hi[3])
+void SampleRange(const int ext[6], bool cells, int lo[3], int hi[3])
 {
   for (int a = 0; a < 3; ++a)
   {
@@ -126,7 +122,7 @@ static vtkSmartPointer<vtkDataObject> ImagePiece(vtkImageData* image, const Sele
   piece->SetOrigin(image->GetOrigin());
   piece->SetSpacing(image->GetSpacing());
   vtkNew<vtkDoubleArray> geometry;
-  geometry->SetName(kGeometryName);
+  geometry->SetName(kPieceGeometryName);
   geometry->SetNumberOfTuples(15);
   for (int i = 0; i < 3; ++i)
   {
@@ -140,7 +136,7 @@ static vtkSmartPointer<vtkDataObject> ImagePiece(vtkImageData* image, const Sele
   int association = -1;
   vtkDataArray* array = ImageArray(image, sel, association);
   vtkNew<vtkIntArray> found;
-  found->SetName(kFoundName);
+  found->SetName(kPieceFoundName);
   found->SetNumberOfTuples(2);
   found->SetValue(0, array ? 1 : 0);
   found->SetValue(1, association);
@@ -218,222 +214,13 @@ vtkSmartPointer<vtkDataObject> MakePiece(vtkDataObject* local, const Selection& 
   return nullptr;
 }
 
-static std::string RankList(const std::vector<int>& ranks)
+std::string RankList(const std::vector<int>& ranks)
 {
   std::ostringstream s;
   s << (ranks.size() == 1 ? "rank " : "ranks ");
   for (size_t i = 0; i < ranks.size(); ++i)
     s << (i ? ", " : "") << ranks[i];
   return s.str();
-}
-
-/// Rank 0: the image pieces stitched into one image of `wholeExtent` (null: the union of the pieces' extents).
-vtkSmartPointer<vtkImageData> StitchImages(
-  const std::vector<vtkSmartPointer<vtkDataObject>>& pieces, const int* wholeExtent, std::string& problem)
-{
-  // The reference piece (the first with the array) gives the array's name, type, components and association.
-  int ref = -1, firstData = -1;
-  std::vector<int> missing;
-  for (size_t r = 0; r < pieces.size(); ++r)
-  {
-    auto* image = vtkImageData::SafeDownCast(pieces[r]);
-    if (!image || image->GetNumberOfPoints() == 0)
-      continue;
-    if (firstData < 0)
-      firstData = int(r);
-    auto* found = vtkIntArray::SafeDownCast(image->GetFieldData()->GetArray(kFoundName));
-    if (found && found->GetValue(0) == 1)
-    {
-      if (ref < 0)
-        ref = int(r);
-    }
-    else
-    {
-      missing.push_back(int(r));
-    }
-  }
-  auto out = vtkSmartPointer<vtkImageData>::New();
-  // Geometry: of the first piece with points (the origin is the whole image's on every piece), else rank 0's.
-  auto* geometrySource = vtkImageData::SafeDownCast(pieces[firstData >= 0 ? size_t(firstData) : 0]);
-  if (!geometrySource)
-  {
-    problem = "rank 0 has no image piece of the input";
-    return nullptr;
-  }
-  if (auto* g = vtkDoubleArray::SafeDownCast(geometrySource->GetFieldData()->GetArray(kGeometryName)))
-  {
-    out->SetOrigin(g->GetValue(0), g->GetValue(1), g->GetValue(2));
-    out->SetSpacing(g->GetValue(3), g->GetValue(4), g->GetValue(5));
-    double direction[9];
-    for (int i = 0; i < 9; ++i)
-      direction[i] = g->GetValue(6 + i);
-    out->SetDirectionMatrix(direction);
-  }
-  if (firstData < 0)
-  {
-    // No rank has a point: an empty image, which the filter reports as in serial.
-    out->SetExtent(geometrySource->GetExtent());
-    return out;
-  }
-  int whole[6];
-  if (wholeExtent && wholeExtent[0] <= wholeExtent[1] && wholeExtent[2] <= wholeExtent[3] &&
-    wholeExtent[4] <= wholeExtent[5])
-  {
-    std::copy(wholeExtent, wholeExtent + 6, whole);
-  }
-  else
-  {
-    whole[0] = whole[2] = whole[4] = VTK_INT_MAX;
-    whole[1] = whole[3] = whole[5] = VTK_INT_MIN;
-    for (const auto& p : pieces)
-    {
-      auto* image = vtkImageData::SafeDownCast(p);
-      if (!image || image->GetNumberOfPoints() == 0)
-        continue;
-      const int* e = image->GetExtent();
-      for (int a = 0; a < 3; ++a)
-      {
-        whole[2 * a] = std::min(whole[2 * a], e[2 * a]);
-        whole[2 * a + 1] = std::max(whole[2 * a + 1], e[2 * a + 1]);
-      }
-    }
-  }
-  out->SetExtent(whole);
-  if (ref < 0)
-  {
-    // No piece has the array: the whole image without it (the filter reports the missing array as in serial).
-    return out;
-  }
-  auto* refImage = vtkImageData::SafeDownCast(pieces[size_t(ref)]);
-  const int association = vtkIntArray::SafeDownCast(refImage->GetFieldData()->GetArray(kFoundName))->GetValue(1);
-  const bool cells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
-  auto attributesOf = [cells](vtkImageData* image) -> vtkDataSetAttributes* {
-    return cells ? static_cast<vtkDataSetAttributes*>(image->GetCellData())
-                 : static_cast<vtkDataSetAttributes*>(image->GetPointData());
-  };
-  vtkDataArray* refArray = nullptr;
-  for (int i = 0; i < attributesOf(refImage)->GetNumberOfArrays() && !refArray; ++i)
-  {
-    vtkDataArray* a = attributesOf(refImage)->GetArray(i);
-    if (a && !(a->GetName() && std::string(a->GetName()) == vtkDataSetAttributes::GhostArrayName()))
-      refArray = a;
-  }
-  if (!refArray)
-  {
-    problem = "the image piece of rank " + std::to_string(ref) + " lost its array in transit";
-    return nullptr;
-  }
-  const std::string name = refArray->GetName() ? refArray->GetName() : "";
-  if (!missing.empty())
-  {
-    problem = "the input array '" + name + "' is missing on the piece of " + RankList(missing) +
-      " (every rank's piece of the image needs it)";
-    return nullptr;
-  }
-
-  int wlo[3], whi[3];
-  SampleRange(whole, cells, wlo, whi);
-  const vtkIdType n0 = whi[0] - wlo[0] + 1, n1 = whi[1] - wlo[1] + 1, n2 = whi[2] - wlo[2] + 1;
-  const vtkIdType count = n0 * n1 * n2;
-  vtkSmartPointer<vtkDataArray> values;
-  values.TakeReference(refArray->NewInstance());
-  values->SetName(refArray->GetName());
-  values->SetNumberOfComponents(refArray->GetNumberOfComponents());
-  for (int c = 0; c < refArray->GetNumberOfComponents(); ++c)
-  {
-    if (refArray->GetComponentName(c))
-      values->SetComponentName(c, refArray->GetComponentName(c));
-  }
-  values->SetNumberOfTuples(count);
-  std::vector<uint8_t> covered(size_t(count), 0);
-  const unsigned char duplicate = cells ? static_cast<unsigned char>(vtkDataSetAttributes::DUPLICATECELL)
-                                        : static_cast<unsigned char>(vtkDataSetAttributes::DUPLICATEPOINT);
-
-  for (size_t r = 0; r < pieces.size(); ++r)
-  {
-    auto* image = vtkImageData::SafeDownCast(pieces[r]);
-    if (!image || image->GetNumberOfPoints() == 0)
-      continue;
-    vtkDataArray* a = attributesOf(image)->GetArray(name.c_str());
-    if (!a || a->GetDataType() != values->GetDataType() ||
-      a->GetNumberOfComponents() != values->GetNumberOfComponents())
-    {
-      problem = "the input array '" + name + "' of rank " + std::to_string(r) +
-        (a ? " differs in type or components from rank " + std::to_string(ref) + "'s"
-           : " is not a " + std::string(cells ? "cell" : "point") + " array like rank " + std::to_string(ref) + "'s");
-      return nullptr;
-    }
-    const int* e = image->GetExtent();
-    int lo[3], hi[3];
-    SampleRange(e, cells, lo, hi);
-    bool inside = true;
-    for (int ax = 0; ax < 3; ++ax)
-    {
-      inside &= lo[ax] >= wlo[ax] && hi[ax] <= whi[ax];
-      // A piece one point thick along an axis of the whole image has no cells of it.
-      if (cells && e[2 * ax] == e[2 * ax + 1] && whole[2 * ax] < whole[2 * ax + 1])
-        inside = false;
-    }
-    if (!inside)
-    {
-      if (cells)
-        continue;
-      std::ostringstream s;
-      s << "the piece of rank " << r << " (extent " << e[0] << " " << e[1] << " " << e[2] << " " << e[3] << " "
-        << e[4] << " " << e[5] << ") lies outside the whole extent";
-      problem = s.str();
-      return nullptr;
-    }
-    const vtkIdType l0 = hi[0] - lo[0] + 1, l1 = hi[1] - lo[1] + 1, l2 = hi[2] - lo[2] + 1;
-    if (a->GetNumberOfTuples() != l0 * l1 * l2)
-    {
-      problem = "the input array '" + name + "' of rank " + std::to_string(r) + " has " +
-        std::to_string(a->GetNumberOfTuples()) + " tuples for " + std::to_string(l0 * l1 * l2) +
-        (cells ? " cells" : " points");
-      return nullptr;
-    }
-    auto* ghost = vtkUnsignedCharArray::SafeDownCast(
-      attributesOf(image)->GetAbstractArray(vtkDataSetAttributes::GhostArrayName()));
-    if (ghost && ghost->GetNumberOfTuples() != a->GetNumberOfTuples())
-      ghost = nullptr;
-    for (vtkIdType k = 0; k < l2; ++k)
-    {
-      for (vtkIdType j = 0; j < l1; ++j)
-      {
-        const vtkIdType src = (k * l1 + j) * l0;
-        const vtkIdType dst = ((lo[2] - wlo[2] + k) * n1 + (lo[1] - wlo[1] + j)) * n0 + (lo[0] - wlo[0]);
-        // Runs of the row that this piece owns (ghost points or cells belong to a neighbour).
-        vtkIdType i = 0;
-        while (i < l0)
-        {
-          if (ghost && (ghost->GetValue(src + i) & duplicate))
-          {
-            ++i;
-            continue;
-          }
-          vtkIdType end = i + 1;
-          while (end < l0 && !(ghost && (ghost->GetValue(src + end) & duplicate)))
-            ++end;
-          values->InsertTuples(dst + i, end - i, src + i, a);
-          std::fill(covered.begin() + (dst + i), covered.begin() + (dst + end), uint8_t(1));
-          i = end;
-        }
-      }
-    }
-  }
-  const vtkIdType done = std::count(covered.begin(), covered.end(), uint8_t(1));
-  if (done != count)
-  {
-    problem = "the pieces of the " + std::to_string(pieces.size()) + " ranks cover " + std::to_string(done) +
-      " of the " + std::to_string(count) + (cells ? " cells" : " points") + " of the whole extent";
-    return nullptr;
-  }
-  vtkDataSetAttributes* attributes = attributesOf(out);
-  attributes->AddArray(values);
-  // Found by name as on the pieces; by the active attribute when the filter selects one instead of a name.
-  const int type = vtkDataSetAttributes::SCALARS;
-  attributes->SetActiveAttribute(attributes->GetNumberOfArrays() - 1, type);
-  return out;
 }
 
 /// Rank 0: the pieces of one dataset (or one block) merged into one: the only non-empty piece as it is, else
@@ -486,6 +273,82 @@ static vtkSmartPointer<vtkDataSet> MergePieces(const std::vector<vtkDataSet*>& p
   return merged;
 }
 
+/// The leaves of a composite, empty nodes included.
+static int LeafCount(vtkCompositeDataSet* cd)
+{
+  vtkSmartPointer<vtkCompositeDataIterator> it;
+  it.TakeReference(cd->NewIterator());
+  it->SkipEmptyNodesOff();
+  int n = 0;
+  for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
+    ++n;
+  return n;
+}
+
+/// Every piece is a composite of the reference's class and number of leaves.
+static bool SameStructure(const std::vector<vtkSmartPointer<vtkDataObject>>& pieces, vtkCompositeDataSet* ref)
+{
+  bool same = true;
+  const int leaves = LeafCount(ref);
+  for (const auto& p : pieces)
+  {
+    auto* cd = vtkCompositeDataSet::SafeDownCast(p);
+    same &= cd && std::string(cd->GetClassName()) == ref->GetClassName() && LeafCount(cd) == leaves;
+  }
+  return same;
+}
+
+/// Same structure on every rank (ParaView's distributed composites): the pieces of each block merged in place; null
+/// when an AMR block does not merge into a uniform grid.
+static vtkSmartPointer<vtkCompositeDataSet> MergeBlocks(const std::vector<vtkSmartPointer<vtkDataObject>>& pieces,
+  vtkCompositeDataSet* ref, const Selection& sel, std::vector<std::string>& warnings)
+{
+  const bool amr = vtkUniformGridAMR::SafeDownCast(ref) != nullptr;
+  vtkSmartPointer<vtkCompositeDataSet> whole;
+  whole.TakeReference(ref->NewInstance());
+  whole->CopyStructure(ref);
+  vtkSmartPointer<vtkCompositeDataIterator> it;
+  it.TakeReference(whole->NewIterator());
+  it->SkipEmptyNodesOff();
+  for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
+  {
+    std::vector<vtkDataSet*> parts;
+    for (const auto& p : pieces)
+      parts.push_back(vtkDataSet::SafeDownCast(vtkCompositeDataSet::SafeDownCast(p)->GetDataSet(it)));
+    vtkSmartPointer<vtkDataSet> merged =
+      MergePieces(parts, sel, " of block " + std::to_string(it->GetCurrentFlatIndex()), warnings);
+    if (!merged)
+      continue;
+    // AMR blocks are uniform grids, never split between ranks; anything else: the flat union.
+    if (amr && !vtkUniformGrid::SafeDownCast(merged))
+      return nullptr;
+    whole->SetDataSet(it, merged);
+  }
+  return whole;
+}
+
+/// Different structures: one multiblock of every rank's non-empty leaves (one network over their union).
+static vtkSmartPointer<vtkMultiBlockDataSet> FlatUnion(const std::vector<vtkSmartPointer<vtkDataObject>>& pieces)
+{
+  auto flat = vtkSmartPointer<vtkMultiBlockDataSet>::New();
+  unsigned int block = 0;
+  for (const auto& p : pieces)
+  {
+    auto* cd = vtkCompositeDataSet::SafeDownCast(p);
+    if (!cd)
+      continue;
+    vtkSmartPointer<vtkCompositeDataIterator> it;
+    it.TakeReference(cd->NewIterator());
+    for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
+    {
+      auto* ds = vtkDataSet::SafeDownCast(it->GetCurrentDataObject());
+      if (!IsEmpty(ds))
+        flat->SetBlock(block++, ds);
+    }
+  }
+  return flat;
+}
+
 /// Rank 0: the whole input from the pieces of a dataset or composite input.
 vtkSmartPointer<vtkDataObject> Assemble(const std::vector<vtkSmartPointer<vtkDataObject>>& pieces,
   const Selection& sel, std::vector<std::string>& warnings, std::string& problem)
@@ -509,71 +372,12 @@ vtkSmartPointer<vtkDataObject> Assemble(const std::vector<vtkSmartPointer<vtkDat
     problem = std::string("cannot gather a ") + ref->GetClassName() + " input";
     return nullptr;
   }
-  // Same structure on every rank (ParaView's distributed composites): the pieces of each block merged in place.
-  auto leafCount = [](vtkCompositeDataSet* cd) {
-    vtkSmartPointer<vtkCompositeDataIterator> it;
-    it.TakeReference(cd->NewIterator());
-    it->SkipEmptyNodesOff();
-    int n = 0;
-    for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
-      ++n;
-    return n;
-  };
-  bool same = true;
-  const int leaves = leafCount(refComposite);
-  for (const auto& p : pieces)
+  if (SameStructure(pieces, refComposite))
   {
-    auto* cd = vtkCompositeDataSet::SafeDownCast(p);
-    same &= cd && std::string(cd->GetClassName()) == ref->GetClassName() && leafCount(cd) == leaves;
-  }
-  const bool amr = vtkUniformGridAMR::SafeDownCast(ref) != nullptr;
-  if (same)
-  {
-    vtkSmartPointer<vtkCompositeDataSet> whole;
-    whole.TakeReference(refComposite->NewInstance());
-    whole->CopyStructure(refComposite);
-    vtkSmartPointer<vtkCompositeDataIterator> it;
-    it.TakeReference(whole->NewIterator());
-    it->SkipEmptyNodesOff();
-    bool fits = true;
-    for (it->InitTraversal(); !it->IsDoneWithTraversal() && fits; it->GoToNextItem())
-    {
-      std::vector<vtkDataSet*> parts;
-      for (const auto& p : pieces)
-        parts.push_back(vtkDataSet::SafeDownCast(vtkCompositeDataSet::SafeDownCast(p)->GetDataSet(it)));
-      vtkSmartPointer<vtkDataSet> merged =
-        MergePieces(parts, sel, " of block " + std::to_string(it->GetCurrentFlatIndex()), warnings);
-      if (!merged)
-        continue;
-      // AMR blocks are uniform grids, never split between ranks; anything else: the flat union below.
-      if (amr && !vtkUniformGrid::SafeDownCast(merged))
-      {
-        fits = false;
-        break;
-      }
-      whole->SetDataSet(it, merged);
-    }
-    if (fits)
+    if (vtkSmartPointer<vtkCompositeDataSet> whole = MergeBlocks(pieces, refComposite, sel, warnings))
       return whole;
   }
-  // Different structures: one multiblock of every rank's non-empty leaves (one network over their union).
-  auto flat = vtkSmartPointer<vtkMultiBlockDataSet>::New();
-  unsigned int block = 0;
-  for (const auto& p : pieces)
-  {
-    auto* cd = vtkCompositeDataSet::SafeDownCast(p);
-    if (!cd)
-      continue;
-    vtkSmartPointer<vtkCompositeDataIterator> it;
-    it.TakeReference(cd->NewIterator());
-    for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
-    {
-      auto* ds = vtkDataSet::SafeDownCast(it->GetCurrentDataObject());
-      if (!IsEmpty(ds))
-        flat->SetBlock(block++, ds);
-    }
-  }
-  return flat;
+  return FlatUnion(pieces);
 }
 
 bool ValidExtent(const int* e)
