@@ -466,10 +466,10 @@ private:
   void StartJob(const vtkNeuralCompressInternals::FieldInfo& field,
     std::shared_ptr<nv::TrainingData> data,
     const vtkNeuralCompressInternals::Settings& settings, uint64_t key, double time);
-  /// The first phase's limits: steps, the time budget left after preparing `field`, the reserve for the phase end's
-  /// measurement and decode, target PSNR and probes.
-  nv::RunLimits FirstPhaseLimits(
-    const vtkNeuralCompressInternals::FieldInfo& field, const nv::TrainingData& data) const;
+  /// The training of a new job (no stored network): its warm-start seed (from the cache, or `cached`, this time
+  /// step's network that another time step cut short), and its first phase -- or none for a constant field or no
+  /// steps.
+  void StartTraining(vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::NetworkRecord* cached);
   /// The outputs from the current job (a snapshot while it trains). Its steps follow.
   bool EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics);
   /// The run's status; prints its new warnings and notes; false (an error) when it failed.

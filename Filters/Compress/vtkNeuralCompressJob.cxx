@@ -68,24 +68,6 @@ bool Float32Holds(double lo, double hi)
   return !range.spans() || m * std::ldexp(1.0, -23) <= 1e-4 * range.width();
 }
 
-std::string Settings::Canonical() const
-{
-  std::ostringstream s;
-  s.precision(17);
-  s << "v1 " << VectorMode << ' ' << VectorComponent << ' ' << TrainingSteps << ' '
-    << (Deterministic ? 0.0 : TimeBudget) << ' ' << LearningRate << ' ' << TargetCompressionRatio << ' '
-    << (Deterministic ? 0.0 : TargetPsnr) << ' ' << BatchSize << ' ' << Seed << ' ' << Loss << ' ' << Schedule
-    << ' ' << Levels << ' ' << Features << ' ' << Log2TableSize << ' ' << BaseResolution << ' '
-    << FinestResolution << ' ' << Width << ' ' << HiddenLayers << ' ' << Precision << ' ' << Device << ' '
-    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << "0 0 0" // v1's OutputResolution: no longer a setting
-    << ' ' << PsnrInterval << ' ' << Deterministic << ' ' << WarmStart;
-  if (Sampling != 0)
-    s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
-  if (!KeepBest)
-    s << " last"; // the default keeps the v1 string too
-  return s.str();
-}
-
 uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const Settings& s)
 {
   uint64_t h = 1469598103934665603ull;

@@ -4,6 +4,7 @@
 #define vtkNeuralCompressJob_h
 
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralCompressSettings.h"
 #include "vtkNeuralNetworkArray.h"
 
 #include "vtkSmartPointer.h"
@@ -24,23 +25,6 @@ class vtkDataArray;
 
 namespace vtkNeuralCompressInternals
 {
-
-/// The filter's properties that decide the trained network (not the controls, the output mode or the cache size).
-struct Settings
-{
-  int VectorMode = 0, VectorComponent = 0;
-  int64_t TrainingSteps = 0;
-  double TimeBudget = 0.0, LearningRate = 0.0, TargetCompressionRatio = 0.0, TargetPsnr = 0.0;
-  int BatchSize = 0, Seed = 0, Loss = 0, Schedule = 0;
-  int Levels = 0, Features = 0, Log2TableSize = 0, BaseResolution = 0, FinestResolution = 0;
-  int Width = 0, HiddenLayers = 0, Precision = 0, Device = 0, Threads = 0, Strategy = 0;
-  int PsnrInterval = 0;
-  bool Deterministic = false, WarmStart = true;
-  int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
-  bool KeepBest = true;
-  /// Every field, for the training key.
-  std::string Canonical() const;
-};
 
 /// The user's numbers for one network (field data of output 0, a row of the metrics table).
 struct Metrics

@@ -1,8 +1,9 @@
-// vtkNeuralCompress: a new job -- the model configuration, the session, warm start, a cached or restored network
-// or a training run.
+// vtkNeuralCompress: a new job -- its engine configuration (from the settings snapshot), the session, warm start,
+// a cached or restored network or a training run.
 #include "vtkNeuralCompress.h"
 
 #include "vtkNeuralCompressOutput.h"
+#include "vtkNeuralCompressSettings.h"
 #include "vtkNeuralCompressState.h"
 
 #include "Core/Error.h"
@@ -13,88 +14,8 @@
 
 #include <algorithm>
 
-//------------------------------------------------------------------------------
-nvi::Settings vtkNeuralCompress::CurrentSettings() const
-{
-  nvi::Settings s;
-  s.VectorMode = this->VectorMode;
-  s.VectorComponent = this->VectorComponent;
-  s.TrainingSteps = this->TrainingSteps;
-  s.TimeBudget = this->TimeBudget;
-  s.LearningRate = this->LearningRate;
-  s.TargetCompressionRatio = this->TargetCompressionRatio;
-  s.TargetPsnr = this->TargetPSNR;
-  s.BatchSize = this->BatchSize;
-  s.Seed = this->Seed;
-  s.Loss = this->Loss;
-  s.Schedule = this->LearningRateSchedule;
-  s.Levels = this->Levels;
-  s.Features = this->FeaturesPerLevel;
-  s.Log2TableSize = this->Log2TableSize;
-  s.BaseResolution = this->BaseResolution;
-  s.FinestResolution = this->FinestResolution;
-  s.Width = this->NetworkWidth;
-  s.HiddenLayers = this->HiddenLayers;
-  s.Precision = this->StoragePrecision;
-  s.Device = this->Device;
-  s.Threads = this->Threads;
-  s.Strategy = this->TrainingStrategy;
-  s.PsnrInterval = this->PSNRInterval;
-  s.Deterministic = this->Deterministic;
-  s.WarmStart = this->WarmStart;
-  s.Sampling = this->Sampling;
-  s.KeepBest = this->KeepBestNetwork;
-  s.ProbePoints = this->ProbePoints;
-  return s;
-}
-
 namespace
 {
-/// The network's layout from the settings and the trained field's size (an automatic table size from the target
-/// ratio).
-nv::ModelConfig NetworkConfigFor(const nvi::Settings& s, const int64_t* dims, int64_t rawBytes, nv::Precision storage)
-{
-  nv::ModelConfig config;
-  config.encoding.levels = s.Levels;
-  config.encoding.featuresPerLevel = s.Features;
-  config.encoding.baseResolution = s.BaseResolution;
-  config.encoding.perLevelScale = 0.0;
-  // Default finest level: twice the largest dimension (never below the base resolution).
-  config.encoding.finestResolution = s.FinestResolution > 0
-    ? s.FinestResolution
-    : static_cast<int>(std::max<int64_t>(2 * std::max({ dims[0], dims[1], dims[2] }), s.BaseResolution));
-  config.network.width = s.Width;
-  config.network.hiddenLayers = s.HiddenLayers;
-  config.encoding.log2TableSize = s.Log2TableSize > 0 ? s.Log2TableSize : 10;
-  nv::validate(config);
-  if (s.Log2TableSize <= 0)
-  {
-    // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1, else the smallest one.
-    const double target = s.TargetCompressionRatio > 0.0 ? s.TargetCompressionRatio : 10.0;
-    config.encoding.log2TableSize = nv::chooseLog2TableSize(config, rawBytes, target, storage);
-  }
-  return config;
-}
-
-nv::TrainConfig TrainConfigFor(const nvi::Settings& s, bool lowPriority)
-{
-  nv::TrainConfig train;
-  train.batchSize = s.BatchSize;
-  train.seed = static_cast<uint64_t>(s.Seed);
-  train.loss = s.Loss == vtkNeuralCompress::LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
-  train.optimizer.learningRate = s.LearningRate;
-  // Annealed: TrainingRun sets the planned steps (the run's length) before each chunk of steps.
-  train.optimizer.schedule = s.Schedule == vtkNeuralCompress::ANNEALED ? nv::LearningRateSchedule::Auto
-                                                                        : nv::LearningRateSchedule::StepDecay;
-  train.optimizer.stepDecay = s.Schedule == vtkNeuralCompress::STEP_DECAY;
-  train.threads = s.Threads;
-  train.strategy = static_cast<nv::TrainingStrategy>(s.Strategy);
-  train.deterministic = s.Deterministic;
-  train.lowPriority = lowPriority; // beside the GUI: its threads keep their share of the cores
-  nv::validate(train);
-  return train;
-}
-
 /// What the network represents: the trained field's geometry (points, or cell centres), value range, sparse
 /// occupancy and resampled domain; checked as the network format checks it.
 nv::SourceInfo SourceOf(const nvi::FieldInfo& field, const nvi::TrainingData& data)
@@ -203,106 +124,94 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->S = settings;
   job->Data = data;
   job->OutputMode = this->OutputMode;
-  job->Storage = settings.Precision == QUANTIZED8 ? nv::Precision::Quantized8
-    : settings.Precision == FLOAT16              ? nv::Precision::Float16
-                                                 : nv::Precision::Float32;
   in.SummaryPrinted = false;
   in.NotesPrinted = in.WarningsPrinted = 0;
   in.DecodeRequested = false;
+  // Every engine configuration from the settings snapshot, nothing from the filter's properties.
   const nv::VolumeView& view = data->Field.View;
-  const nv::ModelConfig config = NetworkConfigFor(settings, view.dims, data->Field.RawBytes, job->Storage);
-  const nv::TrainConfig train = TrainConfigFor(settings, this->TrainInBackground != 0);
-  job->Train = train;
-
-  nv::Device requested = settings.Device == DEVICE_CPU ? nv::Device::Cpu
-    : settings.Device == DEVICE_CUDA                  ? nv::Device::Cuda
-                                                      : nv::Device::Auto;
-  const nv::Device device = nv::resolveDevice(requested, &job->DeviceNote);
-
-  CheckTrainingMemory(config, train, device, settings.Strategy == STRATEGY_GPU_RESIDENT ? view.bytes() : 0);
-  job->NetworkConfig = config;
+  const nvi::EngineConfigs configs =
+    nvi::EngineConfigsFor(settings, view.dims, data->Field.RawBytes, this->TrainInBackground != 0);
+  job->Storage = configs.Storage;
+  job->Train = configs.Train;
+  const nv::Device device = nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote);
+  CheckTrainingMemory(configs.Network, configs.Train, device, configs.GpuResident ? view.bytes() : 0);
+  job->NetworkConfig = configs.Network;
   job->Source = SourceOf(field, *data); // the geometry is checked now (as the network format does), not after training
 
   // A network this filter already has for this input and these settings (cached, or restored from a state): no
   // training.
   nvi::NetworkBytes stored;
-  const nvi::NetworkRecord* cached = in.Cache.Find(time, key);
-  if (cached && cached->M.State != "Interrupted")
-    stored = cached->Bytes;
-  auto restored = in.Restored.find(key);
-  if (!stored && restored != in.Restored.end())
-    stored = restored->second;
+  const nvi::NetworkRecord* cached = in.StoredNetwork(time, key, stored);
   const nv::Model storedModel =
-    nvi::HasBytes(stored) ? nv::deserialize(stored->data(), stored->size()) : PlaceholderModel(config);
-
-  nv::SessionOptions sessionOptions;
-  sessionOptions.threads = settings.Threads;
-  sessionOptions.lowPriority = this->TrainInBackground != 0; // its renders and measurements share the cores with training
-  if (!in.Session || in.SessionDevice != static_cast<int>(device) || in.SessionThreads != settings.Threads)
-  {
-    in.Session = nv::NetworkSession::create(device, storedModel, sessionOptions);
-    in.SessionDevice = static_cast<int>(device);
-    in.SessionThreads = settings.Threads;
-  }
-  else if (nvi::HasBytes(stored))
-  {
-    in.Session->setModel(storedModel);
-  }
+    nvi::HasBytes(stored) ? nv::deserialize(stored->data(), stored->size()) : PlaceholderModel(configs.Network);
+  in.UseSession(device, configs.Session, storedModel, nvi::HasBytes(stored));
   job->Session = in.Session;
   in.Current = std::move(job);
-  nvi::Job& j = *in.Current;
+  nvi::Job& current = *in.Current;
   if (nvi::HasBytes(stored))
   {
-    ReuseNetwork(j, stored, storedModel, cached && cached->Bytes == stored ? cached : nullptr);
+    ReuseNetwork(current, stored, storedModel, cached && cached->Bytes == stored ? cached : nullptr);
     return;
   }
+  this->StartTraining(current, cached);
+}
 
-  // Training: the run installs the initial network in its own thread (Job::InstallInitialNetwork): a warm start
-  // from the network of this very time step that another time step cut short, else of the nearest earlier one.
-  if (this->WarmStart)
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::StartTraining(nvi::Job& job, const nvi::NetworkRecord* cached)
+{
+  vtkInternals& in = *this->Internals;
+  const nvi::Settings& settings = job.S;
+  // The run installs the initial network in its own thread (Job::InstallInitialNetwork): a warm start from the
+  // network of this very time step that another time step cut short, else of the nearest earlier one.
+  if (settings.WarmStart)
   {
     const nvi::NetworkRecord* seed =
-      cached && cached->M.State == "Interrupted" ? cached : in.Cache.NearestForWarmStart(time);
-    j.WarmSeed = seed ? seed->Bytes : nullptr;
+      cached && cached->M.State == "Interrupted" ? cached : in.Cache.NearestForWarmStart(job.Time);
+    job.WarmSeed = seed ? seed->Bytes : nullptr;
   }
+  const nvi::FieldInfo& field = job.Field;
   const bool constant = !(field.Stats.max > field.Stats.min);
-  if (constant || this->TrainingSteps == 0)
+  if (constant || settings.TrainingSteps == 0)
   {
     if (constant)
     {
       vtkWarningMacro("Neural Compress: '" << field.Name << "' is constant (" << field.Stats.min
                                            << "); it is represented exactly, training skipped.");
     }
-    j.InstallInitialNetwork();
-    j.FinalizeWithoutTraining();
+    job.InstallInitialNetwork();
+    job.FinalizeWithoutTraining();
     return;
   }
-  this->StartRun(j, this->FirstPhaseLimits(field, *data), 0, false);
+  this->StartRun(job, nvi::FirstPhaseLimits(settings, field, *job.Data, this->OutputMode), 0, false);
 }
 
 //------------------------------------------------------------------------------
-nv::RunLimits vtkNeuralCompress::FirstPhaseLimits(const nvi::FieldInfo& field, const nvi::TrainingData& data) const
+const nvi::NetworkRecord* vtkNeuralCompress::vtkInternals::StoredNetwork(
+  double time, uint64_t key, nvi::NetworkBytes& stored)
 {
-  nvi::RunLimits limits;
-  limits.KeepBest = this->KeepBestNetwork;
-  limits.MaxSteps = this->TrainingSteps;
-  // The budget bounds the whole Apply: what preparing the field took is spent, and the run keeps time for the
-  // measurement (and decode) at its end.
-  limits.TimeBudget =
-    this->Deterministic || this->TimeBudget <= 0.0 ? 0.0 : std::max(1e-3, this->TimeBudget - field.PreparationSeconds);
-  const nv::VolumeView& fieldView = data.Field.View;
-  const int* decodedDims = field.Geometry.DecodedDims;
-  // The phase end (Job::Finalize) decodes the output field (decoded modes), measures the network over the field
-  // (a float32 field decoded on the source's grid is compared as it is, without evaluating the network again) and at
-  // a resampled input's own samples.
-  const bool decodes = this->OutputMode != 0;
-  const bool comparesDecoded = this->OutputMode == OUTPUT_FLOAT32 && field.Geometry.OnSourceGrid;
-  limits.FinalSamples = (decodes ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0)) +
-    (fieldView.data && !comparesDecoded ? fieldView.count() : int64_t(0)) +
-    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0));
-  limits.TargetPsnr = this->Deterministic ? 0.0 : this->TargetPSNR;
-  limits.PsnrInterval = this->PSNRInterval > 0 ? this->PSNRInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
-  return limits;
+  const nvi::NetworkRecord* cached = this->Cache.Find(time, key);
+  if (cached && cached->M.State != "Interrupted")
+    stored = cached->Bytes;
+  auto restored = this->Restored.find(key);
+  if (!stored && restored != this->Restored.end())
+    stored = restored->second;
+  return cached;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::vtkInternals::UseSession(
+  nv::Device device, const nv::SessionOptions& options, const nv::Model& storedModel, bool haveStored)
+{
+  if (!this->Session || this->SessionDevice != static_cast<int>(device) || this->SessionThreads != options.threads)
+  {
+    this->Session = nv::NetworkSession::create(device, storedModel, options);
+    this->SessionDevice = static_cast<int>(device);
+    this->SessionThreads = options.threads;
+  }
+  else if (haveStored)
+  {
+    this->Session->setModel(storedModel);
+  }
 }
 
 //------------------------------------------------------------------------------
