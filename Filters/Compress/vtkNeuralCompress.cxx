@@ -208,7 +208,7 @@ double SecondsLeft(const nvi::NetworkRecord& record, const nv::RunStatus& status
 std::string StatusLine(const nvi::FieldInfo& field, const nvi::NetworkRecord& record, const nv::RunStatus* status,
   double timeBudget, bool fromCache)
 {
-  const nvi::Metrics& m = record.M;
+  const nvi::Metrics& m = record.Figures;
   std::ostringstream text;
   text.precision(3);
   text << std::fixed;
@@ -292,7 +292,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     // Complete for the first time in this job: a network with no run that the cache had for this time step and
     // input is one trained before (not a constant field seen for the first time, not one restored from a state).
-    in.FromCache = !job.Run && !record.M.Restored && in.Cache.Find(job.Time, job.Key) != nullptr;
+    in.FromCache = !job.Run && !record.Figures.Restored && in.Cache.Find(job.Time, job.Key) != nullptr;
   }
   else if (live)
   {
@@ -427,35 +427,35 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
       << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
   }
-  if (record.M.State == "Aborted")
+  if (record.Figures.State == "Aborted")
   {
     vtkWarningMacro("Neural Compress: training aborted (AbortExecute) at step "
-      << record.M.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
+      << record.Figures.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
   }
-  if (nvi::UntrainedByRequest(job.Field, record.M))
+  if (nvi::UntrainedByRequest(job.Field, record.Figures))
   {
     vtkWarningMacro("Neural Compress: Training Steps is 0: no training was asked for, so the network is "
-      << (record.M.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR "
-      << record.M.Psnr << " dB). Set Training Steps above 0 to train it.");
+      << (record.Figures.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR "
+      << record.Figures.Psnr << " dB). Set Training Steps above 0 to train it.");
   }
-  if (nvi::MaxErrorOverflows(record.M))
+  if (nvi::MaxErrorOverflows(record.Figures))
   {
-    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.M)
+    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.Figures)
                                                         << ", is too large for a double: NeuralMaxError is inf and "
                                                            "NeuralMaxErrorOfRange holds it; every decoded value is finite.");
   }
-  else if (std::isinf(record.M.MaxError))
+  else if (std::isinf(record.Figures.MaxError))
   {
     vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
                   "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
   }
   if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
-    record.M.Ratio < this->TargetCompressionRatio)
+    record.Figures.Ratio < this->TargetCompressionRatio)
   {
     const std::string advice = nvi::SmallerModelAdvice(job);
     vtkWarningMacro("Neural Compress: the target compression ratio "
       << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
-      << "(the smallest hash table gives " << record.M.Ratio << ":1)"
+      << "(the smallest hash table gives " << record.Figures.Ratio << ":1)"
       << (advice.empty() ? std::string(".") : "; try " + advice + "."));
   }
   vtkOutputWindowDisplayText(

@@ -281,7 +281,7 @@ void Job::Finalize(const RunStatus& status)
   vtkSmartPointer<vtkDataArray> decoded = this->DecodeAtPhaseEnd(field, mode, abortedBefore, decodeError);
   PhaseMeasurement measured;
   measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
-    this->S.Threads, measured.ResampledPsnr, measured.SourceSamples);
+    this->TrainingSettings.Threads, measured.ResampledPsnr, measured.SourceSamples);
   std::shared_ptr<NetworkRecord> record = this->MeasuredRecord(model, status, measured, abortedBefore);
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
@@ -300,12 +300,12 @@ void Job::KeepInterruptedNetwork(nv::Model& model, const RunStatus& status)
   model.stats.steps = status.Steps;
   model.stats.seconds = status.Seconds;
   record->Bytes = ShareBytes(nv::serialize(model));
-  record->M.State = "Interrupted";
-  record->M.Steps = status.Steps;
-  record->M.Seconds = status.Seconds;
-  record->M.ModelBytes = model.parameterBytes();
-  record->M.Device = nv::deviceName(this->Session->device());
-  record->M.WarmStart = this->WarmStart;
+  record->Figures.State = "Interrupted";
+  record->Figures.Steps = status.Steps;
+  record->Figures.Seconds = status.Seconds;
+  record->Figures.ModelBytes = model.parameterBytes();
+  record->Figures.Device = nv::deviceName(this->Session->device());
+  record->Figures.WarmStart = this->WarmStart;
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
   this->Decoded = nullptr;
@@ -345,7 +345,7 @@ std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
   model.stats.invalidSamples = this->Field.Stats.invalid;
   model.stats.device = nv::deviceName(this->Session->device());
   record->Bytes = ShareBytes(nv::serialize(model));
-  Metrics& m = record->M;
+  Metrics& m = record->Figures;
   const bool aborted = status.EndReason == "stopped" && abortedBefore; // the filter's AbortExecute, not Stop
   m.State = aborted ? "Aborted" : status.EndReason == "stopped" ? "Stopped" : "Finished";
   m.EndReason = aborted ? "aborted" : status.EndReason;
@@ -417,7 +417,7 @@ void Job::FinalizeWithoutTraining()
   this->Finalize(status);
   std::lock_guard<std::mutex> lock(this->Mutex);
   auto record = std::make_shared<NetworkRecord>(*this->FinalRecord);
-  record->M.State = "Finished";
+  record->Figures.State = "Finished";
   this->FinalRecord = record;
 }
 
@@ -509,7 +509,7 @@ NetworkRecord Job::Snapshot()
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
   this->StartLiveWriterIfDue(status);
-  Metrics& m = r.M;
+  Metrics& m = r.Figures;
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     r.Bytes = this->LiveBytes;

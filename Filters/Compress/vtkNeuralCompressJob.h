@@ -72,7 +72,7 @@ struct NetworkRecord
   uint64_t Key = 0;
   double Time = 0.0;
   NetworkBytes Bytes; ///< stored precision; null while a training job installs its first network
-  Metrics M;
+  Metrics Figures; ///< the numbers the user sees for this network
   std::vector<LogRow> Log;
 };
 
@@ -147,7 +147,7 @@ public:
   uint64_t Key = 0;
   double Time = 0.0;
   FieldInfo Field;
-  Settings S;
+  Settings TrainingSettings; ///< the filter's settings this job trains with: the one source of its engine configs
   nv::ModelConfig NetworkConfig; ///< the layout of the job's network
   nv::SourceInfo Source;          ///< what the network represents (geometry, value range, raw bytes)
   nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)

@@ -102,10 +102,10 @@ void ReuseNetwork(
   record->Key = job.Key;
   record->Time = job.Time;
   record->Bytes = bytes;
-  record->M = cached ? cached->M : nvi::MetricsOf(model, nv::deviceName(job.Session->device()));
-  const bool restored = cached ? cached->M.Restored : true;
-  record->M.Restored = restored;
-  record->M.State = restored ? "Restored" : record->M.State;
+  record->Figures = cached ? cached->Figures : nvi::MetricsOf(model, nv::deviceName(job.Session->device()));
+  const bool restored = cached ? cached->Figures.Restored : true;
+  record->Figures.Restored = restored;
+  record->Figures.State = restored ? "Restored" : record->Figures.State;
   job.NetworkConfig = model.config();
   job.Source = model.source;
   job.SetFinal(record);
@@ -121,7 +121,7 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->Key = key;
   job->Time = time;
   job->Field = field;
-  job->S = settings;
+  job->TrainingSettings = settings;
   job->Data = data;
   job->OutputMode = this->OutputMode;
   in.SummaryPrinted = false;
@@ -160,13 +160,13 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
 void vtkNeuralCompress::StartTraining(nvi::Job& job, const nvi::NetworkRecord* cached)
 {
   vtkInternals& in = *this->Internals;
-  const nvi::Settings& settings = job.S;
+  const nvi::Settings& settings = job.TrainingSettings;
   // The run installs the initial network in its own thread (Job::InstallInitialNetwork): a warm start from the
   // network of this very time step that another time step cut short, else of the nearest earlier one.
   if (settings.WarmStart)
   {
     const nvi::NetworkRecord* seed =
-      cached && cached->M.State == "Interrupted" ? cached : in.Cache.NearestForWarmStart(job.Time);
+      cached && cached->Figures.State == "Interrupted" ? cached : in.Cache.NearestForWarmStart(job.Time);
     job.WarmSeed = seed ? seed->Bytes : nullptr;
   }
   const nvi::FieldInfo& field = job.Field;
@@ -190,7 +190,7 @@ const nvi::NetworkRecord* vtkNeuralCompress::vtkInternals::StoredNetwork(
   double time, uint64_t key, nvi::NetworkBytes& stored)
 {
   const nvi::NetworkRecord* cached = this->Cache.Find(time, key);
-  if (cached && cached->M.State != "Interrupted")
+  if (cached && cached->Figures.State != "Interrupted")
     stored = cached->Bytes;
   auto restored = this->Restored.find(key);
   if (!stored && restored != this->Restored.end())
