@@ -1,7 +1,7 @@
 """Every property of Neural Compress and of the Neural Volume representation driven to its extremes gives an error
 message or a result, never a signal or a hang.
 
-The properties are listed from the XML files (Filters/NeuralCompress.xml, Representations/
+The properties are listed from the XML files (Filters/Compress/NeuralCompress.xml, Representations/
 NeuralVolumeRepresentation.xml.in), so a property added there is covered without touching this test. Each one is set,
 alone, on a small base configuration (a 16^3 Wavelet, a tiny network, TimeBudget 2 s) to 0, -1, INT_MIN and INT_MAX
 (integers; every element of a vector, and [v, 1, 1]), to 0, -1, +-1e308, +-inf, NaN and the smallest subnormal
@@ -74,7 +74,7 @@ def memory_bytes():
 
 def filter_cases():
     cases = []
-    for name, tag, elements in xml_properties(os.path.join(ROOT, "Filters", "NeuralCompress.xml"), "SourceProxy"):
+    for name, tag, elements in xml_properties(os.path.join(ROOT, "Filters", "Compress", "NeuralCompress.xml"), "SourceProxy"):
         if tag == "Property":
             for when in ("before", "after", "background"):
                 cases.append(dict(kind="command", command=name, when=when))

@@ -62,14 +62,8 @@ void vtkNeuralCompress::ExtendTraining(int64_t steps, bool fastForward)
   else if (job.Data && job.Field.Stats.max > job.Field.Stats.min)
   {
     // A cached or restored network: one run that trains `steps` more from it, its step count going on.
-    nvi::RunLimits limits;
-    limits.KeepBest = this->KeepBestNetwork;
-    limits.PsnrInterval = this->PSNRInterval;
-    if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
-    {
-      limits.FirstStep = final->M.Steps;
-      limits.MaxSteps = limits.FirstStep;
-    }
+    std::shared_ptr<const nvi::NetworkRecord> final = job.Final();
+    const nv::RunLimits limits = nvi::ContinuedRunLimits(job.TrainingSettings, final ? final->Figures.Steps : 0);
     this->StartRun(job, limits, steps, fastForward);
   }
   this->Modified();
@@ -199,7 +193,7 @@ const char* vtkNeuralCompress::GetTrainedNetworks()
   std::vector<const nvi::NetworkRecord*> records;
   for (const nvi::NetworkRecord* r : in.Cache.All())
   {
-    if (r->M.State != "Interrupted")
+    if (r->Figures.State != "Interrupted")
       records.push_back(r);
   }
   in.TrainedNetworksText = nvi::EncodeNetworks(records);

@@ -149,6 +149,73 @@ void CopyActive(const openvdb::GridBase& base, const openvdb::math::Mat4d& m, vt
   if (id != n)
     throw std::runtime_error("the grid has fewer active voxels than it counts");
 }
+
+/// The active voxels' values (`xyz`: their world positions, `ijk`: their index coordinates) as a double or float
+/// array like the grid's; `background`: the grid's background value.
+vtkSmartPointer<vtkDataArray> ActiveValues(const openvdb::GridBase& grid, const openvdb::math::Mat4d& m, vtkIdType n,
+  vtkDoubleArray* xyz, vtkIntArray* ijk, double& background)
+{
+  if (grid.isType<openvdb::DoubleGrid>())
+  {
+    vtkNew<vtkDoubleArray> a;
+    a->SetNumberOfTuples(n);
+    CopyActive<openvdb::DoubleGrid>(grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
+    background = static_cast<const openvdb::DoubleGrid&>(grid).background();
+    return vtkSmartPointer<vtkDataArray>(a.GetPointer());
+  }
+  vtkNew<vtkFloatArray> a;
+  a->SetNumberOfTuples(n);
+  CopyActive<openvdb::FloatGrid>(grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
+  background = static_cast<const openvdb::FloatGrid&>(grid).background();
+  return vtkSmartPointer<vtkDataArray>(a.GetPointer());
+}
+
+/// One vertex cell per point.
+vtkSmartPointer<vtkCellArray> VertexCells(vtkIdType n)
+{
+  vtkNew<vtkIdTypeArray> offsets, connectivity;
+  offsets->SetNumberOfTuples(n + 1);
+  connectivity->SetNumberOfTuples(n);
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    offsets->SetValue(i, i);
+    connectivity->SetValue(i, i);
+  }
+  offsets->SetValue(n, n);
+  auto verts = vtkSmartPointer<vtkCellArray>::New();
+  verts->SetData(offsets, connectivity);
+  return verts;
+}
+
+/// The sparse output's contract in its field data (vtkNeuralCompressSparse.h): background, index box, index-to-world
+/// matrix and the grid's name.
+void AddSparseContract(vtkFieldData* fieldData, double background, const openvdb::CoordBBox& box,
+  const openvdb::math::Mat4d& m, const std::string& gridName)
+{
+  vtkNew<vtkDoubleArray> bg;
+  bg->SetName("VDBBackground");
+  bg->InsertNextValue(background);
+  vtkNew<vtkIntArray> indexBox;
+  indexBox->SetName("VDBIndexBox");
+  for (int a = 0; a < 3; ++a)
+  {
+    indexBox->InsertNextValue(box.min()[a]);
+    indexBox->InsertNextValue(box.max()[a]);
+  }
+  vtkNew<vtkDoubleArray> indexToWorld;
+  indexToWorld->SetName("VDBIndexToWorld");
+  indexToWorld->SetNumberOfTuples(16);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) // world = M^T (i, j, k, 1): OpenVDB's matrices act on row vectors
+      indexToWorld->SetValue(4 * r + c, r < 3 ? m(c, r) : (c == 3 ? 1.0 : 0.0));
+  vtkNew<vtkStringArray> name;
+  name->SetName("VDBGridName");
+  name->InsertNextValue(gridName);
+  fieldData->AddArray(bg);
+  fieldData->AddArray(indexBox);
+  fieldData->AddArray(indexToWorld);
+  fieldData->AddArray(name);
+}
 } // namespace
 
 vtkStandardNewMacro(vtkNeuralVDBReader);
@@ -323,68 +390,17 @@ int vtkNeuralVDBReader::RequestActiveVoxels(vtkPolyData* output)
     ijk->SetName("VDBCoordinate");
     ijk->SetNumberOfComponents(3);
     ijk->SetNumberOfTuples(n);
-    vtkSmartPointer<vtkDataArray> values;
-    double background;
-    if (grid->isType<openvdb::DoubleGrid>())
-    {
-      vtkNew<vtkDoubleArray> a;
-      a->SetNumberOfTuples(n);
-      CopyActive<openvdb::DoubleGrid>(*grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
-      background = static_cast<const openvdb::DoubleGrid&>(*grid).background();
-      values = a;
-    }
-    else
-    {
-      vtkNew<vtkFloatArray> a;
-      a->SetNumberOfTuples(n);
-      CopyActive<openvdb::FloatGrid>(*grid, m, n, xyz->GetPointer(0), a.GetPointer(), ijk->GetPointer(0));
-      background = static_cast<const openvdb::FloatGrid&>(*grid).background();
-      values = a;
-    }
+    double background = 0.0;
+    vtkSmartPointer<vtkDataArray> values = ActiveValues(*grid, m, n, xyz, ijk, background);
     values->SetName(name.c_str());
-
-    vtkNew<vtkIdTypeArray> offsets, connectivity;
-    offsets->SetNumberOfTuples(n + 1);
-    connectivity->SetNumberOfTuples(n);
-    for (vtkIdType i = 0; i < n; ++i)
-    {
-      offsets->SetValue(i, i);
-      connectivity->SetValue(i, i);
-    }
-    offsets->SetValue(n, n);
-    vtkNew<vtkCellArray> verts;
-    verts->SetData(offsets, connectivity);
-
-    vtkNew<vtkDoubleArray> bg;
-    bg->SetName("VDBBackground");
-    bg->InsertNextValue(background);
-    vtkNew<vtkIntArray> indexBox;
-    indexBox->SetName("VDBIndexBox");
-    for (int a = 0; a < 3; ++a)
-    {
-      indexBox->InsertNextValue(box.min()[a]);
-      indexBox->InsertNextValue(box.max()[a]);
-    }
-    vtkNew<vtkDoubleArray> indexToWorld;
-    indexToWorld->SetName("VDBIndexToWorld");
-    indexToWorld->SetNumberOfTuples(16);
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) // world = M^T (i, j, k, 1): OpenVDB's matrices act on row vectors
-        indexToWorld->SetValue(4 * r + c, r < 3 ? m(c, r) : (c == 3 ? 1.0 : 0.0));
-    vtkNew<vtkStringArray> gridName;
-    gridName->SetName("VDBGridName");
-    gridName->InsertNextValue(grid->getName());
 
     vtkNew<vtkPoints> points;
     points->SetData(xyz);
     output->SetPoints(points);
-    output->SetVerts(verts);
+    output->SetVerts(VertexCells(n));
     output->GetPointData()->SetScalars(values);
     output->GetPointData()->AddArray(ijk);
-    output->GetFieldData()->AddArray(bg);
-    output->GetFieldData()->AddArray(indexBox);
-    output->GetFieldData()->AddArray(indexToWorld);
-    output->GetFieldData()->AddArray(gridName);
+    AddSparseContract(output->GetFieldData(), background, box, m, grid->getName());
   }
   catch (...)
   {

@@ -78,7 +78,7 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   vtkFieldData* fd = output->GetFieldData();
   if (HasBytes(record.Bytes))
     vtkNeuralNetworkArray::Write(fd, record.Bytes, session, live);
-  const Metrics& m = record.M;
+  const Metrics& m = record.Figures;
   AddFieldValue<vtkDoubleArray>(fd, "NeuralTrainingSeconds", m.Seconds);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSteps", m.Steps);
   AddFieldValue<vtkDoubleArray>(fd, "NeuralPSNR", m.Psnr);
@@ -134,7 +134,7 @@ void FillLog(vtkTable* log, const NetworkRecord& record)
   for (vtkIdType r = 0; r < rows; ++r)
   {
     const LogRow& row = record.Log[static_cast<size_t>(r)];
-    const double psnr = r == rows - 1 && record.M.PsnrFinal ? record.M.Psnr : row.PSNR;
+    const double psnr = r == rows - 1 && record.Figures.PsnrFinal ? record.Figures.Psnr : row.PSNR;
     const double values[5] = { static_cast<double>(row.Step), row.Loss, row.LearningRate, row.ElapsedSeconds, psnr };
     for (int c = 0; c < 5; ++c)
     {
@@ -168,7 +168,7 @@ void FillMetrics(vtkTable* metrics, const std::vector<const NetworkRecord*>& rec
   for (vtkIdType r = 0; r < static_cast<vtkIdType>(sorted.size()); ++r)
   {
     const NetworkRecord& rec = *sorted[static_cast<size_t>(r)];
-    const Metrics& m = rec.M;
+    const Metrics& m = rec.Figures;
     const double values[9] = { rec.Time, static_cast<double>(m.Steps), m.Seconds, m.Psnr, m.MaxError, m.Ratio,
       static_cast<double>(m.ModelBytes), m.WarmStart ? 1.0 : 0.0, m.Restored ? 1.0 : 0.0 };
     for (int c = 0; c < 9; ++c)
@@ -257,7 +257,7 @@ std::string SmallerModelAdvice(const Job& job)
 std::string Summary(
   const FieldInfo& field, const Job& job, const NetworkRecord& record, double targetRatio, bool fromCache)
 {
-  const Metrics& m = record.M;
+  const Metrics& m = record.Figures;
   const nv::ModelConfig& config = job.NetworkConfig;
   std::ostringstream s;
   s.precision(4);

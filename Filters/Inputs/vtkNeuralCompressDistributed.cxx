@@ -99,6 +99,44 @@ DistributedInput::Signature DistributedInput::InputSignature(vtkAlgorithm* self,
   return s;
 }
 
+/// Rank 0: the whole input from the gathered pieces (images stitched, datasets and composites assembled), with the
+/// local piece's time step; null with `problem` set on failure. Assembly warnings go to `self`'s output window.
+static vtkSmartPointer<vtkDataObject> WholeInputOnRoot(vtkAlgorithm* self, vtkDataObject* local, vtkInformation* inInfo,
+  const Selection& sel, const std::vector<vtkSmartPointer<vtkDataObject>>& pieces, bool gathered, int ranks,
+  std::string& problem)
+{
+  vtkSmartPointer<vtkDataObject> whole;
+  std::vector<std::string> warnings;
+  if (!gathered || pieces.size() != size_t(ranks))
+  {
+    problem = "gathering the input's pieces from the " + std::to_string(ranks) + " ranks failed";
+  }
+  else if (vtkImageData::SafeDownCast(local))
+  {
+    int extent[6];
+    const int* wholeExtent = nullptr;
+    if (inInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent);
+      wholeExtent = ValidExtent(extent) ? extent : nullptr;
+    }
+    whole = StitchImages(pieces, wholeExtent, problem);
+  }
+  else
+  {
+    whole = Assemble(pieces, sel, warnings, problem);
+  }
+  for (const std::string& w : warnings)
+  {
+    vtkWarningWithObjectMacro(self, "Neural Compress: " << w << ".");
+  }
+  if (whole && local)
+  {
+    whole->GetInformation()->CopyEntry(local->GetInformation(), vtkDataObject::DATA_TIME_STEP());
+  }
+  return whole;
+}
+
 void DistributedInput::Sync(
   vtkAlgorithm* self, vtkDataObject* local, vtkInformation* inInfo, const std::string& name, int association)
 {
@@ -119,35 +157,8 @@ void DistributedInput::Sync(
   if (root)
   {
     const RootOnlyScope alone(true);
-    std::vector<std::string> warnings;
-    if (!gathered || pieces.size() != size_t(c->GetNumberOfProcesses()))
-    {
-      this->Problem = "gathering the input's pieces from the " + std::to_string(c->GetNumberOfProcesses()) +
-        " ranks failed";
-    }
-    else if (vtkImageData::SafeDownCast(local))
-    {
-      int whole[6];
-      const int* wholeExtent = nullptr;
-      if (inInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-      {
-        inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-        wholeExtent = ValidExtent(whole) ? whole : nullptr;
-      }
-      this->WholeObject = StitchImages(pieces, wholeExtent, this->Problem);
-    }
-    else
-    {
-      this->WholeObject = Assemble(pieces, sel, warnings, this->Problem);
-    }
-    for (const std::string& w : warnings)
-    {
-      vtkWarningWithObjectMacro(self, "Neural Compress: " << w << ".");
-    }
-    if (this->WholeObject && local)
-    {
-      this->WholeObject->GetInformation()->CopyEntry(local->GetInformation(), vtkDataObject::DATA_TIME_STEP());
-    }
+    this->WholeObject =
+      WholeInputOnRoot(self, local, inInfo, sel, pieces, gathered != 0, c->GetNumberOfProcesses(), this->Problem);
     // A resampled input: the automatic sampling dimensions of the whole input (as serial would compute them).
     if (this->WholeObject && !vtkImageData::SafeDownCast(local) && !name.empty())
     {

@@ -42,6 +42,13 @@ struct vtkNeuralCompress::vtkInternals
   nvi::InputIdentity KeyIdentity;
   uint64_t Key = 0;
 
+  /// The network stored for this input and these settings (`key`) at `time`, in `stored` (null: none): the cache's
+  /// (unless a run cut short left it "Interrupted"), else one restored from a state. Returns the cache's record.
+  const nvi::NetworkRecord* StoredNetwork(double time, uint64_t key, nvi::NetworkBytes& stored);
+  /// The session every job shares: a new one (holding `storedModel`) when the device or threads change, else the
+  /// same one, given `storedModel` when `haveStored`.
+  void UseSession(nv::Device device, const nv::SessionOptions& options, const nv::Model& storedModel, bool haveStored);
+
   /// Ends the current job: its network goes to the cache (a run cut short by this as a warm-start seed only: its
   /// phase end keeps the network without decoding or measuring it, state "Interrupted").
   void Retire()

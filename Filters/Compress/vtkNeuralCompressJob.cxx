@@ -68,24 +68,6 @@ bool Float32Holds(double lo, double hi)
   return !range.spans() || m * std::ldexp(1.0, -23) <= 1e-4 * range.width();
 }
 
-std::string Settings::Canonical() const
-{
-  std::ostringstream s;
-  s.precision(17);
-  s << "v1 " << VectorMode << ' ' << VectorComponent << ' ' << TrainingSteps << ' '
-    << (Deterministic ? 0.0 : TimeBudget) << ' ' << LearningRate << ' ' << TargetCompressionRatio << ' '
-    << (Deterministic ? 0.0 : TargetPsnr) << ' ' << BatchSize << ' ' << Seed << ' ' << Loss << ' ' << Schedule
-    << ' ' << Levels << ' ' << Features << ' ' << Log2TableSize << ' ' << BaseResolution << ' '
-    << FinestResolution << ' ' << Width << ' ' << HiddenLayers << ' ' << Precision << ' ' << Device << ' '
-    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << "0 0 0" // v1's OutputResolution: no longer a setting
-    << ' ' << PsnrInterval << ' ' << Deterministic << ' ' << WarmStart;
-  if (Sampling != 0)
-    s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
-  if (!KeepBest)
-    s << " last"; // the default keeps the v1 string too
-  return s.str();
-}
-
 uint64_t TrainingKey(const nv::VolumeView& view, const FieldInfo& field, const Settings& s)
 {
   uint64_t h = 1469598103934665603ull;
@@ -281,22 +263,7 @@ void Job::Finalize(const RunStatus& status)
   model.quantize(this->Storage);
   if (this->Retiring)
   {
-    // Replaced by another job: the network (for warm starts and the cache), no decode, no measurement.
-    auto record = std::make_shared<NetworkRecord>();
-    record->Key = this->Key;
-    record->Time = this->Time;
-    model.stats.steps = status.Steps;
-    model.stats.seconds = status.Seconds;
-    record->Bytes = ShareBytes(nv::serialize(model));
-    record->M.State = "Interrupted";
-    record->M.Steps = status.Steps;
-    record->M.Seconds = status.Seconds;
-    record->M.ModelBytes = model.parameterBytes();
-    record->M.Device = nv::deviceName(this->Session->device());
-    record->M.WarmStart = this->WarmStart;
-    std::lock_guard<std::mutex> lock(this->Mutex);
-    this->FinalRecord = record;
-    this->Decoded = nullptr;
+    this->KeepInterruptedNetwork(model, status);
     return;
   }
   this->Session->setModel(model);
@@ -307,11 +274,46 @@ void Job::Finalize(const RunStatus& status)
     mode = this->OutputMode;
     field = this->Field;
   }
-  vtkSmartPointer<vtkDataArray> decoded;
-  std::string decodeError;
   // An abort that ended the training asked for the network of the moment, not for no field: only one raised
   // during the decode stops it.
   const bool abortedBefore = this->DecodeAbort && this->DecodeAbort();
+  std::string decodeError;
+  vtkSmartPointer<vtkDataArray> decoded = this->DecodeAtPhaseEnd(field, mode, abortedBefore, decodeError);
+  PhaseMeasurement measured;
+  measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
+    this->TrainingSettings.Threads, measured.ResampledPsnr, measured.SourceSamples);
+  std::shared_ptr<NetworkRecord> record = this->MeasuredRecord(model, status, measured, abortedBefore);
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = record;
+  // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
+  this->Decoded = SameDecodedGrid(field.Geometry, this->Field.Geometry) ? decoded : nullptr;
+  this->DecodedMode = mode;
+  this->DecodeError = decodeError;
+}
+
+void Job::KeepInterruptedNetwork(nv::Model& model, const RunStatus& status)
+{
+  // Replaced by another job: the network (for warm starts and the cache), no decode, no measurement.
+  auto record = std::make_shared<NetworkRecord>();
+  record->Key = this->Key;
+  record->Time = this->Time;
+  model.stats.steps = status.Steps;
+  model.stats.seconds = status.Seconds;
+  record->Bytes = ShareBytes(nv::serialize(model));
+  record->Figures.State = "Interrupted";
+  record->Figures.Steps = status.Steps;
+  record->Figures.Seconds = status.Seconds;
+  record->Figures.ModelBytes = model.parameterBytes();
+  record->Figures.Device = nv::deviceName(this->Session->device());
+  record->Figures.WarmStart = this->WarmStart;
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  this->FinalRecord = record;
+  this->Decoded = nullptr;
+}
+
+vtkSmartPointer<vtkDataArray> Job::DecodeAtPhaseEnd(
+  const FieldInfo& field, int mode, bool abortedBefore, std::string& decodeError)
+{
   try
   {
     DecodeControl control;
@@ -319,17 +321,19 @@ void Job::Finalize(const RunStatus& status)
       return this->Retiring.load() || (!abortedBefore && this->DecodeAbort && this->DecodeAbort());
     };
     control.Progress = this->DecodeProgress;
-    decoded = DecodeOutput(*this->Session, field, mode, control);
+    return DecodeOutput(*this->Session, field, mode, control);
   }
   catch (const std::exception& e)
   {
     decodeError = e.what(); // the network stays; the output has no decoded field
   }
-  double resampledPsnr = std::numeric_limits<double>::quiet_NaN();
-  int64_t sourceSamples = 0;
-  const nv::ErrorStats error = MeasureNetwork(
-    *this->Session, model, this->Data->Field.View, field, decoded, this->S.Threads, resampledPsnr, sourceSamples);
+  return nullptr;
+}
 
+std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
+  nv::Model& model, const RunStatus& status, const PhaseMeasurement& measured, bool abortedBefore)
+{
+  const nv::ErrorStats& error = measured.Error;
   auto record = std::make_shared<NetworkRecord>();
   record->Key = this->Key;
   record->Time = this->Time;
@@ -341,7 +345,7 @@ void Job::Finalize(const RunStatus& status)
   model.stats.invalidSamples = this->Field.Stats.invalid;
   model.stats.device = nv::deviceName(this->Session->device());
   record->Bytes = ShareBytes(nv::serialize(model));
-  Metrics& m = record->M;
+  Metrics& m = record->Figures;
   const bool aborted = status.EndReason == "stopped" && abortedBefore; // the filter's AbortExecute, not Stop
   m.State = aborted ? "Aborted" : status.EndReason == "stopped" ? "Stopped" : "Finished";
   m.EndReason = aborted ? "aborted" : status.EndReason;
@@ -351,8 +355,8 @@ void Job::Finalize(const RunStatus& status)
   m.PsnrFinal = true;
   m.MaxError = error.maxAbsError;
   m.MaxErrorOfRange = error.maxErrorOfRange;
-  m.ResampledPsnr = resampledPsnr;
-  m.SourceSamples = sourceSamples;
+  m.ResampledPsnr = measured.ResampledPsnr;
+  m.SourceSamples = measured.SourceSamples;
   m.ModelBytes = model.parameterBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
@@ -363,12 +367,7 @@ void Job::Finalize(const RunStatus& status)
   {
     record->Log = this->Run->Log();
   }
-  std::lock_guard<std::mutex> lock(this->Mutex);
-  this->FinalRecord = record;
-  // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
-  this->Decoded = SameDecodedGrid(field.Geometry, this->Field.Geometry) ? decoded : nullptr;
-  this->DecodedMode = mode;
-  this->DecodeError = decodeError;
+  return record;
 }
 
 void Job::InstallInitialNetwork()
@@ -418,7 +417,7 @@ void Job::FinalizeWithoutTraining()
   this->Finalize(status);
   std::lock_guard<std::mutex> lock(this->Mutex);
   auto record = std::make_shared<NetworkRecord>(*this->FinalRecord);
-  record->M.State = "Finished";
+  record->Figures.State = "Finished";
   this->FinalRecord = record;
 }
 
@@ -510,7 +509,7 @@ NetworkRecord Job::Snapshot()
   r.Time = this->Time;
   const RunStatus status = this->Run->Status();
   this->StartLiveWriterIfDue(status);
-  Metrics& m = r.M;
+  Metrics& m = r.Figures;
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
     r.Bytes = this->LiveBytes;

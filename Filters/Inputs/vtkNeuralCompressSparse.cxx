@@ -99,16 +99,23 @@ bool ReadSparseVoxels(vtkDataObject* input, const std::string& name, SparseVoxel
   return true;
 }
 
-bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64_t seed, SparseBank& bank,
-  std::string& problem)
+namespace
+{
+/// The position of voxel `i` of `dim` along an axis, normalised to the box ([0,1]; 0.5 on a flat axis).
+float UnitPosition(int64_t i, int64_t dim)
+{
+  return dim > 1 ? float(double(i) / double(dim - 1)) : 0.5f;
+}
+
+/// Every active voxel goes to the bank (its scalar: magnitude for vectorMode 0, else `component`) and its index to
+/// `active`; false with `problem` set for a voxel outside the box or listed twice.
+bool BankActiveVoxels(const SparseVoxels& v, int vectorMode, int component, SparseBank& bank,
+  std::unordered_set<int64_t>& active, std::string& problem)
 {
   const int64_t nx = v.Dims[0], ny = v.Dims[1], nz = v.Dims[2];
-  const int64_t total = nx * ny * nz;
   const int64_t n = v.Values->GetNumberOfTuples();
   const int nc = v.Values->GetNumberOfComponents();
   const int comp = std::min(std::max(component, 0), nc - 1);
-  auto unit = [](int64_t i, int64_t dim) { return dim > 1 ? float(double(i) / double(dim - 1)) : 0.5f; };
-  std::unordered_set<int64_t> active;
   active.reserve(size_t(n));
   bank.Xyz.reserve(size_t(3 * n));
   bank.Values.reserve(size_t(n));
@@ -136,17 +143,23 @@ bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64
         value += v.Values->GetComponent(p, q) * v.Values->GetComponent(p, q);
       value = std::sqrt(value);
     }
-    bank.Xyz.push_back(unit(i, nx));
-    bank.Xyz.push_back(unit(j, ny));
-    bank.Xyz.push_back(unit(k, nz));
+    bank.Xyz.push_back(UnitPosition(i, nx));
+    bank.Xyz.push_back(UnitPosition(j, ny));
+    bank.Xyz.push_back(UnitPosition(k, nz));
     bank.Values.push_back(value);
   }
-  bank.Active = n;
-  bank.Inactive = total - n;
-  // The occupancy of the macrocells (8 voxels a side, nv::macrocellLayout).
-  const int64_t boxDims[3] = { nx, ny, nz };
+  return true;
+}
+
+/// The occupancy of the macrocells (8 voxels a side, nv::macrocellLayout): those holding an active voxel, and the one
+/// below along an axis where the voxel starts a cell.
+std::vector<uint32_t> MacrocellOccupancy(const SparseVoxels& v)
+{
+  const int64_t boxDims[3] = { v.Dims[0], v.Dims[1], v.Dims[2] };
   const nv::MacrocellLayout cells = nv::macrocellLayout(boxDims);
-  bank.Occupancy.assign(size_t((int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2] + 31) / 32), 0u);
+  std::vector<uint32_t> occupancy(size_t((int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2] + 31) / 32), 0u);
+  const int64_t n = v.Values->GetNumberOfTuples();
+  const int* ijk = v.Coords->GetPointer(0);
   for (int64_t p = 0; p < n; ++p)
   {
     int first[3], last[3];
@@ -162,11 +175,20 @@ bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64
         for (int x = first[0]; x <= last[0]; ++x)
         {
           const int64_t c = (int64_t(z) * cells.dims[1] + y) * cells.dims[0] + x;
-          bank.Occupancy[size_t(c >> 5)] |= 1u << (c & 31);
+          occupancy[size_t(c >> 5)] |= 1u << (c & 31);
         }
   }
-  // Inactive voxels at the background value: distinct ones, drawn by rejection against the active set (bounded
-  // attempts: a box that is nearly all active gives fewer).
+  return occupancy;
+}
+
+/// Inactive voxels at the background value: distinct ones, drawn by rejection against the active set (bounded
+/// attempts: a box that is nearly all active gives fewer); returns how many went to the bank.
+int64_t BankBackgroundVoxels(
+  const SparseVoxels& v, uint64_t seed, const std::unordered_set<int64_t>& active, SparseBank& bank)
+{
+  const int64_t nx = v.Dims[0], ny = v.Dims[1], nz = v.Dims[2];
+  const int64_t total = nx * ny * nz;
+  const int64_t n = v.Values->GetNumberOfTuples();
   const int64_t want = std::min<int64_t>(bank.Inactive, std::max<int64_t>(n, int64_t(1) << 18));
   std::unordered_set<int64_t> drawn;
   drawn.reserve(size_t(want));
@@ -177,14 +199,18 @@ bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64
     if (active.count(idx) || !drawn.insert(idx).second)
       continue;
     const int64_t i = idx % nx, j = (idx / nx) % ny, k = idx / (nx * ny);
-    bank.Xyz.push_back(unit(i, nx));
-    bank.Xyz.push_back(unit(j, ny));
-    bank.Xyz.push_back(unit(k, nz));
+    bank.Xyz.push_back(UnitPosition(i, nx));
+    bank.Xyz.push_back(UnitPosition(j, ny));
+    bank.Xyz.push_back(UnitPosition(k, nz));
     bank.Values.push_back(v.Background);
   }
-  bank.Background = int64_t(drawn.size());
-  // The error is measured at the bank's points (an even stride beyond SourceSamples::kMaxSourceSamples), in the
-  // box's frame before its direction (the frame of the network's bounds).
+  return int64_t(drawn.size());
+}
+
+/// The bank's points where the error is measured (an even stride beyond SourceSamples::kMaxSourceSamples), in the
+/// box's frame before its direction (the frame of the network's bounds).
+std::shared_ptr<SourceSamples> SamplesOfBank(const SparseVoxels& v, const SparseBank& bank)
+{
   auto samples = std::make_shared<SourceSamples>();
   const int64_t m = int64_t(bank.Values.size());
   const int64_t stride = std::max<int64_t>(1, (m + SourceSamples::kMaxSourceSamples - 1) / SourceSamples::kMaxSourceSamples);
@@ -199,7 +225,22 @@ bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64
   }
   samples->Total = m;
   samples->SourceBytes = int64_t(v.Values->GetNumberOfValues()) * std::max(1, v.Values->GetDataTypeSize());
-  bank.Samples = samples;
+  return samples;
+}
+} // namespace
+
+bool MakeSparseBank(const SparseVoxels& v, int vectorMode, int component, uint64_t seed, SparseBank& bank,
+  std::string& problem)
+{
+  std::unordered_set<int64_t> active;
+  if (!BankActiveVoxels(v, vectorMode, component, bank, active, problem))
+    return false;
+  const int64_t n = v.Values->GetNumberOfTuples();
+  bank.Active = n;
+  bank.Inactive = int64_t(v.Dims[0]) * v.Dims[1] * v.Dims[2] - n;
+  bank.Occupancy = MacrocellOccupancy(v);
+  bank.Background = BankBackgroundVoxels(v, seed, active, bank);
+  bank.Samples = SamplesOfBank(v, bank);
   return true;
 }
 

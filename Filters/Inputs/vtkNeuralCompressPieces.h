@@ -17,6 +17,17 @@ namespace vtkNeuralCompressInternals
 {
 constexpr int kRoot = 0; ///< the rank that gathers and trains
 
+/// Field-data arrays of an image piece: its geometry (origin, spacing, direction: the legacy format that carries
+/// data objects between processes writes the geometry as text) and what the rank found.
+constexpr const char* kPieceGeometryName = "vtkNeuralCompressPieceGeometry";
+constexpr const char* kPieceFoundName = "vtkNeuralCompressPieceArray";
+
+/// The samples of extent `ext` per axis, [lo, hi]: its points, or its cells (one fewer on an axis that has cells).
+void SampleRange(const int ext[6], bool cells, int lo[3], int hi[3]);
+
+/// "rank 2", "ranks 1, 3": for messages.
+std::string RankList(const std::vector<int>& ranks);
+
 /// The filter's selected array: a name, or an attribute type (the active scalars) when no name is set.
 struct Selection
 {

@@ -4,6 +4,7 @@
 #define vtkNeuralCompressJob_h
 
 #include "vtkNeuralCompressInternals.h"
+#include "vtkNeuralCompressSettings.h"
 #include "vtkNeuralNetworkArray.h"
 
 #include "vtkSmartPointer.h"
@@ -24,23 +25,6 @@ class vtkDataArray;
 
 namespace vtkNeuralCompressInternals
 {
-
-/// The filter's properties that decide the trained network (not the controls, the output mode or the cache size).
-struct Settings
-{
-  int VectorMode = 0, VectorComponent = 0;
-  int64_t TrainingSteps = 0;
-  double TimeBudget = 0.0, LearningRate = 0.0, TargetCompressionRatio = 0.0, TargetPsnr = 0.0;
-  int BatchSize = 0, Seed = 0, Loss = 0, Schedule = 0;
-  int Levels = 0, Features = 0, Log2TableSize = 0, BaseResolution = 0, FinestResolution = 0;
-  int Width = 0, HiddenLayers = 0, Precision = 0, Device = 0, Threads = 0, Strategy = 0;
-  int PsnrInterval = 0;
-  bool Deterministic = false, WarmStart = true;
-  int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
-  bool KeepBest = true;
-  /// Every field, for the training key.
-  std::string Canonical() const;
-};
 
 /// The user's numbers for one network (field data of output 0, a row of the metrics table).
 struct Metrics
@@ -88,7 +72,7 @@ struct NetworkRecord
   uint64_t Key = 0;
   double Time = 0.0;
   NetworkBytes Bytes; ///< stored precision; null while a training job installs its first network
-  Metrics M;
+  Metrics Figures; ///< the numbers the user sees for this network
   std::vector<LogRow> Log;
 };
 
@@ -163,7 +147,7 @@ public:
   uint64_t Key = 0;
   double Time = 0.0;
   FieldInfo Field;
-  Settings S;
+  Settings TrainingSettings; ///< the filter's settings this job trains with: the one source of its engine configs
   nv::ModelConfig NetworkConfig; ///< the layout of the job's network
   nv::SourceInfo Source;          ///< what the network represents (geometry, value range, raw bytes)
   nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)
@@ -224,6 +208,23 @@ public:
   mutable std::mutex Mutex;
 
 private:
+  /// What the phase end measured of the network: over every source sample, and at a resampled input's own samples.
+  struct PhaseMeasurement
+  {
+    nv::ErrorStats Error;
+    double ResampledPsnr = std::numeric_limits<double>::quiet_NaN();
+    int64_t SourceSamples = 0;
+  };
+  /// Finalize of a job being replaced: the stored-precision `model` kept for warm starts and the cache, state
+  /// "Interrupted", without a decode or a measurement.
+  void KeepInterruptedNetwork(nv::Model& model, const RunStatus& status);
+  /// The output field decoded at a phase end (decoded modes; null for the others, or after an abort or a failure,
+  /// whose message goes to `decodeError`).
+  vtkSmartPointer<vtkDataArray> DecodeAtPhaseEnd(
+    const FieldInfo& field, int mode, bool abortedBefore, std::string& decodeError);
+  /// The record of the network at a phase end: `model` with its statistics, serialized, and the user's figures.
+  std::shared_ptr<NetworkRecord> MeasuredRecord(
+    nv::Model& model, const RunStatus& status, const PhaseMeasurement& measured, bool abortedBefore);
   /// Starts LiveWriter when a snapshot's bytes are due (none yet, or older than a second) and none is being written.
   void StartLiveWriterIfDue(const RunStatus& status);
   /// Serializes the session's network of the moment into LiveBytes (in LiveWriter's thread, or the caller's).

@@ -78,6 +78,7 @@ struct InputRequest;
 struct InputIdentity;
 struct PreparedField;
 struct Settings;
+struct SparseVoxels;
 }
 
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
@@ -354,6 +355,9 @@ protected:
   int RequestDataObject(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  /// RequestInformation of an input that is not an image (in one process): the extent of the image it is resampled
+  /// onto, or a sparse grid's index box; the input brought up to date first when it is empty.
+  void AnnounceResampledExtent(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   int VectorMode = MAGNITUDE;
@@ -450,16 +454,22 @@ private:
   /// The OpenVDB reader's sparse output (vtkNeuralCompressSparse.h): trained from its active voxels and background
   /// samples without a dense grid; false after reporting an error.
   bool ExecuteSparse(vtkDataObject* inputObject, vtkImageData* output, vtkTable* log, vtkTable* metrics, double time);
+  /// The selected point array of the sparse output and its voxels; false after reporting an error.
+  bool ReadSparseInput(
+    vtkDataObject* inputObject, vtkNeuralCompressInternals::SparseVoxels& voxels, std::string& arrayName);
+  /// The field of a sparse grid: its name and the geometry of its box (and of the decoded output).
+  vtkNeuralCompressInternals::FieldInfo SparseFieldGeometry(
+    const vtkNeuralCompressInternals::SparseVoxels& voxels, const std::string& arrayName);
 
   vtkNeuralCompressInternals::Settings CurrentSettings() const;
   /// A job for a new input or settings: a cached or restored network, or a training run.
   void StartJob(const vtkNeuralCompressInternals::FieldInfo& field,
     std::shared_ptr<nv::TrainingData> data,
     const vtkNeuralCompressInternals::Settings& settings, uint64_t key, double time);
-  /// The first phase's limits: steps, the time budget left after preparing `field`, the reserve for the phase end's
-  /// measurement and decode, target PSNR and probes.
-  nv::RunLimits FirstPhaseLimits(
-    const vtkNeuralCompressInternals::FieldInfo& field, const nv::TrainingData& data) const;
+  /// The training of a new job (no stored network): its warm-start seed (from the cache, or `cached`, this time
+  /// step's network that another time step cut short), and its first phase -- or none for a constant field or no
+  /// steps.
+  void StartTraining(vtkNeuralCompressInternals::Job& job, const vtkNeuralCompressInternals::NetworkRecord* cached);
   /// The outputs from the current job (a snapshot while it trains). Its steps follow.
   bool EmitOutputs(vtkImageData* output, vtkTable* log, vtkTable* metrics);
   /// The run's status; prints its new warnings and notes; false (an error) when it failed.

@@ -166,9 +166,9 @@ int vtkNeuralVolumeReader::RequestData(
     nvi::NetworkRecord record;
     record.Time = e.Time;
     record.Bytes = nvi::ShareBytes(e.Network);
-    record.M = nvi::MetricsOf(model, model.stats.device);
-    record.M.State = "Loaded";
-    record.M.Restored = true;
+    record.Figures = nvi::MetricsOf(model, model.stats.device);
+    record.Figures.State = "Loaded";
+    record.Figures.Restored = true;
     vtkSmartPointer<vtkDataArray> decoded;
     if (this->OutputMode != 0)
     {

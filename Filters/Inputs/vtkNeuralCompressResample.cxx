@@ -163,17 +163,14 @@ void AutoSamplingDimensions(const double bounds[6], int64_t sourceSamples, doubl
   }
 }
 
-bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, int association,
-  const int requested[3], int dims[3], std::string& problem)
+namespace
 {
-  if (!input)
-  {
-    problem = "no input";
-    return false;
-  }
-  // The array: present in at least one leaf; counts and bounds of the leaves that have it.
-  const std::vector<vtkDataSet*> leaves = Leaves(input);
-  int64_t samples = 0, withArray = 0;
+/// The array: present in at least one leaf, never on poly data that is a surface in 3D; `samples`: the points or
+/// cells of the leaves that have it. False with `problem` set otherwise.
+bool CountArraySamples(const std::vector<vtkDataSet*>& leaves, const std::string& name, int association,
+  int64_t& samples, std::string& problem)
+{
+  int64_t withArray = 0;
   bool flat3d = false;
   for (vtkDataSet* leaf : leaves)
   {
@@ -204,7 +201,12 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
               "takes volumes (image, rectilinear, structured, unstructured grids, AMR) or planar poly data";
     return false;
   }
-  double bounds[6];
+  return true;
+}
+
+/// The input's bounds; false with `problem` set when they are not valid (no points).
+bool ValidBounds(vtkDataObject* input, double bounds[6], std::string& problem)
+{
   if (auto* ds = vtkDataSet::SafeDownCast(input))
     ds->GetBounds(bounds);
   else if (auto* amr = vtkUniformGridAMR::SafeDownCast(input))
@@ -217,7 +219,13 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
     problem = "the input has no valid bounds (no points)";
     return false;
   }
-  // Composites of images (AMR, multiblocks of grids): the finest spacing of their blocks sets the resolution.
+  return true;
+}
+
+/// Composites of images (AMR, multiblocks of grids): the finest spacing of their blocks with the array (0: none).
+double FinestBlockSpacing(
+  vtkDataObject* input, const std::vector<vtkDataSet*>& leaves, const std::string& name, int association)
+{
   double finest = 0.0;
   if (!vtkDataSet::SafeDownCast(input))
   {
@@ -234,6 +242,25 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
           finest = finest > 0.0 ? std::min(finest, h[a]) : h[a];
     }
   }
+  return finest;
+}
+} // namespace
+
+bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, int association,
+  const int requested[3], int dims[3], std::string& problem)
+{
+  if (!input)
+  {
+    problem = "no input";
+    return false;
+  }
+  const std::vector<vtkDataSet*> leaves = Leaves(input);
+  int64_t samples = 0;
+  double bounds[6];
+  if (!CountArraySamples(leaves, name, association, samples, problem) || !ValidBounds(input, bounds, problem))
+    return false;
+  // The finest spacing of a composite's image blocks sets the resolution.
+  const double finest = FinestBlockSpacing(input, leaves, name, association);
   std::copy(requested, requested + 3, dims);
   if (dims[0] <= 0 || dims[1] <= 0 || dims[2] <= 0)
   {
@@ -251,6 +278,59 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
 
   return true;
 }
+
+namespace
+{
+/// A floating-point copy of the resampled `values` with NaN where the image point is outside every cell (`mask` 0);
+/// `outside` counts those points.
+vtkSmartPointer<vtkDataArray> MaskedCopy(
+  vtkDataArray* values, vtkDataArray* mask, const std::string& name, int64_t& outside)
+{
+  const vtkIdType n = values->GetNumberOfTuples();
+  const int nc = values->GetNumberOfComponents();
+  vtkSmartPointer<vtkDataArray> field;
+  if (values->GetDataType() == VTK_DOUBLE)
+    field = vtkSmartPointer<vtkDoubleArray>::New();
+  else
+    field = vtkSmartPointer<vtkFloatArray>::New();
+  field->SetName(name.c_str());
+  field->SetNumberOfComponents(nc);
+  field->SetNumberOfTuples(n);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  outside = 0;
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    const bool in = mask->GetComponent(i, 0) != 0.0;
+    outside += in ? 0 : 1;
+    for (int c = 0; c < nc; ++c)
+      field->SetComponent(i, c, in ? values->GetComponent(i, c) : nan);
+  }
+  return field;
+}
+
+/// What a resampling did, for the field's description.
+std::string ResampleDescription(vtkDataObject* input, const std::vector<vtkDataSet*>& leaves, const std::string& name,
+  int association, const int dims[3], int64_t outside)
+{
+  int64_t samples = 0, withArray = 0;
+  for (vtkDataSet* leaf : leaves)
+  {
+    if (vtkDataArray* a = FieldArray(leaf, name, association))
+    {
+      ++withArray;
+      samples += a->GetNumberOfTuples();
+    }
+  }
+  std::ostringstream d;
+  d << input->GetClassName();
+  if (leaves.size() != 1 || !vtkDataSet::SafeDownCast(input))
+    d << " (" << withArray << " of " << leaves.size() << " blocks with '" << name << "')";
+  d << ", " << samples << (association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? " cells" : " points")
+    << " resampled to " << dims[0] << " x " << dims[1] << " x " << dims[2] << " (" << outside
+    << " samples outside the domain)";
+  return d.str();
+}
+} // namespace
 
 bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int association, const int dimsIn[3],
   vtkSmartPointer<vtkImageData>& image, int64_t& outside, std::string& problem, const void* source,
@@ -272,16 +352,6 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
   int dims[3];
   if (!ResolveSamplingDimensions(input, name, association, dimsIn, dims, problem))
     return false;
-  const std::vector<vtkDataSet*> leaves = Leaves(input);
-  int64_t samples = 0, withArray = 0;
-  for (vtkDataSet* leaf : leaves)
-  {
-    if (vtkDataArray* a = FieldArray(leaf, name, association))
-    {
-      ++withArray;
-      samples += a->GetNumberOfTuples();
-    }
-  }
 
   // Only the selected array (and the ghost arrays AMR blanking needs) is probed.
   vtkNew<vtkPassSelectedArrays> pass;
@@ -304,27 +374,9 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
     return false;
   }
 
-  // Floating-point copy of the values with NaN where the image point is outside every cell.
-  const vtkIdType n = values->GetNumberOfTuples();
-  const int nc = values->GetNumberOfComponents();
-  vtkSmartPointer<vtkDataArray> field;
-  if (values->GetDataType() == VTK_DOUBLE)
-    field = vtkSmartPointer<vtkDoubleArray>::New();
-  else
-    field = vtkSmartPointer<vtkFloatArray>::New();
-  field->SetName(name.c_str());
-  field->SetNumberOfComponents(nc);
-  field->SetNumberOfTuples(n);
-  const double nan = std::numeric_limits<double>::quiet_NaN();
   int64_t out0 = 0;
-  for (vtkIdType i = 0; i < n; ++i)
-  {
-    const bool in = mask->GetComponent(i, 0) != 0.0;
-    out0 += in ? 0 : 1;
-    for (int c = 0; c < nc; ++c)
-      field->SetComponent(i, c, in ? values->GetComponent(i, c) : nan);
-  }
-  if (out0 == n)
+  vtkSmartPointer<vtkDataArray> field = MaskedCopy(values, mask, name, out0);
+  if (out0 == values->GetNumberOfTuples())
   {
     problem = "no sample of the " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
       std::to_string(dims[2]) + " resampling lies inside a cell of the input";
@@ -336,14 +388,7 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
   img->SetExtent(out->GetExtent());
   img->GetPointData()->AddArray(field);
 
-  std::ostringstream d;
-  d << input->GetClassName();
-  if (leaves.size() != 1 || !vtkDataSet::SafeDownCast(input))
-    d << " (" << withArray << " of " << leaves.size() << " blocks with '" << name << "')";
-  d << ", " << samples << (association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? " cells" : " points")
-    << " resampled to " << dims[0] << " x " << dims[1] << " x " << dims[2] << " (" << out0
-    << " samples outside the domain)";
-  this->Text = d.str();
+  this->Text = ResampleDescription(input, Leaves(input), name, association, dims, out0);
   this->Input = source;
   this->InputMTime = sourceMTime;
   this->Source = input;
@@ -439,28 +484,20 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
   return samples;
 }
 
-std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t seed, int vectorMode, int component,
-  std::string& problem)
+namespace
 {
-  if (!this->Input || !this->Image)
-  {
-    problem = "no resampled input";
-    return nullptr;
-  }
-  if (this->Bank && this->BankCount == count && this->BankSeed == seed && this->BankMode == vectorMode &&
-    this->BankComponent == component)
-    return this->Bank;
-  const auto t0 = std::chrono::steady_clock::now();
-  // The image's box: the bank's points are normalised to it as the network's inputs are.
+/// `count` seeded random points in the image's box: their world positions (`points`) and their positions normalised
+/// to the box as the network's inputs are (returned, interleaved; 0.5 on a flat axis).
+std::vector<float> RandomProbePoints(vtkImageData* image, int64_t count, uint64_t seed, vtkPoints* points)
+{
   double lo[3], len[3];
   int ext[6];
-  this->Image->GetExtent(ext);
+  image->GetExtent(ext);
   for (int a = 0; a < 3; ++a)
   {
-    lo[a] = this->Image->GetOrigin()[a] + ext[2 * a] * this->Image->GetSpacing()[a];
-    len[a] = (ext[2 * a + 1] - ext[2 * a]) * this->Image->GetSpacing()[a];
+    lo[a] = image->GetOrigin()[a] + ext[2 * a] * image->GetSpacing()[a];
+    len[a] = (ext[2 * a + 1] - ext[2 * a]) * image->GetSpacing()[a];
   }
-  vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   points->SetNumberOfPoints(count);
   std::vector<float> unit(size_t(3 * count));
@@ -477,6 +514,51 @@ std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t 
     }
     points->SetPoint(i, x);
   }
+  return unit;
+}
+
+/// The probed points inside a cell with a finite value (magnitude or component as vectorMode says) go to `bank`.
+void FillProbedBank(vtkDataArray* values, vtkDataArray* mask, const std::vector<float>& unit, int64_t count,
+  int vectorMode, int component, ProbedBank& bank)
+{
+  const int nc = values->GetNumberOfComponents();
+  const int c = std::min(std::max(component, 0), nc - 1);
+  for (int64_t i = 0; i < count; ++i)
+  {
+    if (mask->GetComponent(i, 0) == 0.0)
+      continue;
+    double v = 0.0;
+    if (nc == 1 || vectorMode == 1)
+      v = values->GetComponent(i, nc == 1 ? 0 : c);
+    else
+    {
+      for (int q = 0; q < nc; ++q)
+        v += values->GetComponent(i, q) * values->GetComponent(i, q);
+      v = std::sqrt(v);
+    }
+    if (!std::isfinite(v))
+      continue;
+    bank.Xyz.insert(bank.Xyz.end(), &unit[size_t(3 * i)], &unit[size_t(3 * i)] + 3);
+    bank.Values.push_back(v);
+  }
+}
+} // namespace
+
+std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t seed, int vectorMode, int component,
+  std::string& problem)
+{
+  if (!this->Input || !this->Image)
+  {
+    problem = "no resampled input";
+    return nullptr;
+  }
+  if (this->Bank && this->BankCount == count && this->BankSeed == seed && this->BankMode == vectorMode &&
+    this->BankComponent == component)
+    return this->Bank;
+  const auto t0 = std::chrono::steady_clock::now();
+  // The image's box: the bank's points are normalised to it as the network's inputs are.
+  vtkNew<vtkPoints> points;
+  const std::vector<float> unit = RandomProbePoints(this->Image, count, seed, points);
   vtkNew<vtkPolyData> where;
   where->SetPoints(points);
   vtkNew<vtkPassSelectedArrays> pass;
@@ -501,26 +583,7 @@ std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t 
   }
   auto bank = std::make_shared<ProbedBank>();
   bank->Probed = count;
-  const int nc = values->GetNumberOfComponents();
-  const int c = std::min(std::max(component, 0), nc - 1);
-  for (int64_t i = 0; i < count; ++i)
-  {
-    if (mask->GetComponent(i, 0) == 0.0)
-      continue;
-    double v = 0.0;
-    if (nc == 1 || vectorMode == 1)
-      v = values->GetComponent(i, nc == 1 ? 0 : c);
-    else
-    {
-      for (int q = 0; q < nc; ++q)
-        v += values->GetComponent(i, q) * values->GetComponent(i, q);
-      v = std::sqrt(v);
-    }
-    if (!std::isfinite(v))
-      continue;
-    bank->Xyz.insert(bank->Xyz.end(), &unit[size_t(3 * i)], &unit[size_t(3 * i)] + 3);
-    bank->Values.push_back(v);
-  }
+  FillProbedBank(values, mask, unit, count, vectorMode, component, *bank);
   if (bank->Values.empty())
   {
     problem = "none of the " + std::to_string(count) + " probed points lies inside a cell of the input";

@@ -63,7 +63,7 @@ struct PreparedField
 {
   FieldInfo Field;
   std::shared_ptr<TrainingData> Data;
-  Settings S;
+  Settings TrainingSettings; ///< the filter's settings when the preparation started
   uint64_t Key = 0;
 };
 

@@ -282,7 +282,7 @@ bool vtkNeuralCompress::PrepareField(
   {
     return false;
   }
-  prepared.S = settings;
+  prepared.TrainingSettings = settings;
   prepared.Key = nvi::TrainingKey(prepared.Data->Field.View, field, settings);
   return true;
 }
@@ -529,5 +529,5 @@ void vtkNeuralCompress::StartJobIfChanged(const nvi::InputIdentity& identity, co
                                            "and decode to finite values.");
   }
   in.Retire();
-  this->StartJob(field, prepared.Data, prepared.S, in.Key, identity.Time);
+  this->StartJob(field, prepared.Data, prepared.TrainingSettings, in.Key, identity.Time);
 }

@@ -43,17 +43,6 @@
 
 vtkStandardNewMacro(vtkNeuralCompress);
 
-namespace
-{
-
-bool IsCellAssociation(vtkInformation* arrayInfo)
-{
-  return arrayInfo && arrayInfo->Has(vtkDataObject::FIELD_ASSOCIATION()) &&
-    arrayInfo->Get(vtkDataObject::FIELD_ASSOCIATION()) == vtkDataObject::FIELD_ASSOCIATION_CELLS;
-}
-
-} // namespace
-
 //------------------------------------------------------------------------------
 vtkNeuralCompress::vtkNeuralCompress()
   : Internals(new vtkInternals)
@@ -100,104 +89,6 @@ int vtkNeuralCompress::RequestDataObject(
 }
 
 //------------------------------------------------------------------------------
-int vtkNeuralCompress::RequestInformation(
-  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
-{
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  vtkInformation* outInfo = outputVector->GetInformationObject(0);
-  vtkDataObject* input = inInfo ? inInfo->Get(vtkDataObject::DATA_OBJECT()) : nullptr;
-  std::fill(this->Internals->AnnouncedDims, this->Internals->AnnouncedDims + 3, 0);
-  if (input && !vtkImageData::SafeDownCast(input))
-  {
-    if (nvi::DistributedController())
-    {
-      // MPI: the extent follows from the whole input, gathered to rank 0 (vtkNeuralCompressDistributed.h).
-      this->Internals->Distributed.Announce(
-        this, inInfo, outInfo, this->SamplingDimensions, this->OutputResolution, this->Internals->AnnouncedDims);
-      return 1;
-    }
-    // A resampled input: its image's extent follows from the sampling dimensions, which (when automatic) come
-    // from the input data; RequestData then resamples at these (see Execute()). ParaView's representations need
-    // the extent now, so an input that has not executed yet is brought up to date first.
-    vtkAlgorithm* producer = this->GetInputAlgorithm(0, 0);
-    const bool empty = vtkDataSet::SafeDownCast(input) ? vtkDataSet::SafeDownCast(input)->GetNumberOfPoints() == 0
-      : vtkCompositeDataSet::SafeDownCast(input) ? vtkCompositeDataSet::SafeDownCast(input)->GetNumberOfPoints() == 0
-                                                 : true;
-    if (empty && producer)
-    {
-      producer->Update(this->GetInputConnection(0, 0)->GetIndex());
-      input = inInfo->Get(vtkDataObject::DATA_OBJECT());
-    }
-    if (nvi::IsSparseVoxels(input))
-    {
-      // A sparse OpenVDB grid: the output covers its index box.
-      nvi::SparseVoxels voxels;
-      std::string problem;
-      if (nvi::ReadSparseVoxels(input, nvi::SparseScalarsName(input), voxels, problem))
-      {
-        const int ext[6] = { 0, voxels.Dims[0] - 1, 0, voxels.Dims[1] - 1, 0, voxels.Dims[2] - 1 };
-        const nvi::OutputGeometry g =
-          nvi::ComputeGeometry(ext, voxels.Origin, voxels.Spacing, false, this->OutputResolution,
-          this->FinestResolution, this->BaseResolution);
-        outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
-      }
-      else
-      {
-        outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-      }
-      return 1;
-    }
-    vtkInformation* ai = this->GetInputArrayInformation(0);
-    const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
-    const int assoc =
-      ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
-    int dims[3];
-    std::string problem;
-    if (name && nvi::ResolveSamplingDimensions(input, name, assoc, this->SamplingDimensions, dims, problem))
-    {
-      const int ext[6] = { 0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1 };
-      const double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
-      const nvi::OutputGeometry g = nvi::ComputeGeometry(
-        ext, origin, spacing, false, this->OutputResolution, this->FinestResolution, this->BaseResolution);
-      outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
-      std::copy(dims, dims + 3, this->Internals->AnnouncedDims);
-    }
-    else
-    {
-      outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-    }
-    return 1;
-  }
-  if (!vtkImageData::SafeDownCast(input) ||
-    !inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-  {
-    outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-    return 1;
-  }
-  int ext[6];
-  double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
-  if (inInfo->Has(vtkDataObject::ORIGIN()))
-  {
-    inInfo->Get(vtkDataObject::ORIGIN(), origin);
-  }
-  if (inInfo->Has(vtkDataObject::SPACING()))
-  {
-    inInfo->Get(vtkDataObject::SPACING(), spacing);
-  }
-  const nvi::OutputGeometry g = nvi::ComputeGeometry(
-    ext, origin, spacing, IsCellAssociation(this->GetInputArrayInformation(0)), this->OutputResolution,
-    this->FinestResolution, this->BaseResolution);
-  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
-  outInfo->Set(vtkDataObject::ORIGIN(), g.Origin, 3);
-  outInfo->Set(vtkDataObject::SPACING(), g.Spacing, 3);
-  if (inInfo->Has(vtkDataObject::DIRECTION()))
-  {
-    outInfo->CopyEntry(inInfo, vtkDataObject::DIRECTION());
-  }
-  return 1;
-}
-
 int vtkNeuralCompress::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
@@ -317,7 +208,7 @@ double SecondsLeft(const nvi::NetworkRecord& record, const nv::RunStatus& status
 std::string StatusLine(const nvi::FieldInfo& field, const nvi::NetworkRecord& record, const nv::RunStatus* status,
   double timeBudget, bool fromCache)
 {
-  const nvi::Metrics& m = record.M;
+  const nvi::Metrics& m = record.Figures;
   std::ostringstream text;
   text.precision(3);
   text << std::fixed;
@@ -401,7 +292,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     // Complete for the first time in this job: a network with no run that the cache had for this time step and
     // input is one trained before (not a constant field seen for the first time, not one restored from a state).
-    in.FromCache = !job.Run && !record.M.Restored && in.Cache.Find(job.Time, job.Key) != nullptr;
+    in.FromCache = !job.Run && !record.Figures.Restored && in.Cache.Find(job.Time, job.Key) != nullptr;
   }
   else if (live)
   {
@@ -536,35 +427,35 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     vtkWarningMacro("Neural Compress: float32 cannot hold the values of '"
       << job.Field.Name << "' (" << range.str() << ") to the network's accuracy: the decoded output is float64.");
   }
-  if (record.M.State == "Aborted")
+  if (record.Figures.State == "Aborted")
   {
     vtkWarningMacro("Neural Compress: training aborted (AbortExecute) at step "
-      << record.M.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
+      << record.Figures.Steps << " of " << this->TrainingSteps << ": the output holds the network of that step.");
   }
-  if (nvi::UntrainedByRequest(job.Field, record.M))
+  if (nvi::UntrainedByRequest(job.Field, record.Figures))
   {
     vtkWarningMacro("Neural Compress: Training Steps is 0: no training was asked for, so the network is "
-      << (record.M.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR " << record.M.Psnr
-      << " dB). Set Training Steps above 0 to train it.");
+      << (record.Figures.WarmStart ? "the warm start's" : "its random initialisation") << " (PSNR "
+      << record.Figures.Psnr << " dB). Set Training Steps above 0 to train it.");
   }
-  if (nvi::MaxErrorOverflows(record.M))
+  if (nvi::MaxErrorOverflows(record.Figures))
   {
-    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.M)
+    vtkWarningMacro("Neural Compress: the max error, " << nvi::MaxErrorText(job.Field, record.Figures)
                                                         << ", is too large for a double: NeuralMaxError is inf and "
                                                            "NeuralMaxErrorOfRange holds it; every decoded value is finite.");
   }
-  else if (std::isinf(record.M.MaxError))
+  else if (std::isinf(record.Figures.MaxError))
   {
     vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
                   "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
   }
   if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
-    record.M.Ratio < this->TargetCompressionRatio)
+    record.Figures.Ratio < this->TargetCompressionRatio)
   {
     const std::string advice = nvi::SmallerModelAdvice(job);
     vtkWarningMacro("Neural Compress: the target compression ratio "
       << this->TargetCompressionRatio << ":1 is out of reach for this field and network "
-      << "(the smallest hash table gives " << record.M.Ratio << ":1)"
+      << "(the smallest hash table gives " << record.Figures.Ratio << ":1)"
       << (advice.empty() ? std::string(".") : "; try " + advice + "."));
   }
   vtkOutputWindowDisplayText(

@@ -34,6 +34,61 @@ struct vtkNeuralVolumeWriter::vtkInternals
 
 vtkStandardNewMacro(vtkNeuralVolumeWriter);
 
+namespace
+{
+/// The file entry of one time step of a Neural Compress output: its network, as the filter stored it (the model's
+/// own checks run here, before anything is written), and the geometry of its image. Throws nv::Error.
+nvi::VolumeFileEntry EntryOf(vtkImageData* image)
+{
+  vtkUnsignedCharArray* net = image ? vtkNeuralNetworkArray::Find(image->GetFieldData()) : nullptr;
+  if (!net || net->GetNumberOfTuples() == 0)
+  {
+    throw nv::Error("the input has no NeuralNetwork field data array: write the output of Neural Compress "
+                    "(apply Neural Compress first)");
+  }
+  const nv::Model model = vtkNeuralNetworkArray::Read(image->GetFieldData());
+  nvi::VolumeFileEntry e;
+  e.Time = image->GetInformation()->Has(vtkDataObject::DATA_TIME_STEP())
+    ? image->GetInformation()->Get(vtkDataObject::DATA_TIME_STEP())
+    : 0.0;
+  image->GetExtent(e.Extent);
+  image->GetOrigin(e.Origin);
+  image->GetSpacing(e.Spacing);
+  const double* dir = image->GetDirectionMatrix()->GetData();
+  std::copy(dir, dir + 9, e.Direction);
+  e.Cells = model.source.association == 1 ? 1 : 0;
+  e.Name = model.source.arrayName;
+  vtkDataArray* decoded = e.Cells ? image->GetCellData()->GetArray(e.Name.c_str())
+                                  : image->GetPointData()->GetArray(e.Name.c_str());
+  vtkDataArray* type = vtkDataArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralSourceType"));
+  e.VtkType = decoded ? decoded->GetDataType() : (type ? static_cast<int>(type->GetTuple1(0)) : VTK_FLOAT);
+  for (int a = 0; a < 3; ++a)
+  {
+    e.SourceDims[a] = static_cast<int>(model.source.dims[a]);
+    const int n = e.Extent[2 * a + 1] - e.Extent[2 * a] + 1;
+    e.DecodedDims[a] = e.Cells ? std::max(1, n - 1) : n;
+    e.OnSourceGrid = e.OnSourceGrid && e.DecodedDims[a] == e.SourceDims[a];
+  }
+  vtkDataArray* range = vtkDataArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralValueRange"));
+  e.ValueRange[0] = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(0) : model.source.valueMin;
+  e.ValueRange[1] = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(1) : model.source.valueMax;
+  e.Network.assign(net->GetPointer(0), net->GetPointer(0) + net->GetNumberOfTuples());
+  return e;
+}
+
+/// The .nvol file of `entries` written to `fileName`. Throws nv::Error.
+void WriteEntries(const char* fileName, const std::vector<nvi::VolumeFileEntry>& entries)
+{
+  const std::vector<uint8_t> bytes = nvi::WriteVolumeFile(entries);
+  std::ofstream f(fileName, std::ios::binary);
+  if (!f.good())
+    throw nv::Error(std::string("cannot open '") + fileName + "' for writing");
+  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!f.good())
+    throw nv::Error(std::string("failed writing '") + fileName + "'");
+}
+} // namespace
+
 vtkNeuralVolumeWriter::vtkNeuralVolumeWriter()
   : Internals(new vtkInternals)
 {
@@ -104,41 +159,7 @@ vtkTypeBool vtkNeuralVolumeWriter::ProcessRequest(
   vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
   try
   {
-    vtkUnsignedCharArray* net = image ? vtkNeuralNetworkArray::Find(image->GetFieldData()) : nullptr;
-    if (!net || net->GetNumberOfTuples() == 0)
-    {
-      throw nv::Error("the input has no NeuralNetwork field data array: write the output of Neural Compress "
-                      "(apply Neural Compress first)");
-    }
-    // The network as the filter stored it; the model's own checks run here, before anything is written.
-    const nv::Model model = vtkNeuralNetworkArray::Read(image->GetFieldData());
-    nvi::VolumeFileEntry e;
-    e.Time = image->GetInformation()->Has(vtkDataObject::DATA_TIME_STEP())
-      ? image->GetInformation()->Get(vtkDataObject::DATA_TIME_STEP())
-      : 0.0;
-    image->GetExtent(e.Extent);
-    image->GetOrigin(e.Origin);
-    image->GetSpacing(e.Spacing);
-    const double* dir = image->GetDirectionMatrix()->GetData();
-    std::copy(dir, dir + 9, e.Direction);
-    e.Cells = model.source.association == 1 ? 1 : 0;
-    e.Name = model.source.arrayName;
-    vtkDataArray* decoded = e.Cells ? image->GetCellData()->GetArray(e.Name.c_str())
-                                    : image->GetPointData()->GetArray(e.Name.c_str());
-    vtkDataArray* type = vtkDataArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralSourceType"));
-    e.VtkType = decoded ? decoded->GetDataType() : (type ? static_cast<int>(type->GetTuple1(0)) : VTK_FLOAT);
-    for (int a = 0; a < 3; ++a)
-    {
-      e.SourceDims[a] = static_cast<int>(model.source.dims[a]);
-      const int n = e.Extent[2 * a + 1] - e.Extent[2 * a] + 1;
-      e.DecodedDims[a] = e.Cells ? std::max(1, n - 1) : n;
-      e.OnSourceGrid = e.OnSourceGrid && e.DecodedDims[a] == e.SourceDims[a];
-    }
-    vtkDataArray* range = vtkDataArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralValueRange"));
-    e.ValueRange[0] = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(0) : model.source.valueMin;
-    e.ValueRange[1] = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(1) : model.source.valueMax;
-    e.Network.assign(net->GetPointer(0), net->GetPointer(0) + net->GetNumberOfTuples());
-    in.Entries.push_back(std::move(e));
+    in.Entries.push_back(EntryOf(image));
   }
   catch (const std::exception& err)
   {
@@ -157,13 +178,7 @@ vtkTypeBool vtkNeuralVolumeWriter::ProcessRequest(
   request->Remove(vtkStreamingDemandDrivenPipeline::CONTINUE_EXECUTING());
   try
   {
-    const std::vector<uint8_t> bytes = nvi::WriteVolumeFile(in.Entries);
-    std::ofstream f(this->FileName, std::ios::binary);
-    if (!f.good())
-      throw nv::Error(std::string("cannot open '") + this->FileName + "' for writing");
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    if (!f.good())
-      throw nv::Error(std::string("failed writing '") + this->FileName + "'");
+    WriteEntries(this->FileName, in.Entries);
   }
   catch (const std::exception& err)
   {

@@ -1,0 +1,186 @@
+// The one source of truth for a job's settings (vtkNeuralCompressSettings.h): the filter's properties copied into a
+// Settings snapshot, and every engine configuration of the job made from that snapshot only.
+#include "vtkNeuralCompressSettings.h"
+
+#include "vtkNeuralCompress.h"
+#include "vtkNeuralCompressJob.h"
+
+#include "Core/ResourceEstimate.h"
+
+#include <algorithm>
+#include <sstream>
+
+namespace nvi = vtkNeuralCompressInternals;
+
+//------------------------------------------------------------------------------
+nvi::Settings vtkNeuralCompress::CurrentSettings() const
+{
+  nvi::Settings s;
+  s.VectorMode = this->VectorMode;
+  s.VectorComponent = this->VectorComponent;
+  s.TrainingSteps = this->TrainingSteps;
+  s.TimeBudget = this->TimeBudget;
+  s.LearningRate = this->LearningRate;
+  s.TargetCompressionRatio = this->TargetCompressionRatio;
+  s.TargetPsnr = this->TargetPSNR;
+  s.BatchSize = this->BatchSize;
+  s.Seed = this->Seed;
+  s.Loss = this->Loss;
+  s.Schedule = this->LearningRateSchedule;
+  s.Levels = this->Levels;
+  s.Features = this->FeaturesPerLevel;
+  s.Log2TableSize = this->Log2TableSize;
+  s.BaseResolution = this->BaseResolution;
+  s.FinestResolution = this->FinestResolution;
+  s.Width = this->NetworkWidth;
+  s.HiddenLayers = this->HiddenLayers;
+  s.Precision = this->StoragePrecision;
+  s.Device = this->Device;
+  s.Threads = this->Threads;
+  s.Strategy = this->TrainingStrategy;
+  s.PsnrInterval = this->PSNRInterval;
+  s.Deterministic = this->Deterministic;
+  s.WarmStart = this->WarmStart;
+  s.Sampling = this->Sampling;
+  s.KeepBest = this->KeepBestNetwork;
+  s.ProbePoints = this->ProbePoints;
+  return s;
+}
+
+namespace vtkNeuralCompressInternals
+{
+
+//------------------------------------------------------------------------------
+std::string Settings::Canonical() const
+{
+  std::ostringstream s;
+  s.precision(17);
+  s << "v1 " << VectorMode << ' ' << VectorComponent << ' ' << TrainingSteps << ' '
+    << (Deterministic ? 0.0 : TimeBudget) << ' ' << LearningRate << ' ' << TargetCompressionRatio << ' '
+    << (Deterministic ? 0.0 : TargetPsnr) << ' ' << BatchSize << ' ' << Seed << ' ' << Loss << ' ' << Schedule
+    << ' ' << Levels << ' ' << Features << ' ' << Log2TableSize << ' ' << BaseResolution << ' '
+    << FinestResolution << ' ' << Width << ' ' << HiddenLayers << ' ' << Precision << ' ' << Device << ' '
+    << (Deterministic ? Threads : 0) << ' ' << Strategy << ' ' << "0 0 0" // v1's OutputResolution: no longer a setting
+    << ' ' << PsnrInterval << ' ' << Deterministic << ' ' << WarmStart;
+  if (Sampling != 0)
+    s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
+  if (!KeepBest)
+    s << " last"; // the default keeps the v1 string too
+  return s.str();
+}
+
+namespace
+{
+nv::Precision StorageOf(const Settings& s)
+{
+  return s.Precision == vtkNeuralCompress::QUANTIZED8 ? nv::Precision::Quantized8
+    : s.Precision == vtkNeuralCompress::FLOAT16      ? nv::Precision::Float16
+                                                     : nv::Precision::Float32;
+}
+
+nv::Device RequestedDeviceOf(const Settings& s)
+{
+  return s.Device == vtkNeuralCompress::DEVICE_CPU ? nv::Device::Cpu
+    : s.Device == vtkNeuralCompress::DEVICE_CUDA  ? nv::Device::Cuda
+                                                  : nv::Device::Auto;
+}
+
+/// The network's layout from the settings and the trained field's size (an automatic table size from the target
+/// ratio).
+nv::ModelConfig NetworkConfigOf(const Settings& s, const int64_t* dims, int64_t rawBytes, nv::Precision storage)
+{
+  nv::ModelConfig config;
+  config.encoding.levels = s.Levels;
+  config.encoding.featuresPerLevel = s.Features;
+  config.encoding.baseResolution = s.BaseResolution;
+  config.encoding.perLevelScale = 0.0;
+  // Default finest level: twice the largest dimension (never below the base resolution).
+  config.encoding.finestResolution = s.FinestResolution > 0
+    ? s.FinestResolution
+    : static_cast<int>(std::max<int64_t>(2 * std::max({ dims[0], dims[1], dims[2] }), s.BaseResolution));
+  config.network.width = s.Width;
+  config.network.hiddenLayers = s.HiddenLayers;
+  config.encoding.log2TableSize = s.Log2TableSize > 0 ? s.Log2TableSize : 10;
+  nv::validate(config);
+  if (s.Log2TableSize <= 0)
+  {
+    // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1, else the smallest one.
+    const double target = s.TargetCompressionRatio > 0.0 ? s.TargetCompressionRatio : 10.0;
+    config.encoding.log2TableSize = nv::chooseLog2TableSize(config, rawBytes, target, storage);
+  }
+  return config;
+}
+
+nv::TrainConfig TrainConfigOf(const Settings& s, bool lowPriority)
+{
+  nv::TrainConfig train;
+  train.batchSize = s.BatchSize;
+  train.seed = static_cast<uint64_t>(s.Seed);
+  train.loss = s.Loss == vtkNeuralCompress::LOSS_L2 ? nv::LossType::L2 : nv::LossType::L1;
+  train.optimizer.learningRate = s.LearningRate;
+  // Annealed: TrainingRun sets the planned steps (the run's length) before each chunk of steps.
+  train.optimizer.schedule = s.Schedule == vtkNeuralCompress::ANNEALED ? nv::LearningRateSchedule::Auto
+                                                                        : nv::LearningRateSchedule::StepDecay;
+  train.optimizer.stepDecay = s.Schedule == vtkNeuralCompress::STEP_DECAY;
+  train.threads = s.Threads;
+  train.strategy = static_cast<nv::TrainingStrategy>(s.Strategy);
+  train.deterministic = s.Deterministic;
+  train.lowPriority = lowPriority; // beside the GUI: its threads keep their share of the cores
+  nv::validate(train);
+  return train;
+}
+} // namespace
+
+//------------------------------------------------------------------------------
+EngineConfigs EngineConfigsFor(const Settings& settings, const int64_t dims[3], int64_t rawBytes, bool lowPriority)
+{
+  EngineConfigs configs;
+  configs.Storage = StorageOf(settings);
+  configs.Network = NetworkConfigOf(settings, dims, rawBytes, configs.Storage);
+  configs.Train = TrainConfigOf(settings, lowPriority);
+  configs.RequestedDevice = RequestedDeviceOf(settings);
+  configs.Session.threads = settings.Threads;
+  configs.Session.lowPriority = lowPriority; // its renders and measurements share the cores with training
+  configs.GpuResident = settings.Strategy == vtkNeuralCompress::STRATEGY_GPU_RESIDENT;
+  return configs;
+}
+
+//------------------------------------------------------------------------------
+RunLimits FirstPhaseLimits(const Settings& settings, const FieldInfo& field, const TrainingData& data, int outputMode)
+{
+  RunLimits limits;
+  limits.KeepBest = settings.KeepBest;
+  limits.MaxSteps = settings.TrainingSteps;
+  // The budget bounds the whole Apply: what preparing the field took is spent, and the run keeps time for the
+  // measurement (and decode) at its end.
+  limits.TimeBudget = settings.Deterministic || settings.TimeBudget <= 0.0
+    ? 0.0
+    : std::max(1e-3, settings.TimeBudget - field.PreparationSeconds);
+  const nv::VolumeView& fieldView = data.Field.View;
+  const int* decodedDims = field.Geometry.DecodedDims;
+  // The phase end (Job::Finalize) decodes the output field (decoded modes), measures the network over the field
+  // (a float32 field decoded on the source's grid is compared as it is, without evaluating the network again) and at
+  // a resampled input's own samples.
+  const bool decodes = outputMode != 0;
+  const bool comparesDecoded = outputMode == vtkNeuralCompress::OUTPUT_FLOAT32 && field.Geometry.OnSourceGrid;
+  limits.FinalSamples = (decodes ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0)) +
+    (fieldView.data && !comparesDecoded ? fieldView.count() : int64_t(0)) +
+    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0));
+  limits.TargetPsnr = settings.Deterministic ? 0.0 : settings.TargetPsnr;
+  limits.PsnrInterval =
+    settings.PsnrInterval > 0 ? settings.PsnrInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);
+  return limits;
+}
+
+//------------------------------------------------------------------------------
+RunLimits ContinuedRunLimits(const Settings& settings, int64_t firstStep)
+{
+  RunLimits limits;
+  limits.KeepBest = settings.KeepBest;
+  limits.PsnrInterval = settings.PsnrInterval;
+  limits.FirstStep = firstStep;
+  limits.MaxSteps = firstStep;
+  return limits;
+}
+
+} // namespace vtkNeuralCompressInternals
