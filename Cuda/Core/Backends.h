@@ -5,6 +5,7 @@
 
 #include "NetworkSession.h"
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -21,6 +22,9 @@ std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const Sessi
 
 /// True when the CUDA backend can run here (built with CUDA, driver present, a supported GPU); else `why`.
 bool cudaBackendUsable(std::string* why);
+/// Free and total bytes of the current CUDA device (cudaMemGetInfo); false, with both 0, in a build without CUDA or
+/// when the runtime cannot answer. Creates the CUDA context where none exists.
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes);
 /// Throws nv::Error when !cudaBackendUsable().
 std::unique_ptr<NetworkSession> createCudaSession(const Model& model, const SessionOptions& options);
 

@@ -38,12 +38,19 @@ struct GridLayout
   LevelInfo level[kMaxLevels];
 };
 
+/// The spatial hash of a hashed level's vertex (before the modulo of its entries); the one definition both backends
+/// use.
+NV_HD uint32_t spatialHash(uint32_t c0, uint32_t c1, uint32_t c2)
+{
+  return (c0 * 1u) ^ (c1 * 2654435761u) ^ (c2 * 805459861u);
+}
+
 NV_HD uint32_t gridIndex(const LevelInfo& lv, uint32_t c0, uint32_t c1, uint32_t c2)
 {
   uint32_t idx;
   if (lv.hashed)
   {
-    idx = (c0 * 1u) ^ (c1 * 2654435761u) ^ (c2 * 805459861u);
+    idx = spatialHash(c0, c1, c2);
   }
   else
   {

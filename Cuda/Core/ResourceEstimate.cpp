@@ -1,5 +1,6 @@
 #include "ResourceEstimate.h"
 
+#include "Backends.h"
 #include "Error.h"
 #include "HashGridMath.h"
 #include "Model.h"
@@ -13,10 +14,6 @@
 
 #include <sys/resource.h>
 #include <unistd.h>
-
-#if defined(NV_WITH_CUDA)
-#include <cuda_runtime_api.h>
-#endif
 
 namespace nv
 {
@@ -137,20 +134,7 @@ int64_t hostMemoryLimit()
 
 bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes)
 {
-  freeBytes = totalBytes = 0;
-#if defined(NV_WITH_CUDA)
-  size_t f = 0, t = 0;
-  if (cudaMemGetInfo(&f, &t) != cudaSuccess)
-  {
-    cudaGetLastError(); // not sticky: clear it for the next CUDA call
-    return false;
-  }
-  freeBytes = static_cast<int64_t>(f);
-  totalBytes = static_cast<int64_t>(t);
-  return true;
-#else
-  return false;
-#endif
+  return cudaDeviceMemory(freeBytes, totalBytes);
 }
 
 std::string formatBytes(int64_t bytes)

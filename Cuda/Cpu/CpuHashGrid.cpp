@@ -44,7 +44,7 @@ struct FastLevel
   {
     if (hashed)
     {
-      const uint32_t h = (c0 * 1u) ^ (c1 * 2654435761u) ^ (c2 * 805459861u);
+      const uint32_t h = spatialHash(c0, c1, c2);
       return offset + (pow2 ? h & mask : h % entries);
     }
     const uint32_t idx = c0 + c1 * res + c2 * res2;

@@ -13,6 +13,12 @@ bool cudaBackendUsable(std::string* why)
   return false;
 }
 
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes)
+{
+  freeBytes = totalBytes = 0;
+  return false;
+}
+
 std::unique_ptr<NetworkSession> createCudaSession(const Model&, const SessionOptions&)
 {
   NV_THROW("CUDA device requested but this build of NeuralVolume has no CUDA support");

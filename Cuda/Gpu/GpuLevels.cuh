@@ -40,7 +40,7 @@ __device__ __forceinline__ uint32_t fastCornerIndex(const LevelInfo& lv, int c, 
   uint32_t idx;
   if (lv.hashed)
   {
-    idx = (c0 * 1u) ^ (c1 * 2654435761u) ^ (c2 * 805459861u);
+    idx = spatialHash(c0, c1, c2);
     idx &= lv.entries - 1u;
   }
   else

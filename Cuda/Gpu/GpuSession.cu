@@ -22,6 +22,20 @@ bool cudaBackendUsable(std::string* why)
   return gpu::deviceUsable(why);
 }
 
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes)
+{
+  freeBytes = totalBytes = 0;
+  size_t f = 0, t = 0;
+  if (cudaMemGetInfo(&f, &t) != cudaSuccess)
+  {
+    cudaGetLastError(); // not sticky: clear it for the next CUDA call
+    return false;
+  }
+  freeBytes = static_cast<int64_t>(f);
+  totalBytes = static_cast<int64_t>(t);
+  return true;
+}
+
 namespace gpu
 {
 namespace
