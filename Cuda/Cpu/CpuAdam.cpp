@@ -14,8 +14,8 @@ namespace nv
 
 CpuAdam::CpuAdam(const OptimizerConfig& config, size_t paramCount)
   : Config(config)
-  , M(paramCount, 0.0f)
-  , V(paramCount, 0.0f)
+  , FirstMoment(paramCount, 0.0f)
+  , SecondMoment(paramCount, 0.0f)
 {
 }
 
@@ -76,11 +76,11 @@ void CpuAdam::update(float* params, float* grad, int64_t step, ThreadPool& pool,
   const double bc1 = 1.0 - std::pow(Config.beta1, static_cast<double>(step));
   const double bc2 = 1.0 - std::pow(Config.beta2, static_cast<double>(step));
   const float lr = static_cast<float>(Config.learningRateAt(step) * rateScale);
-  float* m = M.data();
-  float* v = V.data();
+  float* m = FirstMoment.data();
+  float* v = SecondMoment.data();
   const float b1 = static_cast<float>(Config.beta1), b2 = static_cast<float>(Config.beta2);
   const float eps = static_cast<float>(Config.epsilon);
-  pool.parallelFor(static_cast<int64_t>(M.size()), [&](int64_t b, int64_t e, int) {
+  pool.parallelFor(static_cast<int64_t>(FirstMoment.size()), [&](int64_t b, int64_t e, int) {
     updateRange(params, grad, m, v, static_cast<size_t>(b), static_cast<size_t>(e), lr, b1, b2, eps, bc1, bc2);
   });
 }

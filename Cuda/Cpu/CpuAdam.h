@@ -28,8 +28,8 @@ public:
 
 private:
   OptimizerConfig Config;
-  std::vector<float> M;
-  std::vector<float> V;
+  std::vector<float> FirstMoment;
+  std::vector<float> SecondMoment;
 };
 
 } // namespace nv

@@ -16,7 +16,7 @@ std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const Sessi
 
 CpuSession::CpuSession(const Model& model, const SessionOptions& options)
   : Options(options)
-  , M(model)
+  , SessionModel(model)
   , Pool(options.threads, options.lowPriority)
   , Renderer(new CpuRenderer(Pool))
 {
@@ -33,36 +33,36 @@ void CpuSession::setModel(const Model& model)
 {
   validate(model.config());
   std::lock_guard<std::mutex> lock(Mutex);
-  M = model;
+  SessionModel = model;
   ++Version;
 }
 
 Model CpuSession::currentModel()
 {
   std::lock_guard<std::mutex> lock(Mutex);
-  return M;
+  return SessionModel;
 }
 
 CpuSession::Snapshot CpuSession::snapshot()
 {
   std::lock_guard<std::mutex> lock(Mutex);
   const uint64_t current = Version.load();
-  if (!Snap.model || Snap.version != current)
+  if (!LastSnapshot.model || LastSnapshot.version != current)
   {
-    Snap.model = std::make_shared<const Model>(M);
-    Snap.version = current;
+    LastSnapshot.model = std::make_shared<const Model>(SessionModel);
+    LastSnapshot.version = current;
   }
-  return Snap;
+  return LastSnapshot;
 }
 
 const CpuInference& CpuSession::evaluator(const std::shared_ptr<const Model>& model)
 {
-  if (!Eval || EvalModel != model)
+  if (!Evaluator || EvaluatorModel != model)
   {
-    Eval.reset(new CpuInference(*model));
-    EvalModel = model;
+    Evaluator.reset(new CpuInference(*model));
+    EvaluatorModel = model;
   }
-  return *Eval;
+  return *Evaluator;
 }
 
 CpuTrainer::PublishFn CpuSession::publisher()
@@ -70,8 +70,8 @@ CpuTrainer::PublishFn CpuSession::publisher()
   // The trainer must not outlive the session (documented in NetworkSession::createTrainer).
   return [this](const std::vector<float>& p) {
     std::lock_guard<std::mutex> guard(Mutex);
-    NV_CHECK(p.size() == M.params().size(), "publish: the trainer's network has a different configuration");
-    M.params() = p;
+    NV_CHECK(p.size() == SessionModel.params().size(), "publish: the trainer's network has a different configuration");
+    SessionModel.params() = p;
     ++Version;
   };
 }
@@ -80,14 +80,14 @@ std::unique_ptr<Trainer> CpuSession::createTrainer(const VolumeView& volume, con
 {
   const TrainConfig c = trainerConfig(volume, config, Options);
   std::lock_guard<std::mutex> lock(Mutex);
-  return std::unique_ptr<Trainer>(new CpuTrainer(M, volume, TrainingPoints(), c, publisher()));
+  return std::unique_ptr<Trainer>(new CpuTrainer(SessionModel, volume, TrainingPoints(), c, publisher()));
 }
 
 std::unique_ptr<Trainer> CpuSession::createTrainer(const TrainingPoints& points, const TrainConfig& config)
 {
   const TrainConfig c = trainerConfig(points, config, Options);
   std::lock_guard<std::mutex> lock(Mutex);
-  return std::unique_ptr<Trainer>(new CpuTrainer(M, VolumeView(), points, c, publisher()));
+  return std::unique_ptr<Trainer>(new CpuTrainer(SessionModel, VolumeView(), points, c, publisher()));
 }
 
 void CpuSession::inferPoints(const float* xyz, int64_t n, float* out, Memory where)

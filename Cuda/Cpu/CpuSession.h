@@ -21,7 +21,7 @@ public:
   ~CpuSession() override;
 
   Device device() const override { return Device::Cpu; }
-  const Model& model() const override { return M; }
+  const Model& model() const override { return SessionModel; }
   uint64_t version() const override;
   void setModel(const Model& model) override;
   void syncModel() override {}
@@ -49,17 +49,17 @@ private:
   const CpuInference& evaluator(const std::shared_ptr<const Model>& model);
 
   SessionOptions Options;
-  mutable std::mutex Mutex; ///< M, Version, Snap: held briefly, never during a render or inference
-  Model M;
+  mutable std::mutex Mutex; ///< SessionModel, Version, LastSnapshot: held briefly, never during a render or inference
+  Model SessionModel;
   /// Changed under Mutex; read without it.
   std::atomic<uint64_t> Version{ 1 };
-  Snapshot Snap;
+  Snapshot LastSnapshot;
   /// One piece of work on the pool at a time (renders, inference, decoding): the pool, the renderer's caches and the
   /// evaluator belong to it.
   std::mutex WorkMutex;
   ThreadPool Pool;
-  std::unique_ptr<CpuInference> Eval;
-  std::shared_ptr<const Model> EvalModel; ///< the snapshot Eval was built from
+  std::unique_ptr<CpuInference> Evaluator;
+  std::shared_ptr<const Model> EvaluatorModel; ///< the snapshot Evaluator was built from
   std::unique_ptr<CpuRenderer> Renderer;
 };
 

@@ -142,14 +142,14 @@ const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre)
   ForwardPlan& p = dm.fwdPlan[pre ? 1 : 0];
   if (p.fn)
     return p;
-  NV_CHECK(dm.shape.H <= kMaxHidden, "too many hidden layers for the GPU");
+  NV_CHECK(dm.shape.hiddenLayers <= kMaxHidden, "too many hidden layers for the GPU");
   const int limit = sharedMemoryLimit(dm.options);
   for (bool shared : { true, false })
     for (int warps : { 8, 4 })
     {
       FwdArgs a{};
       const int bytes = fwdLayout(dm.shape, warps, shared, a);
-      const FwdFn fn = pickForward(dm.shape.W, dm.grid.features, pre, shared, warps);
+      const FwdFn fn = pickForward(dm.shape.width, dm.grid.features, pre, shared, warps);
       if (!fn || bytes > limit)
         continue;
       const void* fp = reinterpret_cast<const void*>(fn);
@@ -165,7 +165,7 @@ const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre)
       p.warps = warps;
       return p;
     }
-  NV_THROW("this network shape (width " + std::to_string(dm.shape.W) + ", " + std::to_string(dm.grid.features) +
+  NV_THROW("this network shape (width " + std::to_string(dm.shape.width) + ", " + std::to_string(dm.grid.features) +
     " features per level) cannot run on the GPU within " + std::to_string(limit / 1024) +
     " KiB of shared memory per block");
 }

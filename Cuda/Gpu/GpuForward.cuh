@@ -16,16 +16,16 @@ namespace gpu
 inline int fwdLayout(const MlpShape& s, int warps, bool weightsInShared, FwdArgs& a)
 {
   size_t wh = 0;
-  for (int l = 0; l < s.H; ++l)
+  for (int l = 0; l < s.hiddenLayers; ++l)
   {
     a.wOff[l] = static_cast<int>(wh);
-    wh += static_cast<size_t>(s.W) * (s.inDim(l) + 8);
+    wh += static_cast<size_t>(s.width) * (s.inDim(l) + 8);
   }
   size_t o = weightsInShared ? roundUp128(wh * 2) : 0;
   a.woutOff = static_cast<int>(o);
-  o += roundUp128(s.W * 4);
+  o += roundUp128(s.width * 4);
   a.encOff = static_cast<int>(o);
-  a.ldE = s.Dp + 8;
+  a.ldE = s.paddedInputs + 8;
   o += static_cast<size_t>(warps) * 16 * a.ldE * 2;
   return static_cast<int>(o);
 }
@@ -40,21 +40,21 @@ __device__ __forceinline__ WarpNet stageNet(const MlpShape& s, const __half* __r
   WarpNet net;
   if constexpr (std::is_same<Weights, WeightsInShared>::value)
   {
-    for (int l = 0; l < s.H; ++l)
+    for (int l = 0; l < s.hiddenLayers; ++l)
     {
       const int K = s.inDim(l), kv = K / 8;
       const uint4* src = reinterpret_cast<const uint4*>(w16 + s.off[l]);
       __half* dst = sw + wOff[l];
-      for (int i = threadIdx.x; i < s.W * kv; i += blockDim.x)
+      for (int i = threadIdx.x; i < s.width * kv; i += blockDim.x)
         *reinterpret_cast<uint4*>(dst + (i / kv) * (K + 8) + (i % kv) * 8) = src[i];
     }
-    net = WarpNet{ sw, wOff, s.Dp + 8, s.W + 8, swout };
+    net = WarpNet{ sw, wOff, s.paddedInputs + 8, s.width + 8, swout };
   }
   else
   {
-    net = WarpNet{ w16, s.off, s.Dp, s.W, swout };
+    net = WarpNet{ w16, s.off, s.paddedInputs, s.width, swout };
   }
-  for (int i = threadIdx.x; i < s.W; i += blockDim.x)
+  for (int i = threadIdx.x; i < s.width; i += blockDim.x)
     swout[i] = wout[i];
   return net;
 }

@@ -133,7 +133,7 @@ __global__ void packMlpKernel(const float* __restrict__ mlp, MlpShape s, __half*
   for (int64_t j = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; j < count; j += int64_t(gridDim.x) * blockDim.x)
   {
     const MlpSlot m = mlpSlot(s, j);
-    if (m.layer == s.H)
+    if (m.layer == s.hiddenLayers)
       wout[m.column] = mlp[j];
     else
       w16[m.padded] = __float2half_rn(mlp[j]);
@@ -224,7 +224,7 @@ void allocateDeviceModel(const Model& model, DeviceModel& dm)
   dm.shape = makeMlpShape(model.config());
   dm.table16.allocate(model.encodingParamCount(), "fp16 hash table");
   dm.w16.allocate(dm.shape.total, "fp16 MLP weights");
-  dm.wout.allocate(dm.shape.W, "output layer");
+  dm.wout.allocate(dm.shape.width, "output layer");
 }
 
 void packParams(const float* dParams, DeviceModel& dm, cudaStream_t stream)
@@ -234,7 +234,7 @@ void packParams(const float* dParams, DeviceModel& dm, cudaStream_t stream)
   NV_CUDA_LAUNCH();
   NV_CUDA(cudaMemsetAsync(dm.w16.get(), 0, dm.w16.bytes(), stream));
   const MlpShape& s = dm.shape;
-  const int64_t nm = int64_t(s.W) * s.D + int64_t(s.H - 1) * s.W * s.W + s.W;
+  const int64_t nm = int64_t(s.width) * s.inputs + int64_t(s.hiddenLayers - 1) * s.width * s.width + s.width;
   packMlpKernel<<<gridFor(nm), 256, 0, stream>>>(dParams + ne, s, dm.w16.get(), dm.wout.get(), nm);
   NV_CUDA_LAUNCH();
 }

@@ -20,34 +20,34 @@ namespace gpu
 
 constexpr int kMaxHidden = 8;
 
-/// Padded MLP layout used on the GPU (fp16 weights and fp32 gradients): layer 0 is W x Dp (inputs padded to a
-/// multiple of 16 with zero weights), hidden layers W x W, then the output row (W).
+/// Padded MLP layout used on the GPU (fp16 weights and fp32 gradients): layer 0 is width x paddedInputs (inputs
+/// padded to a multiple of 16 with zero weights), hidden layers width x width, then the output row (width).
 struct MlpShape
 {
-  int W;
-  int H;
-  int D;  ///< encoding outputs (levels * features)
-  int Dp; ///< D rounded up to 16
-  int off[kMaxHidden + 1]; ///< padded offset of layer l; off[H] = output row
+  int width;        ///< neurons per hidden layer
+  int hiddenLayers; ///< hidden layers (weight matrices before the output row)
+  int inputs;       ///< encoding outputs (levels * features)
+  int paddedInputs; ///< inputs rounded up to 16
+  int off[kMaxHidden + 1]; ///< padded offset of layer l; off[hiddenLayers] = output row
   int total;               ///< padded size, multiple of 64
-  __host__ __device__ int inDim(int l) const { return l == 0 ? Dp : W; }
+  __host__ __device__ int inDim(int l) const { return l == 0 ? paddedInputs : width; }
 };
 
 inline MlpShape makeMlpShape(const ModelConfig& c)
 {
   MlpShape s{};
-  s.W = c.network.width;
-  s.H = c.network.hiddenLayers;
-  s.D = c.encoding.levels * c.encoding.featuresPerLevel;
-  s.Dp = (s.D + 15) / 16 * 16;
+  s.width = c.network.width;
+  s.hiddenLayers = c.network.hiddenLayers;
+  s.inputs = c.encoding.levels * c.encoding.featuresPerLevel;
+  s.paddedInputs = (s.inputs + 15) / 16 * 16;
   int o = 0;
-  for (int l = 0; l < s.H; ++l)
+  for (int l = 0; l < s.hiddenLayers; ++l)
   {
     s.off[l] = o;
-    o += s.W * (l == 0 ? s.Dp : s.W);
+    o += s.width * (l == 0 ? s.paddedInputs : s.width);
   }
-  s.off[s.H] = o;
-  o += s.W;
+  s.off[s.hiddenLayers] = o;
+  o += s.width;
   s.total = (o + 63) / 64 * 64;
   return s;
 }
@@ -65,16 +65,16 @@ __host__ __device__ inline MlpSlot mlpSlot(const MlpShape& s, int64_t j)
 {
   int64_t r = j;
   int l = 0;
-  for (; l < s.H; ++l)
+  for (; l < s.hiddenLayers; ++l)
   {
-    const int64_t sz = int64_t(s.W) * (l == 0 ? s.D : s.W);
+    const int64_t sz = int64_t(s.width) * (l == 0 ? s.inputs : s.width);
     if (r < sz)
       break;
     r -= sz;
   }
-  if (l == s.H)
-    return { l, s.off[s.H] + static_cast<int>(r), static_cast<int>(r) };
-  const int K = l == 0 ? s.D : s.W;
+  if (l == s.hiddenLayers)
+    return { l, s.off[s.hiddenLayers] + static_cast<int>(r), static_cast<int>(r) };
+  const int K = l == 0 ? s.inputs : s.width;
   return { l, s.off[l] + static_cast<int>(r / K) * s.inDim(l) + static_cast<int>(r % K), 0 };
 }
 
@@ -99,9 +99,9 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
   SmemPlan p{};
   p.warps = warps;
   p.T = 16 * warps;
-  p.ldE = s.Dp + 8;
-  p.ldA = s.W + 8;
-  p.ldDE = s.Dp + 4;
+  p.ldE = s.paddedInputs + 8;
+  p.ldA = s.width + 8;
+  p.ldDE = s.paddedInputs + 4;
   p.wInSmem = wInSmem;
   size_t o = 0;
   auto take = [&](size_t bytes) {
@@ -116,7 +116,7 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
   p.enc = take(T * p.ldE * 2);
   if (training)
   {
-    const size_t actsBytes = static_cast<size_t>(s.H) * T * p.ldA * 2;
+    const size_t actsBytes = static_cast<size_t>(s.hiddenLayers) * T * p.ldA * 2;
     const size_t dEncBytes = T * p.ldDE * 4; // aliases the activations (dead when dEnc is written)
     p.acts = take(actsBytes > dEncBytes ? actsBytes : dEncBytes);
     p.dz0 = take(T * p.ldA * 2);
@@ -128,12 +128,12 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
     p.dz0 = p.dz1 = 0;
   }
   p.stage = take(static_cast<size_t>(warps) * 256 * 4);
-  p.wout = take(s.W * 4);
+  p.wout = take(s.width * 4);
   size_t wh = 0;
-  for (int l = 0; l < s.H; ++l)
+  for (int l = 0; l < s.hiddenLayers; ++l)
   {
     p.wOff[l] = static_cast<int>(wh);
-    wh += static_cast<size_t>(s.W) * (s.inDim(l) + 8);
+    wh += static_cast<size_t>(s.width) * (s.inDim(l) + 8);
   }
   p.w = wInSmem ? take(wh * 2) : 0;
   p.total = static_cast<int>(o);
@@ -413,16 +413,16 @@ __device__ __forceinline__ void stageWeights(const MlpShape& s, const SmemPlan& 
   const __half* __restrict__ w16, const float* __restrict__ wout, const __half** wl, int* ldw)
 {
   float* sw = reinterpret_cast<float*>(smem + p.wout);
-  for (int i = threadIdx.x; i < s.W; i += blockDim.x)
+  for (int i = threadIdx.x; i < s.width; i += blockDim.x)
     sw[i] = wout[i];
-  for (int l = 0; l < s.H; ++l)
+  for (int l = 0; l < s.hiddenLayers; ++l)
   {
     const int K = s.inDim(l);
     if (p.wInSmem)
     {
       __half* dst = reinterpret_cast<__half*>(smem + p.w) + p.wOff[l];
       const __half* src = w16 + s.off[l];
-      for (int i = threadIdx.x; i < s.W * K; i += blockDim.x)
+      for (int i = threadIdx.x; i < s.width * K; i += blockDim.x)
         dst[(i / K) * (K + 8) + i % K] = src[i];
       wl[l] = dst;
       ldw[l] = K + 8;

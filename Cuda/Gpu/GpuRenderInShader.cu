@@ -30,7 +30,7 @@ __global__ void __launch_bounds__(256, 1) inShaderKernel(const __grid_constant__
     enc[i] = __float2half(0.0f); // padding columns D..Dp-1 stay zero
   __syncthreads();
 
-  const ray::Params& P = a.P;
+  const ray::Params& P = a.rayParams;
   const EncodeFrom<__half> src{ a.table16 };
   const unsigned below = (1u << lane) - 1u;
   ray::Ray r;
@@ -181,8 +181,8 @@ int inShaderLayout(const MlpShape& s, int warps, bool shared, InShaderArgs& a)
 
 void launchInShader(const DeviceModel& dm, InShaderArgs& a, cudaStream_t stream, int* blocksUsed)
 {
-  const bool shared = dm.shape.W <= 64;
-  const InShaderFn fn = pickInShader(dm.shape.W, dm.grid.features, dm.options.inShaderHalfAccumulate, shared);
+  const bool shared = dm.shape.width <= 64;
+  const InShaderFn fn = pickInShader(dm.shape.width, dm.grid.features, dm.options.inShaderHalfAccumulate, shared);
   NV_CHECK(fn != nullptr, "this network shape cannot be rendered In-Shader on the GPU");
   a.grid = dm.grid;
   a.shape = dm.shape;

@@ -13,7 +13,7 @@ struct RenderCounters;
 
 struct InShaderArgs
 {
-  ray::Params P;
+  ray::Params rayParams;
   GridLayout grid;
   MlpShape shape;
   const __half* table16;

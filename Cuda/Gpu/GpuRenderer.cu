@@ -385,7 +385,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       {
         NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), St));
         InShaderArgs a{};
-        a.P = P;
+        a.rayParams = P;
         a.total = static_cast<uint32_t>(pixels);
         a.sample = static_cast<uint32_t>(sample);
         a.counters = c;

@@ -51,21 +51,21 @@ class GpuSession final : public NetworkSession
 public:
   GpuSession(const Model& model, const SessionOptions& options)
     : Options(options)
-    , M(model)
+    , HostModel(model)
     , Pool(std::min(16, options.threads > 0 ? options.threads : ThreadPool::defaultThreads()))
   {
     upload(model);
-    Renderer.reset(new GpuRenderer(Dm, St.get()));
+    Renderer.reset(new GpuRenderer(Network, ComputeStream.get()));
   }
 
   ~GpuSession() override
   {
-    cudaStreamSynchronize(St.get());
-    cudaStreamSynchronize(Copy.get());
+    cudaStreamSynchronize(ComputeStream.get());
+    cudaStreamSynchronize(CopyStream.get());
   }
 
   Device device() const override { return Device::Cuda; }
-  const Model& model() const override { return M; }
+  const Model& model() const override { return HostModel; }
 
   uint64_t version() const override
   {
@@ -78,7 +78,7 @@ public:
     validate(model.config());
     NV_CHECK(model.paramCount() > 0, "model has no parameters");
     std::lock_guard<std::mutex> lock(Mutex);
-    M = model;
+    HostModel = model;
     upload(model);
     HostStale = false;
     ++Version;
@@ -94,7 +94,7 @@ public:
   {
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
-    return M;
+    return HostModel;
   }
 
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override
@@ -103,7 +103,7 @@ public:
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked(); // the trainer starts from the current parameters
     // The trainer must not outlive the session (NetworkSession::createTrainer).
-    return gpu::createTrainer(M, volume, c, Options.kernels,
+    return gpu::createTrainer(HostModel, volume, c, Options.kernels,
       [this](const float* dParams, void* stream) { publish(dParams, static_cast<cudaStream_t>(stream)); });
   }
 
@@ -112,7 +112,7 @@ public:
     const TrainConfig c = trainerConfig(points, config, Options);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
-    return gpu::createTrainer(M, points, c, Options.kernels,
+    return gpu::createTrainer(HostModel, points, c, Options.kernels,
       [this](const float* dParams, void* stream) { publish(dParams, static_cast<cudaStream_t>(stream)); });
   }
 
@@ -124,12 +124,12 @@ public:
     std::lock_guard<std::mutex> lock(Mutex);
     if (where == Memory::Device)
     {
-      launchInference(Dm, xyz, 0, 0, 0, 0, 0, n, out, St.get());
-      St.sync();
+      launchInference(Network, xyz, 0, 0, 0, 0, 0, n, out, ComputeStream.get());
+      ComputeStream.sync();
       return;
     }
     pipeline(n, xyz, out, [&](int64_t b, int64_t m, const float* dIn, float* dOut) {
-      launchInference(Dm, dIn, 0, 0, 0, 0, 0, m, dOut, St.get());
+      launchInference(Network, dIn, 0, 0, 0, 0, 0, m, dOut, ComputeStream.get());
       (void)b;
     });
   }
@@ -147,12 +147,12 @@ public:
     std::lock_guard<std::mutex> lock(Mutex);
     if (where == Memory::Device)
     {
-      launchInference(Dm, nullptr, nx, ny, nz, z0, 0, n, out, St.get());
-      St.sync();
+      launchInference(Network, nullptr, nx, ny, nz, z0, 0, n, out, ComputeStream.get());
+      ComputeStream.sync();
       return;
     }
     pipeline(n, nullptr, out, [&](int64_t b, int64_t m, const float*, float* dOut) {
-      launchInference(Dm, nullptr, nx, ny, nz, z0, b, m, dOut, St.get());
+      launchInference(Network, nullptr, nx, ny, nz, z0, b, m, dOut, ComputeStream.get());
     });
   }
 
@@ -161,7 +161,7 @@ public:
     while (PublishWaiting.load() > 0) // a trained network is ready: let it in first
       std::this_thread::yield();
     std::lock_guard<std::mutex> lock(Mutex);
-    Renderer->render(M, Version, request, result, where);
+    Renderer->render(HostModel, Version, request, result, where);
   }
 
   bool workPending() const override { return false; }
@@ -169,23 +169,24 @@ public:
   int64_t deviceMemoryBytes() const override
   {
     std::lock_guard<std::mutex> lock(Mutex);
-    size_t b = Dm.bytes() + Dm.encScratch.bytes() + Params32.bytes() + Back.bytes() + BackParams.bytes();
+    size_t b = Network.bytes() + Network.encScratch.bytes() + Params32.bytes() + BackNetwork.bytes() +
+      BackNetworkParams.bytes();
     for (int k = 0; k < kSlots; ++k)
-      b += DIn[k].bytes() + DOut[k].bytes();
+      b += DeviceIn[k].bytes() + DeviceOut[k].bytes();
     return static_cast<int64_t>(b) + Renderer->deviceMemoryBytes();
   }
 
 private:
   void upload(const Model& model)
   {
-    St.sync();
-    Dm.options = Options.kernels;
-    allocateDeviceModel(model, Dm);
+    ComputeStream.sync();
+    Network.options = Options.kernels;
+    allocateDeviceModel(model, Network);
     Params32.allocate(model.paramCount(), "parameters");
     NV_CUDA(cudaMemcpyAsync(Params32.get(), model.params().data(), Params32.bytes(), cudaMemcpyHostToDevice,
-      St.get()));
-    packParams(Params32.get(), Dm, St.get());
-    St.sync();
+      ComputeStream.get()));
+    packParams(Params32.get(), Network, ComputeStream.get());
+    ComputeStream.sync();
   }
 
   /// Trainer::publish: the trainer's fp32 parameters become this session's. They are packed into the back copy of
@@ -197,24 +198,25 @@ private:
     std::lock_guard<std::mutex> one(PublishMutex); // one publish at a time
     {
       std::lock_guard<std::mutex> lock(Mutex);
-      if (Back.table16.size() != Dm.table16.size() || Back.w16.size() != Dm.w16.size() ||
-        BackParams.size() != Params32.size())
+      if (BackNetwork.table16.size() != Network.table16.size() || BackNetwork.w16.size() != Network.w16.size() ||
+        BackNetworkParams.size() != Params32.size())
       {
-        Back.options = Dm.options;
-        allocateDeviceModel(M, Back);
-        BackParams.allocate(Params32.size(), "parameters (back copy)");
+        BackNetwork.options = Network.options;
+        allocateDeviceModel(HostModel, BackNetwork);
+        BackNetworkParams.allocate(Params32.size(), "parameters (back copy)");
       }
     }
-    NV_CUDA(cudaMemcpyAsync(BackParams.get(), dParams, BackParams.bytes(), cudaMemcpyDeviceToDevice, stream));
-    packParams(BackParams.get(), Back, stream);
+    NV_CUDA(cudaMemcpyAsync(BackNetworkParams.get(), dParams, BackNetworkParams.bytes(), cudaMemcpyDeviceToDevice,
+      stream));
+    packParams(BackNetworkParams.get(), BackNetwork, stream);
     NV_CUDA(cudaStreamSynchronize(stream));
     ++PublishWaiting;
     {
       std::lock_guard<std::mutex> lock(Mutex);
-      std::swap(Dm.table16, Back.table16);
-      std::swap(Dm.w16, Back.w16);
-      std::swap(Dm.wout, Back.wout);
-      std::swap(Params32, BackParams);
+      std::swap(Network.table16, BackNetwork.table16);
+      std::swap(Network.w16, BackNetwork.w16);
+      std::swap(Network.wout, BackNetwork.wout);
+      std::swap(Params32, BackNetworkParams);
       HostStale = true;
       ++Version;
     }
@@ -225,8 +227,9 @@ private:
   {
     if (!HostStale)
       return;
-    NV_CUDA(cudaMemcpyAsync(M.params().data(), Params32.get(), Params32.bytes(), cudaMemcpyDeviceToHost, St.get()));
-    St.sync();
+    NV_CUDA(cudaMemcpyAsync(HostModel.params().data(), Params32.get(), Params32.bytes(), cudaMemcpyDeviceToHost,
+      ComputeStream.get()));
+    ComputeStream.sync();
     HostStale = false;
   }
 
@@ -238,15 +241,15 @@ private:
     const int64_t chunk = std::min(n, kChunk);
     for (int k = 0; k < kSlots; ++k)
     {
-      if (DOut[k].size() < size_t(chunk))
+      if (DeviceOut[k].size() < size_t(chunk))
       {
-        DOut[k].allocate(size_t(chunk), "inference outputs");
-        HOut[k].allocate(size_t(chunk));
+        DeviceOut[k].allocate(size_t(chunk), "inference outputs");
+        HostOut[k].allocate(size_t(chunk));
       }
-      if (in && DIn[k].size() < size_t(3 * chunk))
+      if (in && DeviceIn[k].size() < size_t(3 * chunk))
       {
-        DIn[k].allocate(size_t(3 * chunk), "inference points");
-        HIn[k].allocate(size_t(3 * chunk));
+        DeviceIn[k].allocate(size_t(3 * chunk), "inference points");
+        HostIn[k].allocate(size_t(3 * chunk));
       }
     }
     const int64_t chunks = (n + chunk - 1) / chunk;
@@ -257,7 +260,7 @@ private:
       const int slot = static_cast<int>(k % kSlots);
       NV_CUDA(cudaEventSynchronize(Done[slot].get()));
       const int64_t b = k * chunk, m = std::min(chunk, n - b);
-      parallelCopy(out + b, HOut[slot].get(), m);
+      parallelCopy(out + b, HostOut[slot].get(), m);
     };
     for (int64_t k = 0; k < chunks; ++k)
     {
@@ -265,16 +268,16 @@ private:
       const int64_t b = k * chunk, m = std::min(chunk, n - b);
       if (in)
       {
-        parallelCopy(HIn[slot].get(), in + 3 * b, 3 * m);
-        NV_CUDA(cudaMemcpyAsync(DIn[slot].get(), HIn[slot].get(), 3 * m * sizeof(float), cudaMemcpyHostToDevice,
-          St.get()));
+        parallelCopy(HostIn[slot].get(), in + 3 * b, 3 * m);
+        NV_CUDA(cudaMemcpyAsync(DeviceIn[slot].get(), HostIn[slot].get(), 3 * m * sizeof(float), cudaMemcpyHostToDevice,
+          ComputeStream.get()));
       }
-      launch(b, m, in ? DIn[slot].get() : nullptr, DOut[slot].get());
-      NV_CUDA(cudaEventRecord(Filled[slot].get(), St.get()));
-      NV_CUDA(cudaStreamWaitEvent(Copy.get(), Filled[slot].get(), 0));
-      NV_CUDA(cudaMemcpyAsync(HOut[slot].get(), DOut[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost,
-        Copy.get()));
-      NV_CUDA(cudaEventRecord(Done[slot].get(), Copy.get()));
+      launch(b, m, in ? DeviceIn[slot].get() : nullptr, DeviceOut[slot].get());
+      NV_CUDA(cudaEventRecord(Filled[slot].get(), ComputeStream.get()));
+      NV_CUDA(cudaStreamWaitEvent(CopyStream.get(), Filled[slot].get(), 0));
+      NV_CUDA(cudaMemcpyAsync(HostOut[slot].get(), DeviceOut[slot].get(), m * sizeof(float), cudaMemcpyDeviceToHost,
+        CopyStream.get()));
+      NV_CUDA(cudaEventRecord(Done[slot].get(), CopyStream.get()));
       if (k >= kSlots - 1)
         drain(k - (kSlots - 1));
     }
@@ -284,18 +287,18 @@ private:
 
   SessionOptions Options;
   mutable std::mutex Mutex;
-  Model M;
+  Model HostModel;
   bool HostStale = false;
   uint64_t Version = 1;
-  Stream St, Copy;
-  DeviceModel Dm;
+  Stream ComputeStream, CopyStream;
+  DeviceModel Network;
   DeviceBuffer<float> Params32;
-  DeviceModel Back;               ///< publish(): the next network, packed while renders use Dm
-  DeviceBuffer<float> BackParams;
+  DeviceModel BackNetwork;               ///< publish(): the next network, packed while renders use Network
+  DeviceBuffer<float> BackNetworkParams;
   std::mutex PublishMutex;
   std::atomic<int> PublishWaiting{ 0 };
-  DeviceBuffer<float> DIn[kSlots], DOut[kSlots];
-  PinnedBuffer<float> HIn[kSlots], HOut[kSlots];
+  DeviceBuffer<float> DeviceIn[kSlots], DeviceOut[kSlots];
+  PinnedBuffer<float> HostIn[kSlots], HostOut[kSlots];
   Event Filled[kSlots], Done[kSlots];
   ThreadPool Pool;
   std::unique_ptr<GpuRenderer> Renderer;

@@ -1,14 +1,16 @@
-// NeuralVolume engine: arguments of the GPU training kernels (GpuTrainWmma.cuh, GpuBackward.cuh).
+// NeuralVolume engine: arguments of the GPU training kernels (GpuTrainWmma.cuh, GpuTrainRegKernel.cuh).
 #pragma once
 
-#include "GpuStep.cuh"
+#include "GpuAdam.cuh"
+#include "GpuSampling.cuh"
+#include "GpuStepCounters.cuh"
 
 namespace nv
 {
 namespace gpu
 {
 
-/// Shared-memory plan of the register-resident training kernel (GpuBackward.cuh); warps == 0: not usable.
+/// Shared-memory plan of the register-resident training kernel (GpuTrainRegKernel.cuh); warps == 0: not usable.
 struct RegPlan
 {
   int warps;

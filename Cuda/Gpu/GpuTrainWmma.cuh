@@ -1,8 +1,8 @@
 // NeuralVolume engine: the general training kernel (any width up to 128, weights in shared memory or read through
 // L1). One block takes T = 16 * warps samples per tile: the forward pass per warp (GpuWarpForward.cuh, activations
 // staged in shared memory), loss, backward with WMMA m16n16k16, weight gradients into a per-block slot, and the
-// table-gradient scatter (or dEnc out for the level-major scatter). The register-resident kernel (GpuBackward.cuh)
-// replaces it where the shape allows.
+// table-gradient scatter (or dEnc out for the level-major scatter). The register-resident kernel
+// (GpuTrainRegKernel.cuh) replaces it where the shape allows.
 #pragma once
 
 #include "GpuTrainArgs.cuh"
@@ -32,9 +32,9 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
   const __half* wl[kMaxHidden];
   int ldw[kMaxHidden];
   stageWeights(s, p, smem, a.w16, a.wout, wl, ldw);
-  const int pad = s.Dp - s.D;
+  const int pad = s.paddedInputs - s.inputs;
   for (int i = threadIdx.x; i < T * pad; i += blockDim.x)
-    enc[(i / pad) * p.ldE + s.D + i % pad] = __float2half(0.0f);
+    enc[(i / pad) * p.ldE + s.inputs + i % pad] = __float2half(0.0f);
   __syncthreads();
   float* slot = a.slots + size_t(blockIdx.x) * s.total;
   const int row0 = warp * 16;
@@ -80,11 +80,11 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
     // Forward: each warp its 16 rows (the one forward pass); X_l and X_H staged for the backward pass.
     {
       const WarpNet net = p.wInSmem
-        ? WarpNet{ reinterpret_cast<const __half*>(smem + p.w), p.wOff, s.Dp + 8, W + 8, sw }
-        : WarpNet{ a.w16, s.off, s.Dp, W, sw };
+        ? WarpNet{ reinterpret_cast<const __half*>(smem + p.w), p.wOff, s.paddedInputs + 8, W + 8, sw }
+        : WarpNet{ a.w16, s.off, s.paddedInputs, W, sw };
       // X_l of layer l >= 1 is the output of layer l - 1: activation slot l - 1 (a.actOff[l] = (l - 1) * actStride).
       const StageActivations st{ acts + row0 * p.ldA, a.actOff, p.ldA,
-        acts + (s.H - 1) * actStride + row0 * p.ldA, p.ldA };
+        acts + (s.hiddenLayers - 1) * actStride + row0 * p.ldA, p.ldA };
       __half* rows = enc + row0 * p.ldE;
       WarpOut<W> fo;
       if constexpr (TwoPass)
@@ -112,7 +112,7 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
       }
     }
     __syncwarp();
-    const __half* AH = acts + (s.H - 1) * actStride;
+    const __half* AH = acts + (s.hiddenLayers - 1) * actStride;
     {
       const int t = row0 + (lane >> 1), h = lane & 1;
       const float o = sg[t];
@@ -151,11 +151,11 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
       float acc = 0.0f;
       for (int t = 0; t < T; ++t)
         acc += sg[t] * __half2float(AH[t * p.ldA + o]);
-      float* d = slot + s.off[s.H] + o;
+      float* d = slot + s.off[s.hiddenLayers] + o;
       *d = first ? acc : *d + acc;
     }
     int cur = 0;
-    for (int l = s.H - 1; l >= 0; --l)
+    for (int l = s.hiddenLayers - 1; l >= 0; --l)
     {
       __syncthreads();
       const __half* X = l == 0 ? enc : acts + (l - 1) * actStride;

@@ -1,8 +1,8 @@
 // NeuralVolume engine: training on the GPU. One step = sample the targets (GPU-resident volume) or upload the batch
-// the CPU threads sampled (host-sampled); the MLP training kernel -- register-resident mma.sync (GpuBackward.cuh)
+// the CPU threads sampled (host-sampled); the MLP training kernel -- register-resident mma.sync (GpuTrainRegKernel.cuh)
 // for widths up to 64, WMMA otherwise (GpuTrainWmma.cuh) -- which either encodes and scatters the table gradient
 // itself (small tables) or sits between a level-major encode pass and a level-major scatter pass (GpuLevels.cuh);
-// then one memory-bound Adam kernel for the table (fp16 gradient, 16-bit moments) and the MLP (GpuStep.cuh).
+// then one memory-bound Adam kernel for the table (fp16 gradient, 16-bit moments) and the MLP (GpuAdam.cuh).
 // Deterministic mode sums the gradients in fixed point (GpuFixedPoint.cuh), so a seed gives the same bits every run.
 // Trainer::steps queues many steps with one read-back of their losses.
 #include "Core/Config.h"
@@ -10,7 +10,7 @@
 #include "Cpu/CpuSampler.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
-#include "GpuBackward.cuh"
+#include "GpuTrainRegKernel.cuh"
 #include "GpuInternal.cuh"
 #include "GpuTrainWmma.cuh"
 
@@ -57,7 +57,7 @@ TrainFn pickTrain(int W, int F, bool two)
 
 constexpr int kRegWarps = 8;
 
-/// Register-resident kernel for W <= 64 (GpuBackward.cuh); null for other widths.
+/// Register-resident kernel for W <= 64 (GpuTrainRegKernel.cuh); null for other widths.
 TrainFn pickReg(int W, int F, bool two)
 {
 #define NV_CASE(w, f)                                                                              \
@@ -90,46 +90,47 @@ public:
   {
     validate(config);
     const size_t np = model.paramCount();
-    NEnc = model.encodingParamCount();
-    NMlp = np - NEnc;
-    allocateDeviceModel(model, Dm);
-    P.allocate(np, "parameters");
-    G.allocate(NEnc, "hash-table gradient");
-    MV.allocate(NEnc, "hash-table Adam moments");
-    M.allocate(NMlp, "MLP Adam first moments");
-    V.allocate(NMlp, "MLP Adam second moments");
-    GradPad.allocate(Dm.shape.total, "MLP gradient");
+    EncodingParamCount = model.encodingParamCount();
+    MlpParamCount = np - EncodingParamCount;
+    allocateDeviceModel(model, Network);
+    Params.allocate(np, "parameters");
+    TableGrad.allocate(EncodingParamCount, "hash-table gradient");
+    TableMoments.allocate(EncodingParamCount, "hash-table Adam moments");
+    MlpFirstMoment.allocate(MlpParamCount, "MLP Adam first moments");
+    MlpSecondMoment.allocate(MlpParamCount, "MLP Adam second moments");
+    GradPad.allocate(Network.shape.total, "MLP gradient");
     if (config.deterministic)
     {
-      GFix.allocate(NEnc, "fixed-point hash-table gradient (deterministic training)");
-      MFix.allocate(Dm.shape.total, "fixed-point MLP gradient (deterministic training)");
-      NV_CUDA(cudaMemsetAsync(GFix.get(), 0, GFix.bytes(), St.get()));
-      NV_CUDA(cudaMemsetAsync(MFix.get(), 0, MFix.bytes(), St.get()));
+      FixedTableGrad.allocate(EncodingParamCount, "fixed-point hash-table gradient (deterministic training)");
+      FixedMlpGrad.allocate(Network.shape.total, "fixed-point MLP gradient (deterministic training)");
+      NV_CUDA(cudaMemsetAsync(FixedTableGrad.get(), 0, FixedTableGrad.bytes(), ComputeStream.get()));
+      NV_CUDA(cudaMemsetAsync(FixedMlpGrad.get(), 0, FixedMlpGrad.bytes(), ComputeStream.get()));
     }
     const int64_t B = config.batchSize;
     Targets.allocate(B, "targets");
-    Dm.options = options;
-    if (trainTwoPass(options, Dm.table16.bytes(), B))
+    Network.options = options;
+    if (trainTwoPass(options, Network.table16.bytes(), B))
     {
-      const int64_t D = int64_t(Dm.grid.levels) * Dm.grid.features;
+      const int64_t D = int64_t(Network.grid.levels) * Network.grid.features;
       EncG.allocate(size_t(B * D), "encodings");
       DEncG.allocate(size_t(B * D), "encoding gradients");
     }
-    Cnt.allocate(kSlots, "step counters");
-    NV_CUDA(cudaMemsetAsync(Cnt.get(), 0, Cnt.bytes(), St.get()));
-    HCnt.allocate(kSlots);
+    StepCounters.allocate(kSlots, "step counters");
+    NV_CUDA(cudaMemsetAsync(StepCounters.get(), 0, StepCounters.bytes(), ComputeStream.get()));
+    HostStepCounters.allocate(kSlots);
     const bool two = EncG.get() != nullptr;
     chooseKernel(two, B);
-    NV_CUDA(cudaMemcpyAsync(P.get(), model.params().data(), np * sizeof(float), cudaMemcpyHostToDevice, St.get()));
-    NV_CUDA(cudaMemsetAsync(G.get(), 0, G.bytes(), St.get()));
-    NV_CUDA(cudaMemsetAsync(MV.get(), 0, MV.bytes(), St.get()));
-    NV_CUDA(cudaMemsetAsync(M.get(), 0, M.bytes(), St.get()));
-    NV_CUDA(cudaMemsetAsync(V.get(), 0, V.bytes(), St.get()));
-    NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), St.get()));
-    packParams(P.get(), Dm, St.get());
-    St.sync();
+    NV_CUDA(cudaMemcpyAsync(Params.get(), model.params().data(), np * sizeof(float), cudaMemcpyHostToDevice,
+      ComputeStream.get()));
+    NV_CUDA(cudaMemsetAsync(TableGrad.get(), 0, TableGrad.bytes(), ComputeStream.get()));
+    NV_CUDA(cudaMemsetAsync(TableMoments.get(), 0, TableMoments.bytes(), ComputeStream.get()));
+    NV_CUDA(cudaMemsetAsync(MlpFirstMoment.get(), 0, MlpFirstMoment.bytes(), ComputeStream.get()));
+    NV_CUDA(cudaMemsetAsync(MlpSecondMoment.get(), 0, MlpSecondMoment.bytes(), ComputeStream.get()));
+    NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), ComputeStream.get()));
+    packParams(Params.get(), Network, ComputeStream.get());
+    ComputeStream.sync();
     if (Reg.warps > 0)
-      Dm.table16.release(); // the register-resident kernel encodes from the fp32 parameters
+      Network.table16.release(); // the register-resident kernel encodes from the fp32 parameters
 
     if (points.count > 0)
     {
@@ -138,9 +139,10 @@ public:
       BankXyz.allocate(size_t(3 * points.count), "bank of training points (positions)");
       BankValues.allocate(size_t(points.count), "bank of training points (values)");
       Xyz.allocate(size_t(3 * B), "training batch positions");
-      NV_CUDA(cudaMemcpyAsync(BankXyz.get(), points.xyz, BankXyz.bytes(), cudaMemcpyHostToDevice, St.get()));
-      NV_CUDA(cudaMemcpyAsync(BankValues.get(), points.values, BankValues.bytes(), cudaMemcpyHostToDevice, St.get()));
-      St.sync();
+      NV_CUDA(cudaMemcpyAsync(BankXyz.get(), points.xyz, BankXyz.bytes(), cudaMemcpyHostToDevice, ComputeStream.get()));
+      NV_CUDA(cudaMemcpyAsync(BankValues.get(), points.values, BankValues.bytes(), cudaMemcpyHostToDevice,
+        ComputeStream.get()));
+      ComputeStream.sync();
       return;
     }
     Strategy = config.strategy;
@@ -156,17 +158,17 @@ public:
     if (Strategy == TrainingStrategy::GpuResident)
     {
       Vol.allocate(static_cast<size_t>(volume.bytes()), "source volume");
-      NV_CUDA(cudaMemcpyAsync(Vol.get(), volume.data, Vol.bytes(), cudaMemcpyHostToDevice, St.get()));
+      NV_CUDA(cudaMemcpyAsync(Vol.get(), volume.data, Vol.bytes(), cudaMemcpyHostToDevice, ComputeStream.get()));
       if (config.importanceGrid > 0)
       {
         // Error-guided sampling (GpuImportance.cuh): sampleKernel writes the positions; the probes read the fp16
         // table, refreshed before each (the register-resident kernel does not keep it).
-        Imp.allocate(config.importanceGrid, B, St.get());
+        Importance.allocate(config.importanceGrid, B, ComputeStream.get());
         Xyz.allocate(size_t(3 * B), "training batch positions");
-        if (Dm.table16.size() == 0)
-          Dm.table16.allocate(NEnc, "fp16 hash table (importance probes)");
+        if (Network.table16.size() == 0)
+          Network.table16.allocate(EncodingParamCount, "fp16 hash table (importance probes)");
       }
-      St.sync();
+      ComputeStream.sync();
     }
     else
     {
@@ -189,7 +191,7 @@ public:
       {
       }
     }
-    cudaStreamSynchronize(St.get());
+    cudaStreamSynchronize(ComputeStream.get());
   }
 
   float step() override
@@ -205,7 +207,7 @@ public:
   void steps(int64_t count, float* losses) override
   {
     const int64_t B = Train.batchSize;
-    cudaStream_t st = St.get();
+    cudaStream_t st = ComputeStream.get();
     for (int64_t done = 0; done < count;)
     {
       const int64_t m = Strategy == TrainingStrategy::GpuResident ? std::min<int64_t>(count - done, kSlots - 1) : 1;
@@ -229,18 +231,18 @@ public:
           NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
           Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
         }
-        launchTrain(Points.count > 0 || Imp.enabled() ? Xyz.get() : nullptr, B, s);
+        launchTrain(Points.count > 0 || Importance.enabled() ? Xyz.get() : nullptr, B, s);
         launchAdam(s);
-        if (Imp.enabled() && s % kImportanceInterval == 0)
+        if (Importance.enabled() && s % kImportanceInterval == 0)
           launchImportance();
       }
       forSlots(s0, m, [&](Counters* d, Counters* h, size_t k) {
         NV_CUDA(cudaMemcpyAsync(h, d, k * sizeof(Counters), cudaMemcpyDeviceToHost, st));
       });
-      St.sync();
+      ComputeStream.sync();
       for (int64_t s = s0; s < s0 + m; ++s)
       {
-        const Counters& c = HCnt.get()[s % kSlots];
+        const Counters& c = HostStepCounters.get()[s % kSlots];
         const float loss = c.nValid > 0 ? static_cast<float>(c.lossSum / c.nValid) : 0.0f;
         if (losses)
           losses[done + (s - s0)] = loss;
@@ -267,23 +269,24 @@ public:
 
   void syncTo(Model& model) const override
   {
-    NV_CHECK(model.paramCount() == NEnc + NMlp, "syncTo: model has a different configuration");
-    St.sync();
-    NV_CUDA(cudaMemcpy(model.params().data(), P.get(), P.bytes(), cudaMemcpyDeviceToHost));
+    NV_CHECK(model.paramCount() == EncodingParamCount + MlpParamCount, "syncTo: model has a different configuration");
+    ComputeStream.sync();
+    NV_CUDA(cudaMemcpy(model.params().data(), Params.get(), Params.bytes(), cudaMemcpyDeviceToHost));
   }
 
   /// The session packs the fp32 parameters into its own fp16 copy, on this trainer's stream, and waits for it.
   void publish() override
   {
     NV_CHECK(Publish != nullptr, "this trainer has no session to publish to");
-    Publish(P.get(), St.get());
+    Publish(Params.get(), ComputeStream.get());
   }
 
   int64_t deviceMemoryBytes() const override
   {
-    return static_cast<int64_t>(Dm.bytes() + P.bytes() + G.bytes() + MV.bytes() + M.bytes() + V.bytes() + GradPad.bytes() +
-      Slots.bytes() + Targets.bytes() + Vol.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + Cnt.bytes() + EncG.bytes() + DEncG.bytes() +
-      GFix.bytes() + MFix.bytes() + Imp.bytes());
+    return static_cast<int64_t>(Network.bytes() + Params.bytes() + TableGrad.bytes() + TableMoments.bytes() +
+      MlpFirstMoment.bytes() + MlpSecondMoment.bytes() + GradPad.bytes() + Slots.bytes() + Targets.bytes() +
+      Vol.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + StepCounters.bytes() + EncG.bytes() +
+      DEncG.bytes() + FixedTableGrad.bytes() + FixedMlpGrad.bytes() + Importance.bytes());
   }
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
@@ -292,8 +295,8 @@ public:
     NV_CHECK(n >= 1 && n <= Train.batchSize, "lossAndGradient: 1..batch size samples");
     if (Next.valid())
       Next.wait(); // host-sampled: the next batch's preparation does not touch the buffers used here
-    cudaStream_t st = St.get();
-    St.sync();
+    cudaStream_t st = ComputeStream.get();
+    ComputeStream.sync();
     DeviceBuffer<float> points;
     points.allocate(size_t(3 * n), "points");
     std::vector<float> t(n);
@@ -309,29 +312,29 @@ public:
     NV_CUDA(cudaMemcpyAsync(Targets.get(), t.data(), n * sizeof(float), cudaMemcpyHostToDevice, st));
     NV_CUDA(cudaMemcpyAsync(slot(1), &c, sizeof(c), cudaMemcpyHostToDevice, st));
     launchTrain(points.get(), n, 1);
-    std::vector<__half> gt(NEnc);
-    std::vector<float> gp(Dm.shape.total);
-    NV_CUDA(cudaMemcpyAsync(gt.data(), G.get(), G.bytes(), cudaMemcpyDeviceToHost, st));
+    std::vector<__half> gt(EncodingParamCount);
+    std::vector<float> gp(Network.shape.total);
+    NV_CUDA(cudaMemcpyAsync(gt.data(), TableGrad.get(), TableGrad.bytes(), cudaMemcpyDeviceToHost, st));
     NV_CUDA(cudaMemcpyAsync(gp.data(), GradPad.get(), GradPad.bytes(), cudaMemcpyDeviceToHost, st));
     NV_CUDA(cudaMemcpyAsync(&c, slot(1), sizeof(c), cudaMemcpyDeviceToHost, st));
-    NV_CUDA(cudaMemsetAsync(G.get(), 0, G.bytes(), st));
+    NV_CUDA(cudaMemsetAsync(TableGrad.get(), 0, TableGrad.bytes(), st));
     NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), st));
-    St.sync();
+    ComputeStream.sync();
     const float scale = 1.0f / static_cast<float>(std::max(nValid, 1));
-    grad.assign(NEnc + NMlp, 0.0f);
-    for (size_t i = 0; i < NEnc; ++i)
+    grad.assign(EncodingParamCount + MlpParamCount, 0.0f);
+    for (size_t i = 0; i < EncodingParamCount; ++i)
       grad[i] = __half2float(gt[i]) * scale;
-    const MlpShape& s = Dm.shape;
-    size_t j = NEnc;
-    for (int l = 0; l < s.H; ++l)
+    const MlpShape& s = Network.shape;
+    size_t j = EncodingParamCount;
+    for (int l = 0; l < s.hiddenLayers; ++l)
     {
-      const int K = l == 0 ? s.D : s.W;
-      for (int o = 0; o < s.W; ++o)
+      const int K = l == 0 ? s.inputs : s.width;
+      for (int o = 0; o < s.width; ++o)
         for (int i = 0; i < K; ++i)
           grad[j++] = gp[s.off[l] + o * s.inDim(l) + i] * scale;
     }
-    for (int i = 0; i < s.W; ++i)
-      grad[j++] = gp[s.off[s.H] + i] * scale;
+    for (int i = 0; i < s.width; ++i)
+      grad[j++] = gp[s.off[s.hiddenLayers] + i] * scale;
     return nValid > 0 ? static_cast<float>(c.lossSum / nValid) : 0.0f;
   }
 
@@ -366,7 +369,7 @@ private:
   void launchGather(int64_t s)
   {
     const int64_t B = Train.batchSize;
-    gatherKernel<<<gridFor(B), 256, 0, St.get()>>>(BankXyz.get(), BankValues.get(), Points.count, Train.seed,
+    gatherKernel<<<gridFor(B), 256, 0, ComputeStream.get()>>>(BankXyz.get(), BankValues.get(), Points.count, Train.seed,
       static_cast<uint64_t>(s), B, Xyz.get(), Targets.get(), slot(s));
     NV_CUDA_LAUNCH();
   }
@@ -377,8 +380,9 @@ private:
     const ValueRange range(Volume.valueMin, Volume.valueMax); // (v - min) / (max - min), safe when max - min overflows
     const int blocks = gridFor(B);
     const int64_t* d = Volume.dims;
-    cudaStream_t st = St.get();
-    const ImportanceDraw draw{ Imp.enabled() ? Imp.cdf.get() : nullptr, Imp.cells, Imp.invCells, Xyz.get() };
+    cudaStream_t st = ComputeStream.get();
+    const ImportanceDraw draw{ Importance.enabled() ? Importance.cdf.get() : nullptr, Importance.cells,
+      Importance.invCells, Xyz.get() };
     switch (Volume.type)
     {
 #define NV_SAMPLE(E, T)                                                                            \
@@ -405,15 +409,15 @@ private:
   void launchImportance()
   {
     const int64_t B = Train.batchSize;
-    cudaStream_t st = St.get();
+    cudaStream_t st = ComputeStream.get();
     if (Reg.warps > 0)
-      packParams(P.get(), Dm, st); // the fp16 table the forward kernel reads
-    launchForward(Dm, Xyz.get(), 0, 0, 0, 0, 0, B, Imp.out.get(), st);
-    importanceMeasureKernel<<<gridFor(B), 256, 0, st>>>(Xyz.get(), Imp.out.get(), Targets.get(), B, Imp.cells,
-      Imp.sums.get(), Imp.counts.get());
+      packParams(Params.get(), Network, st); // the fp16 table the forward kernel reads
+    launchForward(Network, Xyz.get(), 0, 0, 0, 0, 0, B, Importance.out.get(), st);
+    importanceMeasureKernel<<<gridFor(B), 256, 0, st>>>(Xyz.get(), Importance.out.get(), Targets.get(), B,
+      Importance.cells, Importance.sums.get(), Importance.counts.get());
     NV_CUDA_LAUNCH();
-    importanceRefreshKernel<<<1, kRefreshThreads, 0, st>>>(Imp.weights.get(), Imp.sums.get(), Imp.counts.get(),
-      Imp.cdf.get(), static_cast<int>(Imp.weights.size()));
+    importanceRefreshKernel<<<1, kRefreshThreads, 0, st>>>(Importance.weights.get(), Importance.sums.get(),
+      Importance.counts.get(), Importance.cdf.get(), static_cast<int>(Importance.weights.size()));
     NV_CUDA_LAUNCH();
   }
 
@@ -422,14 +426,14 @@ private:
   {
     const int limit = sharedMemoryLimit(Options);
     const int maxSmem = limit - 1024; // static shared memory of the kernel
-    Reg = makeRegPlan(Dm.shape, kRegWarps, !two);
-    Fn = Options.trainRegisterResident && Reg.warps > 0 && Reg.total <= maxSmem
-      ? pickReg(Dm.shape.W, Dm.grid.features, two)
+    Reg = makeRegPlan(Network.shape, kRegWarps, !two);
+    TrainKernel = Options.trainRegisterResident && Reg.warps > 0 && Reg.total <= maxSmem
+      ? pickReg(Network.shape.width, Network.grid.features, two)
       : nullptr;
     int perSm = 0;
-    if (Fn)
+    if (TrainKernel)
     {
-      const void* fp = reinterpret_cast<const void*>(Fn);
+      const void* fp = reinterpret_cast<const void*>(TrainKernel);
       NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, Reg.total));
       NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, kRegWarps * 32, Reg.total));
       if (perSm >= 1)
@@ -440,11 +444,11 @@ private:
       }
     }
     Reg = RegPlan{};
-    Fn = pickTrain(Dm.shape.W, Dm.grid.features, two);
-    Plan = choosePlan(Dm.shape, true, reinterpret_cast<const void*>(Fn), limit, &perSm);
+    TrainKernel = pickTrain(Network.shape.width, Network.grid.features, two);
+    Plan = choosePlan(Network.shape, true, reinterpret_cast<const void*>(TrainKernel), limit, &perSm);
     const int64_t tiles = (B + Plan.T - 1) / Plan.T;
     Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
-    Slots.allocate(size_t(Blocks) * Dm.shape.total, "per-block MLP gradients");
+    Slots.allocate(size_t(Blocks) * Network.shape.total, "per-block MLP gradients");
   }
 
   AdamArgs adamArgs(int64_t s) const
@@ -470,23 +474,24 @@ private:
   /// kernel, level-major scatter of the table gradient.
   void launchTrain(const float* xyz, int64_t n, int64_t s)
   {
-    cudaStream_t st = St.get();
+    cudaStream_t st = ComputeStream.get();
     TrainArgs a{};
-    a.grid = Dm.grid;
-    a.shape = Dm.shape;
+    a.grid = Network.grid;
+    a.shape = Network.shape;
     a.plan = Plan;
-    for (int l = 1; l < Dm.shape.H; ++l)
+    for (int l = 1; l < Network.shape.hiddenLayers; ++l)
       a.actOff[l] = (l - 1) * Plan.T * Plan.ldA;
     a.reg = Reg;
-    a.table16 = Dm.table16.get();
-    a.table32 = P.get();
-    a.w16 = Dm.w16.get();
-    a.wout = P.get() + NEnc + (NMlp - Dm.shape.W); // fp32 output row (last MLP layer)
-    a.gradTable = G.get();
+    a.table16 = Network.table16.get();
+    a.table32 = Params.get();
+    a.w16 = Network.w16.get();
+    // fp32 output row (last MLP layer)
+    a.wout = Params.get() + EncodingParamCount + (MlpParamCount - Network.shape.width);
+    a.gradTable = TableGrad.get();
     a.slots = Slots.get();
     a.gradPad = GradPad.get();
-    a.fixedTable = GFix.get();
-    a.fixedMlp = MFix.get();
+    a.fixedTable = FixedTableGrad.get();
+    a.fixedMlp = FixedMlpGrad.get();
     a.xyz = xyz;
     a.seed = Train.seed;
     a.step = static_cast<uint64_t>(s);
@@ -513,9 +518,9 @@ private:
       smem = Plan.total;
     }
     FwdArgs f{};
-    f.grid = Dm.grid;
-    f.table16 = Dm.table16.get();
-    f.table32 = Reg.warps > 0 ? P.get() : nullptr;
+    f.grid = Network.grid;
+    f.table16 = Network.table16.get();
+    f.table32 = Reg.warps > 0 ? Params.get() : nullptr;
     f.xyz = xyz;
     f.random = xyz ? 0 : 1;
     f.seed = Train.seed;
@@ -523,9 +528,9 @@ private:
     f.n = n;
     if (EncG.get())
     {
-      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
+      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Network.grid.levels));
       const bool fp32 = f.table32 != nullptr;
-      switch (Dm.grid.features)
+      switch (Network.grid.features)
       {
         case 1: (fp32 ? encodeLevelsKernel<1, float> : encodeLevelsKernel<1>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
         case 2: (fp32 ? encodeLevelsKernel<2, float> : encodeLevelsKernel<2>)<<<lg, 256, 0, st>>>(f, EncG.get()); break;
@@ -534,20 +539,20 @@ private:
       }
       NV_CUDA_LAUNCH();
     }
-    Fn<<<blocks, threads, smem, st>>>(a);
+    TrainKernel<<<blocks, threads, smem, st>>>(a);
     NV_CUDA_LAUNCH();
     if (EncG.get())
     {
-      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Dm.grid.levels));
-      if (GFix.get())
-        launchScatter(lg, f, GFix.get());
+      const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Network.grid.levels));
+      if (FixedTableGrad.get())
+        launchScatter(lg, f, FixedTableGrad.get());
       else
-        launchScatter(lg, f, G.get());
+        launchScatter(lg, f, TableGrad.get());
     }
-    if (GFix.get())
+    if (FixedTableGrad.get())
     {
-      fixedGradientKernel<<<gridFor(int64_t(NEnc)), 256, 0, st>>>(GFix.get(), G.get(), int64_t(NEnc), MFix.get(),
-        GradPad.get(), int64_t(Dm.shape.total), slot(s));
+      fixedGradientKernel<<<gridFor(int64_t(EncodingParamCount)), 256, 0, st>>>(FixedTableGrad.get(), TableGrad.get(),
+        int64_t(EncodingParamCount), FixedMlpGrad.get(), GradPad.get(), int64_t(Network.shape.total), slot(s));
       NV_CUDA_LAUNCH();
     }
   }
@@ -556,8 +561,8 @@ private:
   template <typename Grad>
   void launchScatter(dim3 lg, const FwdArgs& f, Grad* grad)
   {
-    cudaStream_t st = St.get();
-    switch (Dm.grid.features)
+    cudaStream_t st = ComputeStream.get();
+    switch (Network.grid.features)
     {
       case 1: scatterLevelsKernel<1, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
       case 2: scatterLevelsKernel<2, Grad><<<lg, 256, 0, st>>>(f, DEncG.get(), grad); break;
@@ -571,36 +576,37 @@ private:
   void launchAdam(int64_t s)
   {
     const AdamArgs a = adamArgs(s);
-    const int64_t n = static_cast<int64_t>(NEnc);
+    const int64_t n = static_cast<int64_t>(EncodingParamCount);
     MlpAdam q;
-    q.p = P.get() + NEnc;
-    q.m = M.get();
-    q.v = V.get();
+    q.p = Params.get() + EncodingParamCount;
+    q.m = MlpFirstMoment.get();
+    q.v = MlpSecondMoment.get();
     q.gradPad = GradPad.get();
-    q.w16 = Dm.w16.get();
-    q.wout = Dm.wout.get();
-    q.s = Dm.shape;
-    q.count = static_cast<int64_t>(NMlp);
+    q.w16 = Network.w16.get();
+    q.wout = Network.wout.get();
+    q.s = Network.shape;
+    q.count = static_cast<int64_t>(MlpParamCount);
     const int64_t work = std::max<int64_t>(n / 4, q.count);
     const int blocks = static_cast<int>(
       std::max<int64_t>(1, std::min<int64_t>((work + 255) / 256, int64_t(deviceInfo().sms) * 8)));
-    __half* p16 = Reg.warps > 0 ? nullptr : Dm.table16.get(); // importance probes refresh their own copy
-    adamKernel<<<blocks, 256, 0, St.get()>>>(P.get(), G.get(), MV.get(), p16, n, q, a, slot(s));
+    __half* p16 = Reg.warps > 0 ? nullptr : Network.table16.get(); // importance probes refresh their own copy
+    adamKernel<<<blocks, 256, 0, ComputeStream.get()>>>(Params.get(), TableGrad.get(), TableMoments.get(), p16, n, q, a,
+      slot(s));
     NV_CUDA_LAUNCH();
   }
 
   static constexpr int64_t kSlots = 256; ///< counters ring: one slot per queued step
 
-  Counters* slot(int64_t s) const { return Cnt.get() + s % kSlots; }
+  Counters* slot(int64_t s) const { return StepCounters.get() + s % kSlots; }
 
   /// f(device, host, count) for the ring slots of steps [s0, s0 + m) (two calls when they wrap).
-  template <typename Fn>
-  void forSlots(int64_t s0, int64_t m, Fn f)
+  template <typename TrainKernel>
+  void forSlots(int64_t s0, int64_t m, TrainKernel f)
   {
     const int64_t a = s0 % kSlots, first = std::min(m, kSlots - a);
-    f(Cnt.get() + a, HCnt.get() + a, static_cast<size_t>(first));
+    f(StepCounters.get() + a, HostStepCounters.get() + a, static_cast<size_t>(first));
     if (m > first)
-      f(Cnt.get(), HCnt.get(), static_cast<size_t>(m - first));
+      f(StepCounters.get(), HostStepCounters.get(), static_cast<size_t>(m - first));
   }
 
   ModelConfig Config;
@@ -610,25 +616,25 @@ private:
   KernelOptions Options;
   PublishFn Publish;
   TrainingStrategy Strategy = TrainingStrategy::GpuResident;
-  size_t NEnc = 0, NMlp = 0;
-  mutable Stream St;
-  DeviceModel Dm;
-  DeviceBuffer<float> P, M, V, GradPad, Slots, Targets, Xyz, DEncG, BankXyz, BankValues;
-  DeviceBuffer<__half> G, EncG;
-  DeviceBuffer<uint32_t> MV;
-  DeviceBuffer<Fixed> GFix, MFix; ///< deterministic mode only (GpuFixedPoint.cuh)
+  size_t EncodingParamCount = 0, MlpParamCount = 0;
+  mutable Stream ComputeStream;
+  DeviceModel Network;
+  DeviceBuffer<float> Params, MlpFirstMoment, MlpSecondMoment, GradPad, Slots, Targets, Xyz, DEncG, BankXyz, BankValues;
+  DeviceBuffer<__half> TableGrad, EncG;
+  DeviceBuffer<uint32_t> TableMoments;
+  DeviceBuffer<Fixed> FixedTableGrad, FixedMlpGrad; ///< deterministic mode only (GpuFixedPoint.cuh)
   DeviceBuffer<unsigned char> Vol;
-  DeviceBuffer<Counters> Cnt;
+  DeviceBuffer<Counters> StepCounters;
   PlateauSchedule Plateau{ Train.optimizer }; ///< loss-driven decay (OptimizerConfig::plateauWindow)
-  GpuImportanceGrid Imp; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
-  PinnedBuffer<Counters> HCnt;
+  GpuImportanceGrid Importance; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
+  PinnedBuffer<Counters> HostStepCounters;
   PinnedBuffer<float> HTargets[2];
   int HCounts[2] = { 0, 0 };
   std::unique_ptr<ThreadPool> Pool;
   std::future<int64_t> Next;
   SmemPlan Plan{};
   RegPlan Reg{};
-  TrainFn Fn = nullptr;
+  TrainFn TrainKernel = nullptr;
   int Blocks = 1;
   int64_t Steps = 0;
 };

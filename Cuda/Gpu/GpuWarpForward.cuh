@@ -276,14 +276,14 @@ __device__ __forceinline__ void warpForward(const GridLayout& grid, const MlpSha
     C[j].zero();
   {
     const __half* ap = enc + (lane & 15) * ldE + (lane >> 4) * 8;
-    for (int kc = 0; kc < s.Dp / 16; ++kc)
+    for (int kc = 0; kc < s.paddedInputs / 16; ++kc)
     {
       uint32_t A[4];
       ldsm4(A, ap + kc * 16);
       mmaChunk<W, HalfAcc, Weights>(C, A, net.base + net.off[0], net.ld0, kc * 16, lane);
     }
   }
-  for (int l = 1; l < s.H; ++l)
+  for (int l = 1; l < s.hiddenLayers; ++l)
   {
     uint32_t A[W / 16][4];
 #pragma unroll

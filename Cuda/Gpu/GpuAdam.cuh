@@ -1,13 +1,9 @@
-// NeuralVolume engine: step counters, target sampling (GPU-resident volume) and the Adam kernels of the GPU
-// trainer (hash table: one memory-bound pass that also writes the fp16 copy and zeroes the gradient; MLP:
-// unpadded parameters from the padded gradient).
+// NeuralVolume engine: the Adam kernels of the GPU trainer (hash table: one memory-bound pass that also writes the
+// fp16 copy and zeroes the gradient; MLP: unpadded parameters from the padded gradient), and the deterministic
+// mode's conversion of the fixed-point gradient sums that Adam then reads.
 #pragma once
 
-#include "Core/TrainingPoints.h"
-#include "Core/ValueRange.h"
-#include "Cpu/CpuSampler.h"
-#include "GpuImportance.cuh"
-#include "GpuNetwork.cuh"
+#include "GpuStepCounters.cuh"
 
 namespace nv
 {
@@ -15,92 +11,6 @@ namespace gpu
 {
 namespace
 {
-
-/// Per-step counters, zeroed before each step: loss sum, valid samples, and the work ticket / per-level done
-/// counts of the fused scatter + Adam kernel (GpuScatterAdam.cuh).
-struct Counters
-{
-  double lossSum;
-  int nValid;
-  int ticket;
-  float gradScale; ///< loss-gradient scale of the step (set by the training kernel, read by Adam)
-  int done[kMaxLevels];
-  Fixed lossFixed; ///< deterministic mode: the finite part of the loss sum (kLossFixedScale); non-finite parts go
-                   ///< to lossSum, and fixedGradientKernel makes lossSum the total
-};
-
-/// Loss-gradient scale of a step from the previous step's counters. The table gradient is accumulated in fp16 (and
-/// dZ is fp16): with L2 the raw gradient 2 (o - t) shrinks with the residual until its contributions leave fp16's
-/// normal range, so it is multiplied by the power of two at or below 1 / (2 rms residual) of the previous step
-/// (1..4096), the scale of the L1 gradient (+-1); Adam divides it out. L1: 1. Computed on the device, so queued
-/// steps need no host round trip.
-__device__ __forceinline__ float lossGradScale(const Counters* prev, int l1)
-{
-  if (l1 || !prev || prev->nValid <= 0 || !(prev->lossSum > 0.0))
-    return 1.0f;
-  const float k = 0.5f * rsqrtf(static_cast<float>(prev->lossSum / prev->nValid));
-  return exp2f(fminf(12.0f, fmaxf(0.0f, floorf(log2f(k)))));
-}
-
-/// Adds a thread's count of valid targets to the step's counter (one atomic per warp).
-__device__ __forceinline__ void addValid(int local, Counters* counters)
-{
-  for (int o = 16; o > 0; o >>= 1)
-    local += __shfl_xor_sync(0xffffffffu, local, o);
-  if ((threadIdx.x & 31) == 0 && local)
-    atomicAdd(&counters->nValid, local);
-}
-
-/// Targets of step `step` at randomPoint's uniform points, or (imp.cdf set) at the importance draw's points, whose
-/// positions then go to imp.xyz for the training kernel.
-template <typename T>
-__global__ void sampleKernel(const T* __restrict__ vol, int64_t d0, int64_t d1, int64_t d2, ValueRange range,
-  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ targets, Counters* counters, ImportanceDraw imp)
-{
-  const int64_t dims[3] = { d0, d1, d2 };
-  int local = 0;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-  {
-    float x[3];
-    if (imp.cdf)
-    {
-      importancePoint(imp.cdf, imp.cells, imp.invCells, seed, step, static_cast<uint64_t>(i), x);
-      imp.xyz[3 * i] = x[0];
-      imp.xyz[3 * i + 1] = x[1];
-      imp.xyz[3 * i + 2] = x[2];
-    }
-    else
-    {
-      randomPoint(seed, step, static_cast<uint64_t>(i), x);
-    }
-    auto get = [&](int64_t k) { return static_cast<float>(range.normalize(static_cast<double>(vol[k]))); };
-    float t = 0.0f;
-    const bool ok = sampleTrilinear(get, dims, 0.0f, 1.0f, x, t);
-    targets[i] = ok ? t : __int_as_float(0x7fc00000);
-    local += ok ? 1 : 0;
-  }
-  addValid(local, counters);
-}
-
-/// A bank of training points: sample i of the step is bank point randomBankIndex(...) (the CPU trainer's draw);
-/// positions into xyz, values into targets (NaN stays NaN: not trained on).
-__global__ void gatherKernel(const float* __restrict__ bankXyz, const float* __restrict__ bankValues, int64_t count,
-  uint64_t seed, uint64_t step, int64_t n, float* __restrict__ xyz, float* __restrict__ targets, Counters* counters)
-{
-  int local = 0;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-  {
-    const int64_t k = randomBankIndex(seed, step, static_cast<uint64_t>(i), count);
-    xyz[3 * i] = bankXyz[3 * k];
-    xyz[3 * i + 1] = bankXyz[3 * k + 1];
-    xyz[3 * i + 2] = bankXyz[3 * k + 2];
-    const float t = bankValues[k];
-    const bool ok = finiteValue(t);
-    targets[i] = ok ? t : __int_as_float(0x7fc00000);
-    local += ok ? 1 : 0;
-  }
-  addValid(local, counters);
-}
 
 struct AdamArgs
 {
@@ -203,7 +113,7 @@ __device__ __forceinline__ void adamMlpOne(const MlpAdam& q, int64_t j, float sc
   q.m[j] = mj;
   q.v[j] = vj;
   q.gradPad[pi] = 0.0f;
-  if (m.layer == q.s.H)
+  if (m.layer == q.s.hiddenLayers)
     q.wout[m.column] = pj;
   else
     q.w16[pi] = __float2half_rn(pj);
