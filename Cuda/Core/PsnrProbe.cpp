@@ -11,7 +11,7 @@
 namespace nv
 {
 
-double PsnrFromMse(double mse)
+double psnrFromMse(double mse)
 {
   return mse > 0.0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity();
 }
@@ -65,7 +65,7 @@ PsnrProbe::PsnrProbe(const std::vector<float>& xyz, const std::vector<float>& va
   }
 }
 
-double PsnrProbe::Estimate(NetworkSession& session) const
+double PsnrProbe::estimate(NetworkSession& session) const
 {
   const int64_t n = static_cast<int64_t>(Expected.size());
   if (n == 0)
@@ -80,7 +80,7 @@ double PsnrProbe::Estimate(NetworkSession& session) const
     const double d = static_cast<double>(out[i]) - Expected[i];
     se += d * d;
   }
-  return PsnrFromMse(se / static_cast<double>(n));
+  return psnrFromMse(se / static_cast<double>(n));
 }
 
 } // namespace nv

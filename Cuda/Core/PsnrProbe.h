@@ -20,9 +20,9 @@ public:
   /// max(1, count / maxSamples)-th point.
   PsnrProbe(const std::vector<float>& xyz, const std::vector<float>& values, int64_t maxSamples);
   /// Estimate from the session's current (published) network.
-  double Estimate(NetworkSession& session) const;
+  double estimate(NetworkSession& session) const;
   /// Points each estimate evaluates.
-  int64_t Samples() const { return static_cast<int64_t>(Expected.size()); }
+  int64_t samples() const { return static_cast<int64_t>(Expected.size()); }
 
 private:
   std::vector<float> Coords;   // xyz interleaved in [0,1]
@@ -30,6 +30,6 @@ private:
 };
 
 /// PSNR (dB) from a mean squared error of normalised values; +inf for an exact match.
-double PsnrFromMse(double mse);
+double psnrFromMse(double mse);
 
 } // namespace nv

@@ -16,14 +16,14 @@ enum class RunState : int
   Running = 1,
   Paused = 2,
   Finishing = 3, ///< the phase ended; the phase-end hook is running
-  Finished = 4,  ///< a phase ended at its limit; Extend() continues
-  Stopped = 5,   ///< Stop(): final, Extend() still continues from the trainer's state
+  Finished = 4,  ///< a phase ended at its limit; extend() continues
+  Stopped = 5,   ///< stop(): final, extend() still continues from the trainer's state
   Failed = 6
 };
 /// "Training", "Paused", ... (shown by the Neural Compress panel).
-const char* RunStateName(RunState s);
-/// Finished, Stopped or Failed: nothing runs until Extend().
-bool IsSettled(RunState s);
+const char* runStateName(RunState s);
+/// Finished, Stopped or Failed: nothing runs until extend().
+bool isSettled(RunState s);
 
 struct RunStatus
 {

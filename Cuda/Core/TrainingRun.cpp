@@ -16,13 +16,13 @@ namespace nv
 namespace
 {
 using Clock = std::chrono::steady_clock;
-double SecondsSince(Clock::time_point t)
+double secondsSince(Clock::time_point t)
 {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 } // namespace
 
-const char* RunStateName(RunState s)
+const char* runStateName(RunState s)
 {
   switch (s)
   {
@@ -44,7 +44,7 @@ const char* RunStateName(RunState s)
   return "Unknown";
 }
 
-bool IsSettled(RunState s)
+bool isSettled(RunState s)
 {
   return s == RunState::Finished || s == RunState::Stopped || s == RunState::Failed;
 }
@@ -66,7 +66,7 @@ TrainingRun::TrainingRun(std::shared_ptr<NetworkSession> session, std::shared_pt
   this->RequestedBatch = config.batchSize;
   if (limits.TimeBudget > 0.0 && !config.deterministic && config.batchSize > kCalibrationBatch)
   {
-    this->Config.batchSize = kCalibrationBatch; // one step to measure first (BudgetedBatch)
+    this->Config.batchSize = kCalibrationBatch; // one step to measure first (budgetedBatch)
     this->Calibrating = true;
   }
 }
@@ -85,7 +85,7 @@ TrainingRun::~TrainingRun()
   }
 }
 
-std::unique_ptr<nv::Trainer> TrainingRun::CreateTrainer()
+std::unique_ptr<nv::Trainer> TrainingRun::createTrainer()
 {
   if (this->Prologue)
   {
@@ -95,7 +95,7 @@ std::unique_ptr<nv::Trainer> TrainingRun::CreateTrainer()
     prologue();
     std::lock_guard<std::mutex> lock(this->Mutex);
     if (this->PhaseBudget > 0.0)
-      this->PhaseBudget = std::max(1e-3, this->PhaseBudget - SecondsSince(started));
+      this->PhaseBudget = std::max(1e-3, this->PhaseBudget - secondsSince(started));
   }
   const TrainingData& d = *this->DataPtr;
   if (d.BankValues.empty())
@@ -107,30 +107,30 @@ std::unique_ptr<nv::Trainer> TrainingRun::CreateTrainer()
   return this->SessionPtr->createTrainer(bank, this->Config);
 }
 
-void TrainingRun::RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress)
+void TrainingRun::runHere(const std::function<bool()>& abort, const std::function<void(double)>& progress)
 {
   this->Background = false;
   try
   {
-    this->Trainer = this->CreateTrainer();
+    this->Trainer = this->createTrainer();
     std::lock_guard<std::mutex> lock(this->Mutex);
     this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
     this->Current.State = RunState::Running;
   }
   catch (const std::exception& e)
   {
-    this->Fail(e.what());
+    this->fail(e.what());
     return;
   }
-  this->RunPhase(abort, progress);
+  this->runPhase(abort, progress);
 }
 
-void TrainingRun::StartInBackground()
+void TrainingRun::startInBackground()
 {
   this->Background = true;
   try
   {
-    this->Thread = std::thread([this]() { this->Worker(); });
+    this->Thread = std::thread([this]() { this->worker(); });
   }
   catch (const std::system_error& e) // a process limit: say so instead of an unexplained failure
   {
@@ -140,13 +140,13 @@ void TrainingRun::StartInBackground()
   }
 }
 
-void TrainingRun::Worker()
+void TrainingRun::worker()
 {
   if (this->Config.lowPriority)
     lowerCurrentThreadPriority(); // this thread is also the CPU trainer's worker 0
   try
   {
-    auto trainer = this->CreateTrainer();
+    auto trainer = this->createTrainer();
     std::lock_guard<std::mutex> lock(this->Mutex);
     this->Trainer = std::move(trainer);
     this->Current.DeviceMemoryBytes = this->Trainer->deviceMemoryBytes();
@@ -158,12 +158,12 @@ void TrainingRun::Worker()
   }
   catch (const std::exception& e)
   {
-    this->Fail(e.what());
+    this->fail(e.what());
     return;
   }
   for (;;)
   {
-    this->RunPhase(nullptr, nullptr);
+    this->runPhase(nullptr, nullptr);
     std::unique_lock<std::mutex> lock(this->Mutex);
     this->Changed.wait(lock, [this]() { return this->Quit || this->PhaseRequested; });
     if (this->Quit)
@@ -174,7 +174,7 @@ void TrainingRun::Worker()
   }
 }
 
-void TrainingRun::Fail(const std::string& message)
+void TrainingRun::fail(const std::string& message)
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->Current.State = RunState::Failed;
@@ -183,24 +183,24 @@ void TrainingRun::Fail(const std::string& message)
   this->Changed.notify_all();
 }
 
-void TrainingRun::Publish()
+void TrainingRun::publish()
 {
   this->Trainer->publish();
   std::lock_guard<std::mutex> lock(this->Mutex);
   ++this->Current.Serial;
 }
 
-void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress)
+void TrainingRun::runPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress)
 {
   const bool gpu = this->Trainer->device() == Device::Cuda;
   // Chunks of steps queued back to back (one loss read-back each): ~20 ms on a GPU, one step on the CPU.
   const int64_t chunkMax = gpu ? 64 : 1;
   std::vector<float> losses(static_cast<size_t>(chunkMax));
   auto lastPublish = Clock::now();
-  const int64_t phaseFirstStep = this->Status().Steps;
+  const int64_t phaseFirstStep = this->status().Steps;
   double lastProgress = -1.0;
   // The run's clock: wall time while not paused. activeBase: seconds up to activeSince.
-  double activeBase = this->Status().Seconds;
+  double activeBase = this->status().Seconds;
   auto activeSince = Clock::now();
   std::string reason;
   try
@@ -220,7 +220,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         {
           this->Current.State = RunState::Paused;
           ++this->Current.Serial;
-          activeBase += SecondsSince(activeSince); // paused time does not count
+          activeBase += secondsSince(activeSince); // paused time does not count
           this->Current.Seconds = activeBase;
           this->Changed.notify_all();
           this->Changed.wait(lock, [this]() { return !this->PauseRequested || this->StopRequested; });
@@ -237,9 +237,9 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
         step = this->Current.Steps + 1;
-        phaseSeconds = activeBase + SecondsSince(activeSince) - this->PhaseStartSeconds;
+        phaseSeconds = activeBase + secondsSince(activeSince) - this->PhaseStartSeconds;
         // The budget's end: what the phase end will take to measure the network is kept out of it.
-        const double budgetLeft = this->PhaseBudget - phaseSeconds - this->FinalReserveSeconds();
+        const double budgetLeft = this->PhaseBudget - phaseSeconds - this->finalReserveSeconds();
         if (step > this->Current.TargetSteps)
         {
           reason = "step limit";
@@ -276,17 +276,17 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
 
       if (this->GoodStep < 0)
       {
-        this->Snapshot(std::numeric_limits<double>::quiet_NaN()); // the starting network: the first rollback point
+        this->snapshot(std::numeric_limits<double>::quiet_NaN()); // the starting network: the first rollback point
       }
       if (this->PhaseBudget > 0.0 && this->Limits.FinalSamples > 0 && this->InferSecondsPerSample <= 0.0 &&
         this->GoodStep >= 0 && this->Current.Steps > phaseFirstStep)
       {
-        this->MeasureInference();
+        this->measureInference();
       }
-      this->PlanSchedule(phaseSeconds);
+      this->planSchedule(phaseSeconds);
       const auto before = Clock::now();
       this->Trainer->steps(count, losses.data());
-      const double took = SecondsSince(before);
+      const double took = secondsSince(before);
       this->StepSeconds = took / static_cast<double>(count);
       // Diverged: a loss that is not finite, or above kDivergedLoss (the targets are normalised to [0, 1]: such a
       // loss means outputs tens of ranges away, a network blowing up on its way to Inf).
@@ -298,7 +298,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
       }
       if (bad >= 0)
       {
-        if (!this->RollBack(step + bad, losses[static_cast<size_t>(bad)]))
+        if (!this->rollBack(step + bad, losses[static_cast<size_t>(bad)]))
         {
           std::ostringstream s;
           s << "training diverged (loss " << losses[static_cast<size_t>(bad)] << " at step " << step + bad << ") " << this->Rollbacks
@@ -318,7 +318,7 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
         const double start = this->Current.Seconds;
-        const double elapsed = std::max(0.0, activeBase + SecondsSince(activeSince) - start);
+        const double elapsed = std::max(0.0, activeBase + secondsSince(activeSince) - start);
         for (int64_t k = 0; k < count; ++k)
         {
           LogRow row;
@@ -340,12 +340,12 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
 
       if (probeNow)
       {
-        this->Publish();
+        this->publish();
         lastPublish = Clock::now();
-        const double psnr = this->DataPtr->Probe->Estimate(*this->SessionPtr);
-        if (this->SnapshotDue(true, this->Limits.KeepBest && std::isfinite(psnr) && psnr > this->BestPsnr))
+        const double psnr = this->DataPtr->Probe->estimate(*this->SessionPtr);
+        if (this->snapshotDue(true, this->Limits.KeepBest && std::isfinite(psnr) && psnr > this->BestPsnr))
         {
-          this->Snapshot(psnr);
+          this->snapshot(psnr);
         }
         std::lock_guard<std::mutex> lock(this->Mutex);
         this->Rows.back().PSNR = psnr;
@@ -356,29 +356,29 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
           break;
         }
       }
-      else if (!(this->DataPtr->Probe && this->Limits.PsnrInterval > 0) && this->SnapshotDue(false, false))
+      else if (!(this->DataPtr->Probe && this->Limits.PsnrInterval > 0) && this->snapshotDue(false, false))
       {
-        this->Snapshot(std::numeric_limits<double>::quiet_NaN());
+        this->snapshot(std::numeric_limits<double>::quiet_NaN());
       }
-      else if (this->Background && !fast && SecondsSince(lastPublish) >= this->Limits.PublishSeconds)
+      else if (this->Background && !fast && secondsSince(lastPublish) >= this->Limits.PublishSeconds)
       {
-        this->Publish();
+        this->publish();
         lastPublish = Clock::now();
       }
 
       if (this->PhaseBudget > 0.0 && !this->Config.deterministic)
       {
-        const int batch = this->BudgetedBatch(this->StepSeconds, this->Config.batchSize);
+        const int batch = this->budgetedBatch(this->StepSeconds, this->Config.batchSize);
         if (batch != this->Config.batchSize || this->Calibrating)
         {
-          this->ResizeBatch(batch, this->StepSeconds);
+          this->resizeBatch(batch, this->StepSeconds);
           lastPublish = Clock::now();
         }
       }
 
       if (progress)
       {
-        const RunStatus s = this->Status();
+        const RunStatus s = this->status();
         const double span = static_cast<double>(std::max<int64_t>(s.TargetSteps - phaseFirstStep, 1));
         double fraction = static_cast<double>(s.Steps - phaseFirstStep) / span;
         if (this->PhaseBudget > 0.0)
@@ -393,38 +393,38 @@ void TrainingRun::RunPhase(const std::function<bool()>& abort, const std::functi
         }
       }
     }
-    // Background: nothing is published after Stop(). In the calling thread an abort comes between chunks, and the
+    // Background: nothing is published after stop(). In the calling thread an abort comes between chunks, and the
     // steps done are kept.
     if (reason != "stopped" || !this->Background)
     {
-      this->Publish();
+      this->publish();
       if (reason != "stopped")
-        this->KeepBestNetwork();
+        this->keepBestNetwork();
     }
-    this->EndPhase(reason);
+    this->endPhase(reason);
   }
   catch (const std::exception& e)
   {
-    this->Fail(e.what());
+    this->fail(e.what());
   }
 }
 
-bool TrainingRun::SnapshotDue(bool probe, bool improved) const
+bool TrainingRun::snapshotDue(bool probe, bool improved) const
 {
   if (this->Config.deterministic)
     return probe || this->Current.Steps - this->GoodStep >= kSnapshotSteps;
-  const double since = SecondsSince(this->LastSnapshot);
+  const double since = secondsSince(this->LastSnapshot);
   return since >= 20.0 * this->SnapshotCost && (improved || since >= kSnapshotSeconds);
 }
 
-void TrainingRun::Snapshot(double probePsnr)
+void TrainingRun::snapshot(double probePsnr)
 {
   if (this->Candidate.paramCount() == 0)
     this->Candidate = this->SessionPtr->currentModel(); // once: the buffer the snapshots are copied into
   const auto t0 = Clock::now();
   this->Trainer->syncTo(this->Candidate);
   this->LastSnapshot = Clock::now();
-  this->SnapshotCost = SecondsSince(t0);
+  this->SnapshotCost = secondsSince(t0);
   for (float p : this->Candidate.params())
     if (!std::isfinite(p))
       return; // a network on its way to diverging: not a rollback point
@@ -440,14 +440,14 @@ void TrainingRun::Snapshot(double probePsnr)
   std::swap(this->Good, this->Candidate); // the old rollback point's buffer takes the next snapshot
 }
 
-bool TrainingRun::RollBack(int64_t failedStep, double loss)
+bool TrainingRun::rollBack(int64_t failedStep, double loss)
 {
   if (this->Rollbacks >= kMaxRollbacks || this->GoodStep < 0)
     return false;
   ++this->Rollbacks;
   this->Config.optimizer.learningRate *= 0.1;
   this->SessionPtr->setModel(this->Good);
-  auto trainer = this->CreateTrainer(); // from the session's network, with a fresh optimizer state
+  auto trainer = this->createTrainer(); // from the session's network, with a fresh optimizer state
   std::ostringstream s;
   s << "training diverged at step " << failedStep << " (loss " << loss << "): rolled back to the network of step "
     << this->GoodStep << " and lowered the learning rate to " << this->Config.optimizer.learningRate;
@@ -461,11 +461,11 @@ bool TrainingRun::RollBack(int64_t failedStep, double loss)
   return true;
 }
 
-void TrainingRun::KeepBestNetwork()
+void TrainingRun::keepBestNetwork()
 {
   if (!this->Limits.KeepBest || !this->DataPtr->Probe || this->BestStep < 0)
     return;
-  const double last = this->DataPtr->Probe->Estimate(*this->SessionPtr);
+  const double last = this->DataPtr->Probe->estimate(*this->SessionPtr);
   // 0.1 dB: the probes' own noise; a better last network (or a NaN one) is never replaced by a worse best.
   if (std::isfinite(last) && !(this->BestPsnr > last + 0.1))
     return;
@@ -480,7 +480,7 @@ void TrainingRun::KeepBestNetwork()
   ++this->Current.Serial;
 }
 
-void TrainingRun::EndPhase(const std::string& reason)
+void TrainingRun::endPhase(const std::string& reason)
 {
   RunStatus status;
   {
@@ -494,7 +494,7 @@ void TrainingRun::EndPhase(const std::string& reason)
   this->Changed.notify_all();
   if (this->OnPhaseEnd)
   {
-    this->OnPhaseEnd(*this, status); // exceptions: Fail() by the caller
+    this->OnPhaseEnd(*this, status); // exceptions: fail() by the caller
   }
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->Current.State = reason == "stopped" ? RunState::Stopped : RunState::Finished;
@@ -504,7 +504,7 @@ void TrainingRun::EndPhase(const std::string& reason)
   this->Changed.notify_all();
 }
 
-void TrainingRun::Pause()
+void TrainingRun::pause()
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->PauseRequested = true;
@@ -516,7 +516,7 @@ void TrainingRun::Pause()
   }
 }
 
-void TrainingRun::Resume()
+void TrainingRun::resume()
 {
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
@@ -530,7 +530,7 @@ void TrainingRun::Resume()
   this->Changed.notify_all();
 }
 
-void TrainingRun::Extend(int64_t steps, bool fastForward)
+void TrainingRun::extend(int64_t steps, bool fastForward)
 {
   if (steps <= 0)
   {
@@ -568,11 +568,11 @@ void TrainingRun::Extend(int64_t steps, bool fastForward)
   this->Changed.notify_all();
   if (runHere)
   {
-    this->RunPhase(nullptr, nullptr);
+    this->runPhase(nullptr, nullptr);
   }
 }
 
-void TrainingRun::Stop()
+void TrainingRun::stop()
 {
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
@@ -589,10 +589,10 @@ void TrainingRun::Stop()
   this->Changed.notify_all();
 }
 
-bool TrainingRun::Wait(double timeoutSeconds)
+bool TrainingRun::wait(double timeoutSeconds)
 {
   std::unique_lock<std::mutex> lock(this->Mutex);
-  auto settled = [this]() { return IsSettled(this->Current.State); };
+  auto settled = [this]() { return isSettled(this->Current.State); };
   if (timeoutSeconds < 0.0)
   {
     this->Changed.wait(lock, settled);
@@ -601,13 +601,13 @@ bool TrainingRun::Wait(double timeoutSeconds)
   return this->Changed.wait_for(lock, std::chrono::duration<double>(timeoutSeconds), settled);
 }
 
-RunStatus TrainingRun::Status() const
+RunStatus TrainingRun::status() const
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
   return this->Current;
 }
 
-std::vector<LogRow> TrainingRun::Log() const
+std::vector<LogRow> TrainingRun::log() const
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
   return this->Rows;

@@ -3,12 +3,12 @@
 // (RunStatus.h) that the GUI polls. The Neural Compress filter drives it; the engine tests run it without VTK.
 //
 // A run trains in phases. The first phase ends at its step limit, its time budget (active training time: paused time
-// does not count) or its target PSNR; Extend() starts another phase (or lengthens the current one) from the state the
+// does not count) or its target PSNR; extend() starts another phase (or lengthens the current one) from the state the
 // trainer has (parameters and Adam moments), so "continue for N steps" is exact. At the end of every phase the
 // trainer's parameters are published to the session and the phase-end hook runs in the training thread (the filter
-// decodes and measures there, so the GUI thread never does heavy work). Stop() ends a background run at once: the
+// decodes and measures there, so the GUI thread never does heavy work). stop() ends a background run at once: the
 // network the session shows is the one last published; a chunk in flight is discarded, nothing is published after
-// Stop(). A run in the calling thread stops between chunks (abort) and keeps the steps done.
+// stop(). A run in the calling thread stops between chunks (abort) and keeps the steps done.
 #pragma once
 
 #include "Engine.h"
@@ -62,63 +62,63 @@ public:
 
   /// Runs the first phase in the calling thread. `abort` is polled between chunks of steps (the run then ends as
   /// Stopped); `progress` gets the phase's fraction done. Engine errors end the run as Failed (no exception).
-  void RunHere(const std::function<bool()>& abort, const std::function<void(double)>& progress);
+  void runHere(const std::function<bool()>& abort, const std::function<void(double)>& progress);
   /// Runs the first phase (and every later one) in a background thread; returns at once.
-  void StartInBackground();
-  /// Work the run does first, in its own thread (RunHere: the calling thread) before the trainer is created, while
+  void startInBackground();
+  /// Work the run does first, in its own thread (runHere: the calling thread) before the trainer is created, while
   /// the state is Starting: installing the session's initial network, so that a caller on a GUI thread never
   /// allocates or initialises a large table. Its seconds count against the first phase's time budget; an exception
   /// fails the run. Set before the run starts.
-  void SetPrologue(std::function<void()> prologue) { this->Prologue = std::move(prologue); }
+  void setPrologue(std::function<void()> prologue) { this->Prologue = std::move(prologue); }
 
-  void Pause();
-  void Resume();
+  void pause();
+  void resume();
   /// `steps` more steps: lengthens the current phase (also before the run starts), or starts a new one after a phase
   /// ended (without a time budget or target PSNR). fastForward: no intermediate publishes until that phase ends (the paper's button).
-  /// In a run started with RunHere, a new phase also runs in the calling thread.
-  void Extend(int64_t steps, bool fastForward);
+  /// In a run started with runHere, a new phase also runs in the calling thread.
+  void extend(int64_t steps, bool fastForward);
   /// Ends the run now (see the file comment).
-  void Stop();
+  void stop();
   /// Seconds the first phase keeps for its end (Limits.FinalSamples at the measured inference rate; 0 before any
   /// measurement).
-  double FinalReserveSeconds() const;
+  double finalReserveSeconds() const;
   /// Blocks while the run is Starting, Running, Finishing or Paused, at most `timeoutSeconds` (< 0: no limit).
   /// Returns true when the run has settled (Finished, Stopped or Failed).
-  bool Wait(double timeoutSeconds);
+  bool wait(double timeoutSeconds);
 
-  RunStatus Status() const;
-  std::vector<LogRow> Log() const;
-  NetworkSession& Session() { return *this->SessionPtr; }
-  const TrainingData& Data() const { return *this->DataPtr; }
-  bool InBackground() const { return this->Background; }
+  RunStatus status() const;
+  std::vector<LogRow> log() const;
+  NetworkSession& session() { return *this->SessionPtr; }
+  const TrainingData& data() const { return *this->DataPtr; }
+  bool inBackground() const { return this->Background; }
 
 private:
   /// A trainer on the field, or on the bank of points when the data has one (after the prologue).
-  std::unique_ptr<nv::Trainer> CreateTrainer();
+  std::unique_ptr<nv::Trainer> createTrainer();
   std::function<void()> Prologue;
-  void Worker();
-  void RunPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
-  void EndPhase(const std::string& reason);
-  void Fail(const std::string& message);
-  void Publish();
+  void worker();
+  void runPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
+  void endPhase(const std::string& reason);
+  void fail(const std::string& message);
+  void publish();
   /// After a chunk with a diverged loss (not finite or above kDivergedLoss): the network of the last good snapshot, a learning rate 10x lower and a
   /// new trainer; false (the run fails) after kMaxRollbacks.
-  bool RollBack(int64_t failedStep, double loss);
+  bool rollBack(int64_t failedStep, double loss);
   /// Phase end: the best probe's network replaces the last one when it was better (Limits.KeepBest).
-  void KeepBestNetwork();
+  void keepBestNetwork();
   /// The time budget: a batch larger than kCalibrationBatch first trains one step of kCalibrationBatch samples,
   /// whose time caps the batch so that one step takes at most kStepShare of the budget (never below
   /// kCalibrationBatch); a later step above twice that share caps it again. Returns the batch for the next trainer
   /// (the current one when no cap applies).
-  int BudgetedBatch(double stepSeconds, int batch) const;
+  int budgetedBatch(double stepSeconds, int batch) const;
   /// A new trainer of `batch` samples from the published network (fresh optimizer state, the schedule restarts).
-  void ResizeBatch(int batch, double stepSeconds);
+  void resizeBatch(int batch, double stepSeconds);
   /// An annealed learning-rate schedule ends at the phase's last step: OptimizerConfig::plannedSteps of the trainer
   /// becomes the steps left to the step target or, under a time budget, those the measured step rate allows in the
   /// budget left (re-estimated before every chunk). Phases added after the first keep the plan (the rate stays at
   /// its floor instead of rising again).
-  void PlanSchedule(double phaseSeconds);
-  bool PlanOpen = true;        ///< the first phase: PlanSchedule updates the plan
+  void planSchedule(double phaseSeconds);
+  bool PlanOpen = true;        ///< the first phase: planSchedule updates the plan
   static constexpr int kCalibrationBatch = 65536;
   static constexpr double kStepShare = 0.05;
   static constexpr double kBudgetOverrun = 0.05; ///< a step may end this share of the budget past it, no more
@@ -130,11 +130,11 @@ private:
   static constexpr double kDivergedLoss = 1e3; ///< a step loss above this (or not finite) is a divergence
   /// Takes a snapshot of the trainer's network (a host copy of its parameters) when they are all finite: the rollback
   /// point, and the best network when its probe PSNR is the best so far.
-  void Snapshot(double probePsnr);
+  void snapshot(double probePsnr);
   /// Whether a snapshot is due now: Deterministic runs at every probe (or every kSnapshotSteps without probes), so the
   /// network kept does not depend on timing; others when the probe improved or a second has passed, and never more
   /// often than 20 copies' time (the copies cost at most 5% of training).
-  bool SnapshotDue(bool probe, bool improved) const;
+  bool snapshotDue(bool probe, bool improved) const;
   static constexpr double kSnapshotSeconds = 1.0;
   static constexpr int64_t kSnapshotSteps = 250;
 
@@ -164,13 +164,13 @@ private:
   bool PauseRequested = false;
   bool StopRequested = false;
   bool Quit = false;
-  bool PhaseRequested = false; ///< Extend() after a phase ended
+  bool PhaseRequested = false; ///< extend() after a phase ended
   bool FastForward = false;
   double PhaseBudget = 0.0;    ///< active seconds allowed to this phase (0 = unlimited)
-  double InferSecondsPerSample = 0.0; ///< measured once by MeasureInference (0: not yet)
+  double InferSecondsPerSample = 0.0; ///< measured once by measureInference (0: not yet)
   /// Times the phase end's work per sample (a decode to host doubles and a comparison, on up to 2^17 samples:
   /// InferSecondsPerSample), for the budget's reserve.
-  void MeasureInference();
+  void measureInference();
   double PhaseStartSeconds = 0.0;
   double PhaseTargetPsnr = 0.0;
   bool Background = false;

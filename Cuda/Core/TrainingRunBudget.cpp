@@ -1,5 +1,5 @@
-// NeuralVolume engine: a training run's time budget and plan: the cap of its batch (BudgetedBatch, ResizeBatch) and the planned
-// steps of its annealed learning-rate schedule (PlanSchedule); see TrainingRun.h.
+// NeuralVolume engine: a training run's time budget and plan: the cap of its batch (budgetedBatch, resizeBatch) and the planned
+// steps of its annealed learning-rate schedule (planSchedule); see TrainingRun.h.
 #include "TrainingRun.h"
 
 #include "Engine.h"
@@ -14,7 +14,7 @@
 namespace nv
 {
 
-int TrainingRun::BudgetedBatch(double stepSeconds, int batch) const
+int TrainingRun::budgetedBatch(double stepSeconds, int batch) const
 {
   if (stepSeconds <= 0.0 || batch <= 0)
     return batch;
@@ -29,18 +29,18 @@ int TrainingRun::BudgetedBatch(double stepSeconds, int batch) const
   return static_cast<int>(std::max(floor, std::min(fits, static_cast<double>(this->RequestedBatch))));
 }
 
-void TrainingRun::ResizeBatch(int batch, double stepSeconds)
+void TrainingRun::resizeBatch(int batch, double stepSeconds)
 {
   this->Calibrating = false;
   const int previous = this->Config.batchSize;
   std::unique_ptr<nv::Trainer> trainer;
   if (batch != previous) // else the calibration batch is the one to keep
   {
-    this->Publish(); // the new trainer starts from the network trained so far
+    this->publish(); // the new trainer starts from the network trained so far
     this->Trainer.reset();
     this->Config.batchSize = batch;
     this->StepSeconds = stepSeconds * static_cast<double>(batch) / static_cast<double>(previous); // until measured
-    trainer = this->CreateTrainer();
+    trainer = this->createTrainer();
   }
   std::lock_guard<std::mutex> lock(this->Mutex);
   if (trainer)
@@ -62,7 +62,7 @@ void TrainingRun::ResizeBatch(int batch, double stepSeconds)
   ++this->Current.Serial;
 }
 
-void TrainingRun::MeasureInference()
+void TrainingRun::measureInference()
 {
   // What the phase end does per sample, on a grid of up to 2^17 samples: the network decoded to doubles in host
   // memory, then compared with a field (compareToSource; a decode for the output costs less). Enough samples that
@@ -92,7 +92,7 @@ void TrainingRun::MeasureInference()
   this->InferSecondsPerSample = std::max(best, 1e-9) / static_cast<double>(decoded.size());
 }
 
-double TrainingRun::FinalReserveSeconds() const
+double TrainingRun::finalReserveSeconds() const
 {
   if (this->Limits.FinalSamples <= 0 || this->PhaseBudget <= 0.0)
     return 0.0;
@@ -106,7 +106,7 @@ double TrainingRun::FinalReserveSeconds() const
   return std::min(static_cast<double>(this->Limits.FinalSamples) * perSample, kMaxReserveShare * this->PhaseBudget);
 }
 
-void TrainingRun::PlanSchedule(double phaseSeconds)
+void TrainingRun::planSchedule(double phaseSeconds)
 {
   OptimizerConfig& o = this->Config.optimizer;
   if (!this->PlanOpen || o.schedule == LearningRateSchedule::StepDecay)
@@ -118,7 +118,7 @@ void TrainingRun::PlanSchedule(double phaseSeconds)
   const double perStep = done >= 1.0 && phaseSeconds > 0.0 ? phaseSeconds / done : this->StepSeconds;
   if (this->PhaseBudget > 0.0 && perStep > 0.0 && !this->Config.deterministic)
     planned = std::min(planned,
-      done + std::max(0.0, this->PhaseBudget - phaseSeconds - this->FinalReserveSeconds()) / perStep);
+      done + std::max(0.0, this->PhaseBudget - phaseSeconds - this->finalReserveSeconds()) / perStep);
   planned = std::max(planned, done + 1.0);
   if (planned == o.plannedSteps)
     return;

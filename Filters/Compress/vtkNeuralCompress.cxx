@@ -187,7 +187,7 @@ constexpr int64_t kFirstBytesWaitParameters = int64_t(1) << 20;
 double SecondsLeft(const nvi::NetworkRecord& record, const nv::RunStatus& status, double timeBudget)
 {
   double left = std::numeric_limits<double>::quiet_NaN();
-  if (nvi::IsSettled(status.State) || status.State == nvi::RunState::Finishing)
+  if (nvi::isSettled(status.State) || status.State == nvi::RunState::Finishing)
     return left;
   if (record.Log.size() >= 2)
   {
@@ -260,14 +260,14 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     return false;
   }
-  bool live = job.Run && !nvi::IsSettled(status.State);
-  if (live && job.Run->InBackground() && !job.FirstBytesAwaited &&
+  bool live = job.Run && !nvi::isSettled(status.State);
+  if (live && job.Run->inBackground() && !job.FirstBytesAwaited &&
     nv::parameterCount(job.NetworkConfig) <= kFirstBytesWaitParameters)
   {
     job.FirstBytesAwaited = true; // once per job: a large network's refreshes do not wait again
     job.WaitForFirstLiveBytes(kFirstBytesWaitSeconds);
-    status = job.Run->Status(); // a small network: shown by the execution that started its job
-    live = !nvi::IsSettled(status.State);
+    status = job.Run->status(); // a small network: shown by the execution that started its job
+    live = !nvi::isSettled(status.State);
   }
   nvi::NetworkRecord record;
   vtkSmartPointer<vtkDataArray> decoded;
@@ -321,7 +321,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
 bool vtkNeuralCompress::ReportRunStatus(nvi::Job& job, nv::RunStatus& status)
 {
   vtkInternals& in = *this->Internals;
-  status = job.Run->Status();
+  status = job.Run->status();
   job.EmittedSerial = status.Serial;
   // A recovered divergence is a warning; keeping the best network is the normal course: text, as the summary.
   for (; in.WarningsPrinted < status.Warnings.size(); ++in.WarningsPrinted)

@@ -24,10 +24,10 @@ bool vtkNeuralCompress::GetNeedsUpdate()
     (in.Preparing->Serial() != in.PreparingSerialShown || now - in.PreparingShownAt >= std::chrono::seconds(1));
   // A run: its status changed, or (while it trains) a live snapshot's bytes were written since the last update.
   nvi::Job* job = in.Current.get();
-  const nvi::RunStatus status = job && job->Run ? job->Run->Status() : nvi::RunStatus();
+  const nvi::RunStatus status = job && job->Run ? job->Run->status() : nvi::RunStatus();
   if (preparing ||
     (job && job->Run &&
-      (status.Serial != job->EmittedSerial || (!nvi::IsSettled(status.State) && job->LiveBytesPending()))))
+      (status.Serial != job->EmittedSerial || (!nvi::isSettled(status.State) && job->LiveBytesPending()))))
   {
     if (in.Preparing)
     {
@@ -57,7 +57,7 @@ void vtkNeuralCompress::ExtendTraining(int64_t steps, bool fastForward)
   in.SummaryPrinted = false;
   if (job.Run)
   {
-    job.Run->Extend(steps, fastForward);
+    job.Run->extend(steps, fastForward);
   }
   else if (job.Data && job.Field.Stats.max > job.Field.Stats.min)
   {
@@ -88,7 +88,7 @@ void vtkNeuralCompress::PauseTraining()
 {
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
-    run->Pause();
+    run->pause();
     this->Modified();
   }
 }
@@ -97,7 +97,7 @@ void vtkNeuralCompress::ResumeTraining()
 {
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
-    run->Resume();
+    run->resume();
     this->Modified();
   }
 }
@@ -116,7 +116,7 @@ void vtkNeuralCompress::StopTraining()
 {
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
-    run->Stop();
+    run->stop();
     this->Modified();
   }
 }
@@ -139,7 +139,7 @@ void vtkNeuralCompress::WaitForTraining(double seconds)
   }
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
-    run->Wait(seconds);
+    run->wait(seconds);
     this->Modified();
   }
 }
@@ -154,7 +154,7 @@ vtkIdType vtkNeuralCompress::GetTotalStepsTrained()
   vtkInternals& in = *this->Internals;
   vtkIdType steps = in.StepsOfEndedJobs;
   if (in.Current && in.Current->Run)
-    steps += in.Current->Run->Status().Steps;
+    steps += in.Current->Run->status().Steps;
   return steps;
 }
 

@@ -23,12 +23,12 @@ namespace vtkNeuralCompressInternals
 {
 
 // The engine's training run (Core/TrainingRun.h) and the types around it, which the filter's files name unqualified.
-using nv::IsSettled;
+using nv::isSettled;
 using nv::LogRow;
 using nv::PsnrProbe;
 using nv::RunLimits;
 using nv::RunState;
-using nv::RunStateName;
+using nv::runStateName;
 using nv::RunStatus;
 using nv::SourceField;
 using nv::TrainingData;

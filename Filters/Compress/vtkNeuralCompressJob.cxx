@@ -365,7 +365,7 @@ std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
   m.WarmStart = this->WarmStart;
   if (this->Run)
   {
-    record->Log = this->Run->Log();
+    record->Log = this->Run->log();
   }
   return record;
 }
@@ -463,13 +463,13 @@ bool Job::WaitForFirstLiveBytes(double seconds)
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (;;)
   {
-    const RunStatus status = this->Run->Status();
+    const RunStatus status = this->Run->status();
     {
       std::lock_guard<std::mutex> lock(this->Mutex);
       if (this->LiveBytes)
         return true;
     }
-    if (std::chrono::steady_clock::now() >= until || IsSettled(status.State))
+    if (std::chrono::steady_clock::now() >= until || isSettled(status.State))
       return false;
     this->StartLiveWriterIfDue(status);
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -507,7 +507,7 @@ NetworkRecord Job::Snapshot()
   NetworkRecord r;
   r.Key = this->Key;
   r.Time = this->Time;
-  const RunStatus status = this->Run->Status();
+  const RunStatus status = this->Run->status();
   this->StartLiveWriterIfDue(status);
   Metrics& m = r.Figures;
   {
@@ -516,7 +516,7 @@ NetworkRecord Job::Snapshot()
     this->LiveBytesSerialEmitted = this->LiveBytesSerial;
     m.ModelBytes = this->LiveModelBytes;
   }
-  m.State = RunStateName(status.State);
+  m.State = runStateName(status.State);
   m.Steps = status.Steps;
   m.Seconds = status.Seconds;
   m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
@@ -526,7 +526,7 @@ NetworkRecord Job::Snapshot()
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());
   m.WarmStart = this->WarmStart;
-  r.Log = this->Run->Log();
+  r.Log = this->Run->log();
   return r;
 }
 

@@ -238,15 +238,15 @@ void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, in
   job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, job.Train, limits,
     [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
   if (job.InitialNetworkPending())
-    job.Run->SetPrologue([jobPtr]() { jobPtr->InstallInitialNetwork(); }); // in the run's thread
-  job.Run->Extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)
+    job.Run->setPrologue([jobPtr]() { jobPtr->InstallInitialNetwork(); }); // in the run's thread
+  job.Run->extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)
   if (this->TrainInBackground)
   {
-    job.Run->StartInBackground();
+    job.Run->startInBackground();
   }
   else
   {
-    job.Run->RunHere([this]() { return this->GetAbortExecute() != 0; },
+    job.Run->runHere([this]() { return this->GetAbortExecute() != 0; },
       [this](double f) { this->UpdateProgress(0.95 * f); });
   }
 }

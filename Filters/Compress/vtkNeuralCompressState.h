@@ -58,11 +58,11 @@ struct vtkNeuralCompress::vtkInternals
     nvi::Job& job = *this->Current;
     if (job.Run)
     {
-      const nvi::RunState s = job.Run->Status().State;
-      job.Retiring = !nvi::IsSettled(s);
-      job.Run->Stop();
-      job.Run->Wait(-1.0);
-      this->StepsOfEndedJobs += job.Run->Status().Steps;
+      const nvi::RunState s = job.Run->status().State;
+      job.Retiring = !nvi::isSettled(s);
+      job.Run->stop();
+      job.Run->wait(-1.0);
+      this->StepsOfEndedJobs += job.Run->status().Steps;
     }
     if (std::shared_ptr<const nvi::NetworkRecord> final = job.Final())
     {

@@ -77,13 +77,13 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
     RunLimits l;
     l.MaxSteps = 100000000;
     TrainingRun run(s, d, trainConfig(65536), l, nullptr);
-    run.StartInBackground();
+    run.startInBackground();
     std::this_thread::sleep_for(std::chrono::milliseconds(300)); // trainer created, first chunks queued
-    const int64_t s0 = run.Status().Steps;
+    const int64_t s0 = run.status().Steps;
     const auto t0 = Clock::now();
     std::this_thread::sleep_for(std::chrono::duration<double>(span));
-    const double rate = (run.Status().Steps - s0) / seconds(t0);
-    run.Stop();
+    const double rate = (run.status().Steps - s0) / seconds(t0);
+    run.stop();
     std::printf("RESULT {\"what\":\"online_training_alone\",\"steps_per_s\":%.1f}\n", rate);
   }
   for (RenderPath p : { RenderPath::Decode, RenderPath::InShader })
@@ -94,14 +94,14 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
       l.MaxSteps = 100000000;
       l.PublishSeconds = 0.1; // the filter's default: the view shows a new network at least 10 times a second
       TrainingRun run(s, d, trainConfig(65536), l, nullptr);
-      run.StartInBackground();
+      run.startInBackground();
       RenderResult image;
       for (int f = 0; f < 3; ++f)
         s->render(anchorRequest(raw, p, w, h, f), image, device == Device::Cuda ? Memory::Device : Memory::Host);
       std::vector<double> frame;
       int newer = 0;
       uint64_t last = s->version();
-      const int64_t s0 = run.Status().Steps;
+      const int64_t s0 = run.status().Steps;
       const auto t0 = Clock::now();
       for (int f = 0; seconds(t0) < span; ++f)
       {
@@ -115,8 +115,8 @@ int live(Device device, const std::string& file, int log2T, double span, int w, 
           std::this_thread::sleep_until(t + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(pace)));
       }
       const double elapsed = seconds(t0);
-      const double rate = (run.Status().Steps - s0) / elapsed;
-      run.Stop();
+      const double rate = (run.status().Steps - s0) / elapsed;
+      run.stop();
       std::sort(frame.begin(), frame.end());
       std::printf("RESULT {\"what\":\"online_render_while_training\",\"path\":\"%s\",\"paced_hz\":%.0f,\"width\":%d,"
                   "\"height\":%d,\"frames\":%zu,\"fps\":%.1f,\"ms_median\":%.3f,\"ms_p95\":%.3f,"
@@ -136,10 +136,10 @@ void toTarget(std::shared_ptr<NetworkSession> s, const nvbench::RawVolume& raw, 
   l.TargetPsnr = target;
   l.PsnrInterval = 10;
   TrainingRun run(s, dataOf(raw, true), trainConfig(batch), l, nullptr);
-  run.RunHere(nullptr, nullptr);
-  steps = run.Status().Steps;
-  secs = run.Status().Seconds;
-  psnr = run.Status().EndReason == "target PSNR" ? run.Status().Psnr : compareToSource(*s, raw.view).psnr;
+  run.runHere(nullptr, nullptr);
+  steps = run.status().Steps;
+  secs = run.status().Seconds;
+  psnr = run.status().EndReason == "target PSNR" ? run.status().Psnr : compareToSource(*s, raw.view).psnr;
 }
 
 int warm(Device device, const std::string& prefix, int first, int count, int log2T, int coldSteps, int batch)
@@ -158,10 +158,10 @@ int warm(Device device, const std::string& prefix, int first, int count, int log
       RunLimits l;
       l.MaxSteps = coldSteps;
       TrainingRun run(cold, dataOf(raw, false), trainConfig(batch), l, nullptr);
-      run.RunHere(nullptr, nullptr);
-      coldDone = run.Status().Steps;
-      coldTime = run.Status().Seconds;
-      coldPsnr = PsnrProbe(raw.view, 11, 65536).Estimate(*cold);
+      run.runHere(nullptr, nullptr);
+      coldDone = run.status().Steps;
+      coldTime = run.status().Seconds;
+      coldPsnr = PsnrProbe(raw.view, 11, 65536).estimate(*cold);
     }
     if (!previous.empty())
     {
@@ -170,7 +170,7 @@ int warm(Device device, const std::string& prefix, int first, int count, int log
       std::shared_ptr<NetworkSession> w = NetworkSession::create(device, seeded);
       int64_t warmSteps = 0;
       double warmTime = 0.0, warmPsnr = 0.0;
-      const double atStart = PsnrProbe(raw.view, 11, 65536).Estimate(*w);
+      const double atStart = PsnrProbe(raw.view, 11, 65536).estimate(*w);
       toTarget(w, raw, coldPsnr, 4 * coldSteps, batch, warmSteps, warmTime, warmPsnr);
       // The cold start to the same target (probe every 10 steps), for the steps it needs.
       std::shared_ptr<NetworkSession> c2 = NetworkSession::create(device, nvbench::modelFor(raw, log2T, 1));
@@ -204,7 +204,7 @@ int restore(Device device, const std::string& file, int log2T, int steps, int w,
     RunLimits l;
     l.MaxSteps = steps;
     TrainingRun run(s, dataOf(raw, false), trainConfig(65536), l, nullptr);
-    run.RunHere(nullptr, nullptr);
+    run.runHere(nullptr, nullptr);
     Model m = s->currentModel();
     m.quantize(Precision::Float16);
     bytes = serialize(m);

@@ -50,8 +50,8 @@ inline TrainingResult trainHere(nv::NetworkSession& session, const nv::VolumeVie
   limits.PsnrInterval = request.PsnrInterval;
   std::shared_ptr<nv::NetworkSession> unowned(&session, [](nv::NetworkSession*) {});
   nv::TrainingRun run(unowned, data, config, limits, nullptr);
-  run.RunHere(request.ShouldAbort, request.Progress);
-  const nv::RunStatus status = run.Status();
+  run.runHere(request.ShouldAbort, request.Progress);
+  const nv::RunStatus status = run.status();
   if (status.State == nv::RunState::Failed)
     throw nv::Error(status.Error);
   TrainingResult result;
@@ -61,7 +61,7 @@ inline TrainingResult trainHere(nv::NetworkSession& session, const nv::VolumeVie
   result.Aborted = status.EndReason == "stopped";
   result.TimedOut = status.EndReason == "time budget";
   result.DeviceMemoryBytes = status.DeviceMemoryBytes;
-  result.Log = run.Log();
+  result.Log = run.log();
   return result;
 }
 

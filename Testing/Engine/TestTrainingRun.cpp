@@ -114,7 +114,7 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
     [&](TrainingRun&, const RunStatus&) { ++hookCalls; });
   const uint64_t v0 = s->version();
   const auto t0 = Clock::now();
-  run.StartInBackground();
+  run.startInBackground();
   EXPECT_TRUE(std::chrono::duration<double>(Clock::now() - t0).count() < 0.05); // returns at once
   // The session shows newer networks while the run goes on (several publishes before it ends).
   std::vector<uint64_t> versions;
@@ -122,19 +122,19 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
     const uint64_t v = s->version();
     if (versions.empty() || versions.back() != v)
       versions.push_back(v);
-    return run.Status().State == RunState::Finished;
+    return run.status().State == RunState::Finished;
   }, 120.0);
-  EXPECT_TRUE(run.Status().State == RunState::Finished);
+  EXPECT_TRUE(run.status().State == RunState::Finished);
   EXPECT_TRUE(versions.size() >= 3);
   EXPECT_TRUE(s->version() > v0);
-  EXPECT_TRUE(run.Status().Steps == 400);
-  EXPECT_TRUE(run.Status().EndReason == "step limit");
+  EXPECT_TRUE(run.status().Steps == 400);
+  EXPECT_TRUE(run.status().EndReason == "step limit");
   EXPECT_TRUE(hookCalls == 1);
-  EXPECT_TRUE(run.Log().size() == 400);
+  EXPECT_TRUE(run.log().size() == 400);
   // Probes every 50 steps before the last: 7 PSNR values, finite and rising overall.
   int probes = 0;
   double first = 0, last = 0;
-  for (const LogRow& r : run.Log())
+  for (const LogRow& r : run.log())
     if (std::isfinite(r.PSNR))
     {
       first = probes == 0 ? r.PSNR : first;
@@ -151,31 +151,31 @@ NV_TEST(PauseResumeContinueFastForwardAreExact)
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
   TrainingRun run(s, d, trainConfig(), limits(300), nullptr);
-  run.StartInBackground();
-  EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 20; }, 60.0));
-  run.Pause();
-  EXPECT_TRUE(run.Status().State == RunState::Paused);
+  run.startInBackground();
+  EXPECT_TRUE(waitFor([&]() { return run.status().Steps >= 20; }, 60.0));
+  run.pause();
+  EXPECT_TRUE(run.status().State == RunState::Paused);
   // The step in flight completes; then nothing moves, and the session keeps its network.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  const int64_t paused = run.Status().Steps;
+  const int64_t paused = run.status().Steps;
   const uint64_t version = s->version();
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
-  EXPECT_TRUE(run.Status().Steps == paused);
+  EXPECT_TRUE(run.status().Steps == paused);
   EXPECT_TRUE(s->version() == version);
   EXPECT_TRUE(paused < 300);
-  run.Resume();
-  EXPECT_TRUE(run.Wait(120.0));
-  EXPECT_TRUE(run.Status().Steps == 300);
-  run.Extend(37, false);
-  EXPECT_TRUE(run.Wait(60.0));
-  EXPECT_TRUE(run.Status().Steps == 337);
-  EXPECT_TRUE(run.Status().State == RunState::Finished);
+  run.resume();
+  EXPECT_TRUE(run.wait(120.0));
+  EXPECT_TRUE(run.status().Steps == 300);
+  run.extend(37, false);
+  EXPECT_TRUE(run.wait(60.0));
+  EXPECT_TRUE(run.status().Steps == 337);
+  EXPECT_TRUE(run.status().State == RunState::Finished);
   const uint64_t beforeFast = s->version();
-  run.Extend(50, true); // fast-forward: one publish at the end
-  EXPECT_TRUE(run.Wait(60.0));
-  EXPECT_TRUE(run.Status().Steps == 387);
+  run.extend(50, true); // fast-forward: one publish at the end
+  EXPECT_TRUE(run.wait(60.0));
+  EXPECT_TRUE(run.status().Steps == 387);
   EXPECT_TRUE(s->version() == beforeFast + 1);
-  EXPECT_TRUE(run.Log().size() == 387);
+  EXPECT_TRUE(run.log().size() == 387);
 }
 
 NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
@@ -184,26 +184,26 @@ NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
   TrainingRun run(s, d, trainConfig(), limits(1000000), nullptr);
-  run.StartInBackground();
-  EXPECT_TRUE(waitFor([&]() { return run.Status().Steps >= 10; }, 60.0));
+  run.startInBackground();
+  EXPECT_TRUE(waitFor([&]() { return run.status().Steps >= 10; }, 60.0));
   const auto t0 = Clock::now();
-  run.Stop();
-  EXPECT_TRUE(run.Wait(5.0));
+  run.stop();
+  EXPECT_TRUE(run.wait(5.0));
   const double latency = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf("  stop latency %.4f s\n", latency);
   EXPECT_TRUE(latency < 0.2);
-  EXPECT_TRUE(run.Status().State == RunState::Stopped);
-  EXPECT_TRUE(run.Status().EndReason == "stopped");
+  EXPECT_TRUE(run.status().State == RunState::Stopped);
+  EXPECT_TRUE(run.status().EndReason == "stopped");
   const uint64_t version = s->version();
-  const int64_t steps = run.Status().Steps;
+  const int64_t steps = run.status().Steps;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   EXPECT_TRUE(s->version() == version);
-  EXPECT_TRUE(run.Status().Steps == steps);
+  EXPECT_TRUE(run.status().Steps == steps);
   // Not sticky: a new phase trains again.
-  run.Extend(5, false);
-  EXPECT_TRUE(run.Wait(30.0));
-  EXPECT_TRUE(run.Status().Steps == steps + 5);
-  EXPECT_TRUE(run.Status().State == RunState::Finished);
+  run.extend(5, false);
+  EXPECT_TRUE(run.wait(30.0));
+  EXPECT_TRUE(run.status().Steps == steps + 5);
+  EXPECT_TRUE(run.status().State == RunState::Finished);
 }
 
 NV_TEST(AbortInTheCallingThreadIsNotSticky)
@@ -213,12 +213,12 @@ NV_TEST(AbortInTheCallingThreadIsNotSticky)
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
   TrainingRun run(s, d, trainConfig(), limits(100), nullptr);
   int polls = 0;
-  run.RunHere([&]() { return ++polls > 10; }, nullptr);
-  EXPECT_TRUE(run.Status().State == RunState::Stopped);
-  EXPECT_TRUE(run.Status().Steps == 10);
-  run.Extend(20, false); // runs here again, without an abort
-  EXPECT_TRUE(run.Status().Steps == 30);
-  EXPECT_TRUE(run.Status().State == RunState::Finished);
+  run.runHere([&]() { return ++polls > 10; }, nullptr);
+  EXPECT_TRUE(run.status().State == RunState::Stopped);
+  EXPECT_TRUE(run.status().Steps == 10);
+  run.extend(20, false); // runs here again, without an abort
+  EXPECT_TRUE(run.status().Steps == 30);
+  EXPECT_TRUE(run.status().State == RunState::Finished);
 }
 
 NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
@@ -230,8 +230,8 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
     RunLimits l = limits(5000, 10);
     l.TargetPsnr = 25.0;
     TrainingRun run(s, d, trainConfig(), l, nullptr);
-    run.RunHere(nullptr, nullptr);
-    const RunStatus st = run.Status();
+    run.runHere(nullptr, nullptr);
+    const RunStatus st = run.status();
     EXPECT_TRUE(st.EndReason == "target PSNR");
     EXPECT_TRUE(st.Steps < 5000 && st.Steps % 10 == 0);
     EXPECT_TRUE(st.Psnr >= 25.0);
@@ -242,15 +242,15 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
     RunLimits l = limits(1000000);
     l.TimeBudget = 0.5;
     TrainingRun run(s, d, trainConfig(), l, nullptr);
-    run.StartInBackground();
+    run.startInBackground();
     // Paused time does not count against the budget.
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    run.Pause();
+    run.pause();
     std::this_thread::sleep_for(std::chrono::milliseconds(600));
-    EXPECT_TRUE(run.Status().State == RunState::Paused);
-    run.Resume();
-    EXPECT_TRUE(run.Wait(30.0));
-    const RunStatus st = run.Status();
+    EXPECT_TRUE(run.status().State == RunState::Paused);
+    run.resume();
+    EXPECT_TRUE(run.wait(30.0));
+    const RunStatus st = run.status();
     EXPECT_TRUE(st.EndReason == "time budget");
     std::printf("  budget 0.5 s: %.3f s of training, %lld steps\n", st.Seconds, static_cast<long long>(st.Steps));
     EXPECT_TRUE(st.Seconds >= 0.5 && st.Seconds < 0.75);
@@ -274,17 +274,17 @@ NV_TEST(TimeBudgetKeepsTimeForTheMeasurementAtTheEnd)
   l.FinalSamples = points;
   TrainingRun run(s, d, trainConfig(), l, [&](TrainingRun& r, const RunStatus&) {
     const auto t0 = Clock::now();
-    r.Session().inferPoints(xyz.data(), points, out.data());
+    r.session().inferPoints(xyz.data(), points, out.data());
     hookSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
   });
   const auto start = Clock::now();
-  run.RunHere(nullptr, nullptr);
+  run.runHere(nullptr, nullptr);
   const double total = std::chrono::duration<double>(Clock::now() - start).count();
-  const RunStatus st = run.Status();
+  const RunStatus st = run.status();
   std::printf("  budget 1 s: %.3f s of training + %.3f s measuring = %.3f s in all (reserve %.3f s)\n", st.Seconds,
-    hookSeconds, total, run.FinalReserveSeconds());
+    hookSeconds, total, run.finalReserveSeconds());
   EXPECT_TRUE(st.EndReason == "time budget");
-  EXPECT_TRUE(run.FinalReserveSeconds() > 0.0);
+  EXPECT_TRUE(run.finalReserveSeconds() > 0.0);
   EXPECT_TRUE(st.Seconds < 1.0);
   EXPECT_TRUE(total >= 0.8 && total <= 1.2);
 }
@@ -319,9 +319,9 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
     auto d = data(values, false);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
     TrainingRun run(s, d, fromFirstStep, limits(200), nullptr);
-    run.RunHere(nullptr, nullptr);
-    run.Extend(20, false);
-    const std::vector<LogRow> log = run.Log();
+    run.runHere(nullptr, nullptr);
+    run.extend(20, false);
+    const std::vector<LogRow> log = run.log();
     EXPECT_TRUE(log.size() == 220);
     std::printf("  200 steps: rate %.6g at step 1, %.6g at 100, %.6g at 200, %.6g at 220 (continued)\n",
       rateAt(log, 1), rateAt(log, 100), rateAt(log, 200), rateAt(log, 220));
@@ -336,8 +336,8 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
     TrainConfig tc = trainConfig();
     tc.optimizer.schedule = LearningRateSchedule::StepDecay;
     TrainingRun run(s, d, tc, limits(200), nullptr);
-    run.RunHere(nullptr, nullptr);
-    EXPECT_TRUE(std::fabs(rateAt(run.Log(), 200) - lr) < 1e-15);
+    run.runHere(nullptr, nullptr);
+    EXPECT_TRUE(std::fabs(rateAt(run.log(), 200) - lr) < 1e-15);
   }
   {
     // The default: a 200-step run is shorter than the 500-step hold, so it trains at the full rate throughout; a
@@ -345,16 +345,16 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
     auto d = data(values, false);
     std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 1), Device::Cpu, 2);
     TrainingRun run(s, d, trainConfig(), limits(200), nullptr);
-    run.RunHere(nullptr, nullptr);
+    run.runHere(nullptr, nullptr);
     for (int64_t step : { 1, 100, 200 })
-      EXPECT_TRUE(std::fabs(rateAt(run.Log(), step) - lr) < 1e-15);
+      EXPECT_TRUE(std::fabs(rateAt(run.log(), step) - lr) < 1e-15);
     auto d2 = data(values, false);
     std::shared_ptr<NetworkSession> s2 = nvtest::session(model(*d2, 1), Device::Cpu, 2);
     TrainingRun longer(s2, d2, trainConfig(), limits(700), nullptr);
-    longer.RunHere(nullptr, nullptr);
-    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 500) - lr) < 1e-15);
-    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 600) / lr - (0.01 + 0.99 * 0.5)) < 1e-12);
-    EXPECT_TRUE(std::fabs(rateAt(longer.Log(), 700) / lr - 0.01) < 1e-12);
+    longer.runHere(nullptr, nullptr);
+    EXPECT_TRUE(std::fabs(rateAt(longer.log(), 500) - lr) < 1e-15);
+    EXPECT_TRUE(std::fabs(rateAt(longer.log(), 600) / lr - (0.01 + 0.99 * 0.5)) < 1e-12);
+    EXPECT_TRUE(std::fabs(rateAt(longer.log(), 700) / lr - 0.01) < 1e-12);
   }
   {
     auto d = data(values, false);
@@ -362,8 +362,8 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
     RunLimits l = limits(1000000);
     l.TimeBudget = 0.5;
     TrainingRun run(s, d, fromFirstStep, l, nullptr);
-    run.RunHere(nullptr, nullptr);
-    const std::vector<LogRow> log = run.Log();
+    run.runHere(nullptr, nullptr);
+    const std::vector<LogRow> log = run.log();
     const double last = log.back().LearningRate / lr, first = log.front().LearningRate / lr;
     std::printf("  0.5 s budget: %zu steps, rate %.4g x lr at the first step, %.4g x lr at the last\n", log.size(),
       first, last);
@@ -383,12 +383,12 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
     l.KeepBest = false; // probes only watch here (KeepBestNetwork is tested below)
     TrainingRun run(s, d, trainConfig(), l, nullptr);
     if (k == 0)
-      run.RunHere(nullptr, nullptr);
+      run.runHere(nullptr, nullptr);
     else
     {
       // In the background, with publishes (and probes for k == 2) in between: they do not change the training.
-      run.StartInBackground();
-      EXPECT_TRUE(run.Wait(120.0));
+      run.startInBackground();
+      EXPECT_TRUE(run.wait(120.0));
     }
     params.push_back(s->currentModel().params());
   }
@@ -398,7 +398,7 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
   auto d = data(values, false);
   std::shared_ptr<NetworkSession> s = nvtest::session(model(*d, 4), Device::Cpu, 2);
   TrainingRun run(s, d, trainConfig(), limits(120), nullptr);
-  run.RunHere(nullptr, nullptr);
+  run.runHere(nullptr, nullptr);
   EXPECT_TRUE(s->currentModel().params() != params[0]);
 }
 
@@ -409,7 +409,7 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
   auto d0 = data(t0, false);
   std::shared_ptr<NetworkSession> s0 = nvtest::session(model(*d0, 1), Device::Cpu, 2);
   TrainingRun first(s0, d0, trainConfig(), limits(400), nullptr);
-  first.RunHere(nullptr, nullptr);
+  first.runHere(nullptr, nullptr);
 
   const int steps = 100;
   auto cold = data(t1, false), warm = data(t1, false);
@@ -420,8 +420,8 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
   const double warmAtStart = psnrOf(*sw, warm->Field.View);
   TrainingRun coldRun(sc, cold, trainConfig(), limits(steps), nullptr);
   TrainingRun warmRun(sw, warm, trainConfig(), limits(steps), nullptr);
-  coldRun.RunHere(nullptr, nullptr);
-  warmRun.RunHere(nullptr, nullptr);
+  coldRun.runHere(nullptr, nullptr);
+  warmRun.runHere(nullptr, nullptr);
   const double coldPsnr = psnrOf(*sc, cold->Field.View), warmPsnr = psnrOf(*sw, warm->Field.View);
   std::printf("  after %d steps: cold %.2f dB, warm %.2f dB (warm before training %.2f dB)\n", steps, coldPsnr,
     warmPsnr, warmAtStart);
@@ -440,9 +440,9 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   TrainConfig tc = trainConfig();
   tc.optimizer.learningRate = 1e6;
   TrainingRun run(s, d, tc, limits(300, 20), nullptr);
-  run.RunHere(nullptr, nullptr);
-  const RunStatus st = run.Status();
-  std::printf("  state %s, %lld steps, %zu warnings%s%s\n", RunStateName(st.State), (long long)st.Steps,
+  run.runHere(nullptr, nullptr);
+  const RunStatus st = run.status();
+  std::printf("  state %s, %lld steps, %zu warnings%s%s\n", runStateName(st.State), (long long)st.Steps,
     st.Warnings.size(), st.Warnings.empty() ? "" : "; last: ", st.Warnings.empty() ? "" : st.Warnings.back().c_str());
   EXPECT_TRUE(st.State == RunState::Finished);
   EXPECT_TRUE(st.Steps == 300);
@@ -452,9 +452,9 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   for (float p : current.params())
     finite = finite && std::isfinite(p);
   EXPECT_TRUE(finite);
-  for (const LogRow& r : run.Log())
+  for (const LogRow& r : run.log())
     EXPECT_TRUE(std::isfinite(r.Loss) && r.Loss <= 1e3);
-  EXPECT_TRUE(run.Log().size() == 300);
+  EXPECT_TRUE(run.log().size() == 300);
   const double psnr = psnrOf(*s, d->Field.View);
   std::printf("  final PSNR %.2f dB\n", psnr);
   EXPECT_TRUE(std::isfinite(psnr) && psnr > 0.0);
@@ -480,16 +480,16 @@ NV_TEST(KeepsTheBestProbedNetwork)
     RunLimits l = limits(400, 10);
     l.KeepBest = keep == 1;
     TrainingRun run(s, d, tc, l, nullptr);
-    run.RunHere(nullptr, nullptr);
+    run.runHere(nullptr, nullptr);
     bestInLog[keep] = -1e30;
-    for (const LogRow& r : run.Log())
+    for (const LogRow& r : run.log())
       if (std::isfinite(r.PSNR))
         bestInLog[keep] = std::max(bestInLog[keep], r.PSNR);
-    finals[keep] = d->Probe->Estimate(*s);
-    notes[keep] = run.Status().Notes.size();
-    EXPECT_TRUE(run.Status().Warnings.empty()); // keeping the best network is no warning
+    finals[keep] = d->Probe->estimate(*s);
+    notes[keep] = run.status().Notes.size();
+    EXPECT_TRUE(run.status().Warnings.empty()); // keeping the best network is no warning
     std::printf("  KeepBest %d: best probe %.2f dB, final estimate %.2f dB, notes %zu%s%s\n", keep, bestInLog[keep],
-      finals[keep], notes[keep], notes[keep] ? ": " : "", notes[keep] ? run.Status().Notes.back().c_str() : "");
+      finals[keep], notes[keep], notes[keep] ? ": " : "", notes[keep] ? run.status().Notes.back().c_str() : "");
   }
   EXPECT_TRUE(finals[1] >= bestInLog[1] - 0.1);
   EXPECT_TRUE(finals[1] >= finals[0] - 1e-9);

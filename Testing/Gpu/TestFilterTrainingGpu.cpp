@@ -72,7 +72,7 @@ NV_TEST(filter_loop_on_gpu)
   {
     const std::string tag = strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled";
     auto session = NetworkSession::create(Device::Cuda, smallModel(vol));
-    const double before = probe.Estimate(*session);
+    const double before = probe.estimate(*session);
     nvtest::TrainingRequest rq;
     rq.MaxSteps = 500;
     rq.PsnrInterval = 100; // splits the 64-step chunks: 64, 36, 64, 36, ...
@@ -80,7 +80,7 @@ NV_TEST(filter_loop_on_gpu)
     rq.Progress = [&](double f) { progress.push_back(f); };
     const uint64_t version = session->version();
     const nvtest::TrainingResult r = nvtest::trainHere(*session, vol, trainConfig(strategy), rq, &probe);
-    const double after = probe.Estimate(*session);
+    const double after = probe.estimate(*session);
     EXPECT_TRUE(session->version() == version + 5); // 4 probes and the end published to the session
     std::printf("    %s: %lld steps in %.3f s, GPU memory %.1f MiB, PSNR %.2f -> %.2f dB (probe at 400: %.2f)\n",
       tag.c_str(), (long long)r.Steps, r.Seconds, r.DeviceMemoryBytes / 1048576.0, before, after,
@@ -150,7 +150,7 @@ NV_TEST(range_wider_than_the_largest_double_trains_on_gpu)
       auto trainer = session->createTrainer(v, tc);
       trainer->steps(300, nullptr);
       trainer->publish();
-      psnr[k] = PsnrProbe(v, 7, 20000).Estimate(*session);
+      psnr[k] = PsnrProbe(v, 7, 20000).estimate(*session);
     }
     std::printf("    %s: +-1.35 %.3f dB, +-1.35e308 %.3f dB\n",
       strategy == TrainingStrategy::GpuResident ? "GPU-resident" : "host-sampled", psnr[0], psnr[1]);
@@ -262,15 +262,15 @@ NV_TEST(time_budget_bounds_training_and_measurement_on_gpu)
   double measureSeconds = 0.0, psnr = 0.0;
   TrainingRun run(session, training, trainConfig(TrainingStrategy::Auto), limits, [&](TrainingRun& r, const RunStatus&) {
     const auto t0 = std::chrono::steady_clock::now();
-    psnr = compareToSource(r.Session(), vol).psnr;
+    psnr = compareToSource(r.session(), vol).psnr;
     measureSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   });
   const auto start = std::chrono::steady_clock::now();
-  run.RunHere(nullptr, nullptr);
+  run.runHere(nullptr, nullptr);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const RunStatus st = run.Status();
+  const RunStatus st = run.status();
   std::printf("    budget 2 s: %lld steps, %.3f s training + %.3f s measuring (%.2f dB) = %.3f s (reserve %.3f s)\n",
-    (long long)st.Steps, st.Seconds, measureSeconds, psnr, total, run.FinalReserveSeconds());
+    (long long)st.Steps, st.Seconds, measureSeconds, psnr, total, run.finalReserveSeconds());
   EXPECT_TRUE(st.EndReason == "time budget");
   EXPECT_TRUE(total >= 1.8 && total <= 2.2);
 }
@@ -291,11 +291,11 @@ NV_TEST(background_run_while_rendering_on_gpu)
     256);
   q.samplesPerPixel = 1;
   RenderResult image;
-  run.StartInBackground();
+  run.startInBackground();
   std::set<uint64_t> versions;
   int frames = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  while (run.Status().Steps < 1000 && frames < 100000)
+  while (run.status().Steps < 1000 && frames < 100000)
   {
     session->render(q, image);
     versions.insert(session->version());
@@ -303,28 +303,28 @@ NV_TEST(background_run_while_rendering_on_gpu)
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("    %d frames in %.2f s while training (%zu network versions seen), %lld steps\n", frames, seconds,
-    versions.size(), (long long)run.Status().Steps);
+    versions.size(), (long long)run.status().Steps);
   EXPECT_TRUE(versions.size() >= 5);
-  run.Pause();
+  run.pause();
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  const int64_t paused = run.Status().Steps;
+  const int64_t paused = run.status().Steps;
   const uint64_t pausedVersion = session->version();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  EXPECT_TRUE(run.Status().Steps == paused && session->version() == pausedVersion);
-  run.Resume();
+  EXPECT_TRUE(run.status().Steps == paused && session->version() == pausedVersion);
+  run.resume();
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const auto s0 = std::chrono::steady_clock::now();
-  run.Stop();
-  EXPECT_TRUE(run.Wait(5.0));
+  run.stop();
+  EXPECT_TRUE(run.wait(5.0));
   const double latency = std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
-  std::printf("    stop latency %.4f s at %lld steps\n", latency, (long long)run.Status().Steps);
+  std::printf("    stop latency %.4f s at %lld steps\n", latency, (long long)run.status().Steps);
   EXPECT_TRUE(latency < 0.2);
   const uint64_t stoppedVersion = session->version();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   EXPECT_TRUE(session->version() == stoppedVersion);
-  run.Extend(128, true);
-  EXPECT_TRUE(run.Wait(30.0));
-  EXPECT_TRUE(run.Status().State == RunState::Finished);
+  run.extend(128, true);
+  EXPECT_TRUE(run.wait(30.0));
+  EXPECT_TRUE(run.status().State == RunState::Finished);
 }
 
 NV_TEST(deterministic_run_on_gpu_is_bitwise_repeatable)
@@ -352,17 +352,17 @@ NV_TEST(deterministic_run_on_gpu_is_bitwise_repeatable)
     limits.KeepBest = k >= 3;
     TrainingRun run(session, d, tc, limits, nullptr);
     if (!background)
-      run.RunHere(nullptr, nullptr);
+      run.runHere(nullptr, nullptr);
     else
     {
-      run.StartInBackground();
+      run.startInBackground();
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      run.Pause();
+      run.pause();
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      run.Resume();
-      EXPECT_TRUE(run.Wait(60.0));
+      run.resume();
+      EXPECT_TRUE(run.wait(60.0));
     }
-    EXPECT_TRUE(run.Status().Steps == 700);
+    EXPECT_TRUE(run.status().Steps == 700);
     params.push_back(session->currentModel().params());
   }
   auto differ = [&](int a, int b) {
