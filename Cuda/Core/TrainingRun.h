@@ -97,7 +97,23 @@ private:
   std::unique_ptr<nv::Trainer> createTrainer();
   std::function<void()> Prologue;
   void worker();
+  /// One phase (TrainingRunPhase.cpp): chunks of steps until a limit, the target PSNR or a stop.
   void runPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
+  struct PhaseLoop;
+  /// The next chunk (steps, length) under the lock, after a pause; false with the reason when the phase ends.
+  bool planChunk(PhaseLoop& loop, const std::function<bool()>& abort);
+  /// Paused (background runs): waits for resume() or stop(); paused time is not on the run's clock.
+  void waitWhilePaused(std::unique_lock<std::mutex>& lock, PhaseLoop& loop);
+  /// Trains the chunk; false when it diverged and the run rolled back (throws after kMaxRollbacks).
+  bool trainChunk(PhaseLoop& loop);
+  /// The chunk's log rows and status; probeNow when a PSNR probe is due. False when stop() came meanwhile.
+  bool logChunk(PhaseLoop& loop, bool& probeNow);
+  /// The probe (and its snapshot), or a snapshot, or a background publish; false when the target PSNR is reached.
+  bool probeOrPublish(PhaseLoop& loop, bool probeNow);
+  /// Under a time budget: the batch capped to the measured step time (budgetedBatch, resizeBatch).
+  void fitBatchToBudget(PhaseLoop& loop);
+  void reportProgress(PhaseLoop& loop, const std::function<void(double)>& progress);
+  static double secondsSince(std::chrono::steady_clock::time_point t);
   void endPhase(const std::string& reason);
   void fail(const std::string& message);
   void publish();
