@@ -217,213 +217,254 @@ NV_HD void scatter(const Params& P, Ray& r, V3 p)
   startSegment(P, r, p, phaseDir(P.g, r.dW, u1, u2));
 }
 
+/// Projection blends (Maximum, Minimum, Average): one sample's value into the accumulated one (NaN, a hole in a
+/// reference grid, is not a value).
+NV_HD_INLINE void accumulateProjection(const Params& P, Ray& r, float y)
+{
+  if (!(y == y))
+    return;
+  if (P.blend == Maximum)
+    r.acc = fmaxf_(r.acc, y);
+  else if (P.blend == Minimum)
+    r.acc = fminf_(r.acc, y);
+  else if (P.avgLo >= P.avgHi || (y >= P.avgLo && y <= P.avgHi))
+  {
+    r.acc += y;
+    ++r.count;
+  }
+}
+
+/// One ray-marching sample (value s[0], gradient neighbours after it) of step j at distance t: composited (or
+/// added), or, with shadows, held while the shadow ray starts. True when the ray leaves the March phase.
+NV_HD_INLINE bool marchSample(const Params& P, Ray& r, const float* s, int j, float t)
+{
+  float e[4];
+  lookup(P, s[0], e);
+  const float alpha = 1.0f - expNeg(e[3] * P.dt);
+  if (!(alpha > 0.0f))
+    return false;
+  float rgb[3] = { e[0], e[1], e[2] };
+  if (P.blend == Additive)
+  {
+    for (int c = 0; c < 3; ++c)
+      r.c[c] += alpha * rgb[c];
+    r.c[3] += alpha;
+    return false;
+  }
+  if (P.shading == RayMarchGradient)
+    shadeGradient(P, r, s, rgb);
+  if (P.shading == RayMarchShadows)
+  {
+    for (int c = 0; c < 3; ++c)
+      r.pend[c] = rgb[c];
+    r.pend[3] = alpha;
+    r.j = j + 1;
+    startShadow(P, r, r.o + r.d * t, P.lightW);
+    r.phase = Shadow;
+    return true;
+  }
+  compositeSample(r, rgb, alpha);
+  if (r.c[3] >= P.termination)
+  {
+    r.plain = j + 1;
+    r.phase = Done;
+    return true;
+  }
+  return false;
+}
+
+/// consume() in the March phase: up to K samples of queriesPerStep(P) values each.
+NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, int n)
+{
+  const bool skip = marchSkips(P);
+  const int qs = queriesPerStep(P);
+  const bool projection = P.blend != Composite && P.blend != Additive;
+  int j = r.j;
+  for (int k = 0; k < K; ++k, ++j)
+  {
+    float t;
+    // emit() stopped before K steps only where the segment ends: then so does the ray.
+    if (k * qs >= n || !nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
+    {
+      r.plain = segmentSamples(r.t0, r.tEnd, P.dt);
+      if (projection || P.blend == Additive)
+        finishProjection(P, r);
+      r.phase = Done;
+      return;
+    }
+    const float* s = v + k * qs;
+    if (projection)
+    {
+      accumulateProjection(P, r, s[0]);
+      continue;
+    }
+    if (marchSample(P, r, s, j, t))
+      return;
+  }
+  r.j = j;
+}
+
+/// consume() in the Shadow phase (ray marching with shadows): the shadow ray's transmittance; at its end the held
+/// sample is composited and marching resumes.
+NV_HD_INLINE void consumeShadow(const Params& P, Ray& r, int K, const float* v, int n)
+{
+  int j = r.sj;
+  bool end = false;
+  for (int k = 0; k < K; ++k, ++j)
+  {
+    float t;
+    if (k >= n || !nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
+    {
+      end = true; // the shadow ray left the volume
+      break;
+    }
+    float e[4];
+    lookup(P, v[k], e);
+    r.sT *= expNeg(e[3] * P.dtShadow);
+    if (r.sT < 1e-3f)
+    {
+      r.sT = 0.0f;
+      end = true;
+      break;
+    }
+  }
+  r.sj = j;
+  if (!end)
+    return;
+  float rgb[3];
+  const float light = P.intensity * (P.ambient + P.diffuse * r.sT);
+  for (int c = 0; c < 3; ++c)
+    rgb[c] = r.pend[c] * light;
+  compositeSample(r, rgb, r.pend[3]);
+  r.phase = March;
+  if (r.c[3] >= P.termination)
+  {
+    r.plain = r.j;
+    r.phase = Done;
+  }
+}
+
+/// A real collision of a path at p (e: the sample's colour and extinction): the path ends at maxBounces; else its
+/// throughput takes the colour and it scatters, with next-event estimation after the sun's shadow ray.
+NV_HD_INLINE void collide(const Params& P, Ray& r, V3 p, const float e[4])
+{
+  r.c[3] = 1.0f;
+  if (r.bounces >= P.maxBounces)
+  {
+    r.phase = Done;
+    return;
+  }
+  for (int q = 0; q < 3; ++q)
+    r.thr[q] *= e[q];
+  if (P.shading == PathTraceNee)
+  {
+    const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
+    // sunRadiance(w) / density(w) = 4 pi diffuse * intensity: the estimate is the phase function times
+    // diffuse * intensity, times the shadow ray's transmittance.
+    const V3 w = sunDir(P.lightW, P.sunExponent, u1, u2);
+    r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
+    startShadow(P, r, clampUnit(p), w);
+    r.phase = Nee;
+  }
+  else
+  {
+    scatter(P, r, clampUnit(p));
+  }
+}
+
+/// consume() in the Track phase (path tracing): delta tracking along the segment until a real collision or the
+/// segment's end (the path escapes).
+NV_HD_INLINE void consumeTrack(const Params& P, Ray& r, int K, const float* v, int n)
+{
+  float t = r.t;
+  uint32_t c = r.nFlight;
+  for (int k = 0; k < K; ++k)
+  {
+    // nextFlight first: where emit() found the segment's end it drew random numbers past the last collision,
+    // and the replay must draw them too (the stream continues after this segment).
+    if (!nextFlight(P, r, r.o, r.d, r.tEnd, t, c) || k >= n)
+    {
+      // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
+      r.t = r.tEnd;
+      r.nFlight = c;
+      escape(P, r);
+      return;
+    }
+    const V3 p = r.o + r.d * t;
+    const float mj = localMajorant(P, clampUnit(p));
+    float e[4];
+    lookup(P, v[k], e);
+    const float xi = rand01(P, r.pixel, r.sample, 3u, r.nEvent++);
+    if (xi * mj < e[3]) // real collision
+    {
+      r.t = t;
+      r.nFlight = c;
+      collide(P, r, p, e);
+      return;
+    }
+  }
+  r.t = t;
+  r.nFlight = c;
+}
+
+/// consume() in the Nee phase: ratio tracking of the sun's shadow ray; at its end the sun's contribution is added
+/// and the path scatters.
+NV_HD_INLINE void consumeNee(const Params& P, Ray& r, int K, const float* v, int n)
+{
+  float t = r.t;
+  uint32_t c = r.nFlight;
+  bool end = false;
+  for (int k = 0; k < K; ++k)
+  {
+    // nextFlight first, as in Track: the path's flights continue this stream after the shadow ray, so the
+    // number that overshot the shadow ray's end must be consumed here (else the next flight reuses it and is
+    // biased long).
+    if (!nextFlight(P, r, r.so, r.sd, r.stEnd, t, c) || k >= n)
+    {
+      end = true; // the shadow ray left the volume
+      break;
+    }
+    const V3 p = r.so + r.sd * t;
+    const float mj = localMajorant(P, clampUnit(p));
+    float e[4];
+    lookup(P, v[k], e);
+    // mj is > 0 where nextFlight stopped; a point rounded into a neighbouring empty cell must not give 0/0.
+    const float ratio = mj > 0.0f ? e[3] / mj : (e[3] > 0.0f ? 1.0f : 0.0f);
+    r.sT *= fmaxf_(0.0f, 1.0f - ratio);
+    if (r.sT < 1e-4f)
+    {
+      r.sT = 0.0f;
+      end = true;
+      break;
+    }
+  }
+  r.t = t;
+  r.nFlight = c;
+  if (!end)
+    return;
+  for (int q = 0; q < 3; ++q)
+    r.c[q] += r.thr[q] * P.diffuse * P.intensity * r.sT * r.pend[0];
+  scatter(P, r, r.so);
+  r.phase = Track;
+}
+
 /// Consume the n values of the queries emit(P, r, K, q) produced (same K), in order.
 NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
 {
   switch (r.phase)
   {
     case March:
-    {
-      const bool skip = marchSkips(P);
-      const int qs = queriesPerStep(P);
-      const bool projection = P.blend != Composite && P.blend != Additive;
-      int j = r.j;
-      for (int k = 0; k < K; ++k, ++j)
-      {
-        float t;
-        // emit() stopped before K steps only where the segment ends: then so does the ray.
-        if (k * qs >= n || !nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
-        {
-          r.plain = segmentSamples(r.t0, r.tEnd, P.dt);
-          if (projection || P.blend == Additive)
-            finishProjection(P, r);
-          r.phase = Done;
-          return;
-        }
-        const float* s = v + k * qs;
-        const float y = s[0];
-        if (projection)
-        {
-          if (!(y == y)) // NaN (a hole in a reference grid): not a value
-            continue;
-          if (P.blend == Maximum)
-            r.acc = fmaxf_(r.acc, y);
-          else if (P.blend == Minimum)
-            r.acc = fminf_(r.acc, y);
-          else if (P.avgLo >= P.avgHi || (y >= P.avgLo && y <= P.avgHi))
-          {
-            r.acc += y;
-            ++r.count;
-          }
-          continue;
-        }
-        float e[4];
-        lookup(P, y, e);
-        const float alpha = 1.0f - expNeg(e[3] * P.dt);
-        if (!(alpha > 0.0f))
-          continue;
-        float rgb[3] = { e[0], e[1], e[2] };
-        if (P.blend == Additive)
-        {
-          for (int c = 0; c < 3; ++c)
-            r.c[c] += alpha * rgb[c];
-          r.c[3] += alpha;
-          continue;
-        }
-        if (P.shading == RayMarchGradient)
-          shadeGradient(P, r, s, rgb);
-        if (P.shading == RayMarchShadows)
-        {
-          for (int c = 0; c < 3; ++c)
-            r.pend[c] = rgb[c];
-          r.pend[3] = alpha;
-          r.j = j + 1;
-          startShadow(P, r, r.o + r.d * t, P.lightW);
-          r.phase = Shadow;
-          return;
-        }
-        compositeSample(r, rgb, alpha);
-        if (r.c[3] >= P.termination)
-        {
-          r.plain = j + 1;
-          r.phase = Done;
-          return;
-        }
-      }
-      r.j = j;
+      consumeMarch(P, r, K, v, n);
       return;
-    }
     case Shadow:
-    {
-      int j = r.sj;
-      bool end = false;
-      for (int k = 0; k < K; ++k, ++j)
-      {
-        float t;
-        if (k >= n || !nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
-        {
-          end = true; // the shadow ray left the volume
-          break;
-        }
-        float e[4];
-        lookup(P, v[k], e);
-        r.sT *= expNeg(e[3] * P.dtShadow);
-        if (r.sT < 1e-3f)
-        {
-          r.sT = 0.0f;
-          end = true;
-          break;
-        }
-      }
-      r.sj = j;
-      if (!end)
-        return;
-      float rgb[3];
-      const float light = P.intensity * (P.ambient + P.diffuse * r.sT);
-      for (int c = 0; c < 3; ++c)
-        rgb[c] = r.pend[c] * light;
-      compositeSample(r, rgb, r.pend[3]);
-      r.phase = March;
-      if (r.c[3] >= P.termination)
-      {
-        r.plain = r.j;
-        r.phase = Done;
-      }
+      consumeShadow(P, r, K, v, n);
       return;
-    }
     case Track:
-    {
-      float t = r.t;
-      uint32_t c = r.nFlight;
-      for (int k = 0; k < K; ++k)
-      {
-        // nextFlight first: where emit() found the segment's end it drew random numbers past the last collision,
-        // and the replay must draw them too (the stream continues after this segment).
-        if (!nextFlight(P, r, r.o, r.d, r.tEnd, t, c) || k >= n)
-        {
-          // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
-          r.t = r.tEnd;
-          r.nFlight = c;
-          escape(P, r);
-          return;
-        }
-        const V3 p = r.o + r.d * t;
-        const float mj = localMajorant(P, clampUnit(p));
-        float e[4];
-        lookup(P, v[k], e);
-        const float xi = rand01(P, r.pixel, r.sample, 3u, r.nEvent++);
-        if (xi * mj < e[3]) // real collision
-        {
-          r.t = t;
-          r.nFlight = c;
-          r.c[3] = 1.0f;
-          if (r.bounces >= P.maxBounces)
-          {
-            r.phase = Done;
-            return;
-          }
-          for (int q = 0; q < 3; ++q)
-            r.thr[q] *= e[q];
-          if (P.shading == PathTraceNee)
-          {
-            const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
-            // sunRadiance(w) / density(w) = 4 pi diffuse * intensity: the estimate is the phase function times
-            // diffuse * intensity, times the shadow ray's transmittance.
-            const V3 w = sunDir(P.lightW, P.sunExponent, u1, u2);
-            r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
-            startShadow(P, r, clampUnit(p), w);
-            r.phase = Nee;
-          }
-          else
-          {
-            scatter(P, r, clampUnit(p));
-          }
-          return;
-        }
-      }
-      r.t = t;
-      r.nFlight = c;
+      consumeTrack(P, r, K, v, n);
       return;
-    }
     case Nee:
-    {
-      float t = r.t;
-      uint32_t c = r.nFlight;
-      bool end = false;
-      for (int k = 0; k < K; ++k)
-      {
-        // nextFlight first, as in Track: the path's flights continue this stream after the shadow ray, so the
-        // number that overshot the shadow ray's end must be consumed here (else the next flight reuses it and is
-        // biased long).
-        if (!nextFlight(P, r, r.so, r.sd, r.stEnd, t, c) || k >= n)
-        {
-          end = true; // the shadow ray left the volume
-          break;
-        }
-        const V3 p = r.so + r.sd * t;
-        const float mj = localMajorant(P, clampUnit(p));
-        float e[4];
-        lookup(P, v[k], e);
-        // mj is > 0 where nextFlight stopped; a point rounded into a neighbouring empty cell must not give 0/0.
-        const float ratio = mj > 0.0f ? e[3] / mj : (e[3] > 0.0f ? 1.0f : 0.0f);
-        r.sT *= fmaxf_(0.0f, 1.0f - ratio);
-        if (r.sT < 1e-4f)
-        {
-          r.sT = 0.0f;
-          end = true;
-          break;
-        }
-      }
-      r.t = t;
-      r.nFlight = c;
-      if (!end)
-        return;
-      for (int q = 0; q < 3; ++q)
-        r.c[q] += r.thr[q] * P.diffuse * P.intensity * r.sT * r.pend[0];
-      scatter(P, r, r.so);
-      r.phase = Track;
+      consumeNee(P, r, K, v, n);
       return;
-    }
     default:
       return;
   }
