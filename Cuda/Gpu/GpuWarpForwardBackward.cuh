@@ -59,22 +59,15 @@ __device__ __forceinline__ void trainPoint(const TrainArgs& a, int64_t gi, float
   }
 }
 
-/// Phase 1 for the warp's 16 rows: loss, dZ_l / X_l staging and dL/d(encoding) (global level-major or scatter).
+/// 1-3. The forward pass of the warp's 16 samples: encodings into X_0 (from the fp32 table, or pre-encoded), X_l
+/// staged for the backward pass and the weight gradients; the outputs and X_H into `fo`.
 template <int W, int F, bool Pre>
-__device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned char* smem, int64_t base, int row0,
-  int lane, float gradScale, float (&woutAcc)[W / 8][2], float& lossAcc)
+__device__ __forceinline__ void warpTrainForward(const TrainArgs& a, const WarpNet& net, const StageActivations& stage,
+  int64_t base, __half* X0, int lane, WarpOut<W>& fo)
 {
   const RegPlan& p = a.reg;
   const MlpShape& s = a.shape;
-  __half* sh = reinterpret_cast<__half*>(smem);
-  const float* swout = reinterpret_cast<const float*>(smem + p.wout);
-  const int g = lane >> 2, t = lane & 3, r16 = lane & 15;
-  __half* X0 = sh + p.x[0] + row0 * p.ldX0;
-
-  // 1-3. Forward pass (encodings into X_0, X_l staged for the backward pass and the weight gradients), outputs.
-  const WarpNet net{ sh, p.w, p.ldX0, p.ldA, swout };
-  const StageActivations stage{ sh + row0 * p.ldA, p.x, p.ldA, nullptr, 0 };
-  WarpOut<W> fo;
+  const int r16 = lane & 15;
   if constexpr (Pre)
   {
     const PreEncoded src{ a.encG, base, a.n };
@@ -87,38 +80,48 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
     const EncodeFrom<float> src{ a.table32 };
     warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, X0, p.ldX0, lane, stage, fo);
   }
-  const float lo = fo.lo, hi = fo.hi;
-  uint32_t(&XH)[W / 8][2] = fo.xh; // packed fp16 X_H: rows g / g + 8, columns 8j + 2t, +1
-  float gr[2] = { 0.0f, 0.0f };
-  {
-    const float o[2] = { lo, hi };
+}
+
+/// 3. The loss gradient of the lane's two outputs (rows g and g + 8), times gradScale for L2 (L1: +-1), and the
+/// loss into lossAcc (one lane of four adds it). Samples beyond n and NaN targets give 0.
+__device__ __forceinline__ void warpLossGradient(const TrainArgs& a, int64_t base, int lane, float gradScale,
+  float lo, float hi, float (&gr)[2], float& lossAcc)
+{
+  const int g = lane >> 2, t = lane & 3;
+  const float o[2] = { lo, hi };
 #pragma unroll
-    for (int k = 0; k < 2; ++k)
+  for (int k = 0; k < 2; ++k)
+  {
+    const int64_t gi = base + g + 8 * k;
+    if (gi < a.n)
     {
-      const int64_t gi = base + g + 8 * k;
-      if (gi < a.n)
+      const float tg = a.targets[gi];
+      if (!isnan(tg))
       {
-        const float tg = a.targets[gi];
-        if (!isnan(tg))
+        const float diff = o[k] - tg;
+        if (a.l1)
         {
-          const float diff = o[k] - tg;
-          if (a.l1)
-          {
-            gr[k] = diff > 0.0f ? 1.0f : (diff < 0.0f ? -1.0f : 0.0f);
-            lossAcc += t == 0 ? fabsf(diff) : 0.0f;
-          }
-          else
-          {
-            gr[k] = 2.0f * diff * gradScale;
-            lossAcc += t == 0 ? diff * diff : 0.0f;
-          }
+          gr[k] = diff > 0.0f ? 1.0f : (diff < 0.0f ? -1.0f : 0.0f);
+          lossAcc += t == 0 ? fabsf(diff) : 0.0f;
+        }
+        else
+        {
+          gr[k] = 2.0f * diff * gradScale;
+          lossAcc += t == 0 ? diff * diff : 0.0f;
         }
       }
     }
   }
+}
 
-  // 4. dWout (registers) and dZ_{H-1} = (g * wout) masked by X_H > 0, rounded to fp16.
-  uint32_t dA[W / 16][4];
+/// 4. dWout (registers) and dZ_{H-1} = (g * wout) masked by X_H > 0, rounded to fp16: the A fragments dA, also
+/// staged in shared memory for the weight gradients.
+template <int W>
+__device__ __forceinline__ void outputLayerBackward(const RegPlan& p, const MlpShape& s, __half* sh,
+  const float* swout, int row0, int lane, const uint32_t (&XH)[W / 8][2], const float (&gr)[2],
+  float (&woutAcc)[W / 8][2], uint32_t (&dA)[W / 16][4])
+{
+  const int t = lane & 3;
 #pragma unroll
   for (int j = 0; j < W / 8; ++j)
   {
@@ -132,14 +135,18 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
     dA[j / 2][(j & 1) * 2] = halves2(d0.x, d0.y);
     dA[j / 2][(j & 1) * 2 + 1] = halves2(d1.x, d1.y);
   }
-  {
-    __half* dz = sh + p.dz[s.hiddenLayers - 1] + row0 * p.ldA;
+  __half* dz = sh + p.dz[s.hiddenLayers - 1] + row0 * p.ldA;
 #pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-      storeFrag(dA[kc], dz, p.ldA, kc, lane);
-  }
+  for (int kc = 0; kc < W / 16; ++kc)
+    storeFrag(dA[kc], dz, p.ldA, kc, lane);
+}
 
-  // 5. Hidden layers: dX_l = dZ_l . W_l, dZ_{l-1} = dX_l masked by X_l > 0.
+/// 5. Hidden layers: dX_l = dZ_l . W_l, dZ_{l-1} = dX_l masked by X_l > 0 (dA in, dZ_0 out), each staged.
+template <int W>
+__device__ __forceinline__ void hiddenLayersBackward(const RegPlan& p, const MlpShape& s, __half* sh, int row0,
+  int lane, uint32_t (&dA)[W / 16][4])
+{
+  const int g = lane >> 2, t = lane & 3;
   for (int l = s.hiddenLayers - 1; l >= 1; --l)
   {
     float D[W / 8][4];
@@ -165,9 +172,17 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
     for (int kc = 0; kc < W / 16; ++kc)
       storeFrag(dA[kc], dz, p.ldA, kc, lane);
   }
+}
 
-  // 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time.
-  float* dEw = reinterpret_cast<float*>(smem + p.de) + row0 * p.ldDE; // fused mode only
+/// 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time: level-major into global memory (Pre), or into the warp's
+/// dEnc rows dEw in shared memory (fused mode).
+template <int W, int F, bool Pre>
+__device__ __forceinline__ void encodingGradient(const TrainArgs& a, __half* sh, float* dEw, int64_t base, int lane,
+  const uint32_t (&dA)[W / 16][4])
+{
+  const RegPlan& p = a.reg;
+  const MlpShape& s = a.shape;
+  const int g = lane >> 2, t = lane & 3;
   for (int n0 = 0; n0 < s.paddedInputs; n0 += 64)
   {
     const int nt = min(8, (s.paddedInputs - n0) / 8);
@@ -214,37 +229,70 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
       }
     }
   }
+}
+
+/// Fused mode: the warp's dEnc rows into the table gradient. The lane owns sample r16 and levels lane >> 4, +2, ...
+template <int F>
+__device__ __forceinline__ void scatterEncodingGradient(const TrainArgs& a, const float* dEw, int64_t base, int lane)
+{
+  const RegPlan& p = a.reg;
+  const int r16 = lane & 15;
+  const int64_t gi = base + r16;
+  if (gi >= a.n)
+    return;
+  float x[3];
+  trainPoint(a, gi, x);
+  for (int l = lane >> 4; l < a.grid.levels; l += 2)
+  {
+    float d[F];
+    bool any = false;
+#pragma unroll
+    for (int f = 0; f < F; ++f)
+    {
+      d[f] = dEw[r16 * p.ldDE + l * F + f];
+      any |= d[f] != 0.0f;
+    }
+    if (!any)
+      continue;
+    const LevelInfo& lv = a.grid.level[l];
+    uint32_t corner[3];
+    float frac[3];
+    gridPosition(lv, x, corner, frac);
+    if (a.fixedTable)
+      scatterCorners<F>(a.fixedTable, lv, corner, frac, d);
+    else
+      scatterCorners<F>(a.gradTable, lv, corner, frac, d);
+  }
+}
+
+/// Phase 1 for the warp's 16 rows: loss, dZ_l / X_l staging and dL/d(encoding) (global level-major or scatter).
+template <int W, int F, bool Pre>
+__device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned char* smem, int64_t base, int row0,
+  int lane, float gradScale, float (&woutAcc)[W / 8][2], float& lossAcc)
+{
+  const RegPlan& p = a.reg;
+  const MlpShape& s = a.shape;
+  __half* sh = reinterpret_cast<__half*>(smem);
+  const float* swout = reinterpret_cast<const float*>(smem + p.wout);
+  __half* X0 = sh + p.x[0] + row0 * p.ldX0;
+
+  const WarpNet net{ sh, p.w, p.ldX0, p.ldA, swout };
+  const StageActivations stage{ sh + row0 * p.ldA, p.x, p.ldA, nullptr, 0 };
+  WarpOut<W> fo;
+  warpTrainForward<W, F, Pre>(a, net, stage, base, X0, lane, fo);
+  float gr[2] = { 0.0f, 0.0f };
+  warpLossGradient(a, base, lane, gradScale, fo.lo, fo.hi, gr, lossAcc);
+
+  uint32_t dA[W / 16][4];
+  outputLayerBackward<W>(p, s, sh, swout, row0, lane, fo.xh, gr, woutAcc, dA);
+  hiddenLayersBackward<W>(p, s, sh, row0, lane, dA);
+
+  float* dEw = reinterpret_cast<float*>(smem + p.de) + row0 * p.ldDE; // fused mode only
+  encodingGradient<W, F, Pre>(a, sh, dEw, base, lane, dA);
   if constexpr (!Pre)
   {
-    // Scatter: lane owns sample r16 and levels lane >> 4, +2, ...
     __syncwarp();
-    const int64_t gi = base + r16;
-    if (gi < a.n)
-    {
-      float x[3];
-      trainPoint(a, gi, x);
-      for (int l = lane >> 4; l < a.grid.levels; l += 2)
-      {
-        float d[F];
-        bool any = false;
-#pragma unroll
-        for (int f = 0; f < F; ++f)
-        {
-          d[f] = dEw[r16 * p.ldDE + l * F + f];
-          any |= d[f] != 0.0f;
-        }
-        if (!any)
-          continue;
-        const LevelInfo& lv = a.grid.level[l];
-        uint32_t corner[3];
-        float frac[3];
-        gridPosition(lv, x, corner, frac);
-        if (a.fixedTable)
-          scatterCorners<F>(a.fixedTable, lv, corner, frac, d);
-        else
-          scatterCorners<F>(a.gradTable, lv, corner, frac, d);
-      }
-    }
+    scatterEncodingGradient<F>(a, dEw, base, lane);
   }
 }
 
