@@ -3,7 +3,10 @@
 // mode's conversion of the fixed-point gradient sums that Adam then reads.
 #pragma once
 
+#include "Core/Config.h"
 #include "GpuStepCounters.cuh"
+
+#include <cmath>
 
 namespace nv
 {
@@ -18,6 +21,27 @@ struct AdamArgs
   float stateScale; ///< hash-table moments are kept in units of stateScale x gradient (the batch size)
   uint32_t noise;   ///< per-step seed of the stochastic rounding of the table moments
 };
+
+/// The Adam constants of step s (1-based): bias corrections, the schedule's rate times plateauScale
+/// (PlateauSchedule), the table moments' scale (the batch) and the seed of their stochastic rounding.
+inline AdamArgs makeAdamArgs(const TrainConfig& train, double plateauScale, int64_t s)
+{
+  const OptimizerConfig& o = train.optimizer;
+  const double bc1 = 1.0 - std::pow(o.beta1, static_cast<double>(s));
+  const double bc2 = 1.0 - std::pow(o.beta2, static_cast<double>(s));
+  const double lr = static_cast<float>(o.learningRateAt(s) * plateauScale);
+  AdamArgs a;
+  a.b1 = static_cast<float>(o.beta1);
+  a.b2 = static_cast<float>(o.beta2);
+  a.a1 = 1.0f - a.b1;
+  a.a2 = 1.0f - a.b2;
+  a.eps = static_cast<float>(o.epsilon);
+  a.stepSize = static_cast<float>(lr / bc1);
+  a.invSqrtBc2 = static_cast<float>(1.0 / std::sqrt(bc2));
+  a.stateScale = static_cast<float>(train.batchSize);
+  a.noise = static_cast<uint32_t>(mix64(train.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(s)));
+  return a;
+}
 
 __device__ __forceinline__ void adamOne(float& p, float& g, float& m, float& v, float scale, const AdamArgs& a)
 {

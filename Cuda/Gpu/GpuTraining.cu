@@ -10,9 +10,8 @@
 #include "Cpu/CpuSampler.h"
 #include "Cpu/ThreadPool.h"
 #include "GpuEngine.h"
-#include "GpuTrainRegKernel.cuh"
 #include "GpuInternal.cuh"
-#include "GpuTrainWmma.cuh"
+#include "GpuTrainKernelChoice.cuh"
 
 #include <algorithm>
 #include <cmath>
@@ -28,53 +27,6 @@ namespace gpu
 {
 namespace
 {
-
-using TrainFn = void (*)(TrainArgs);
-
-/// Two-pass training (level-major encode -> MLP kernel -> level-major scatter) or the single fused kernel. Measured
-/// on an H100 at batch 65536 (gpu_notes.md): two passes win when the table does not fit L2 comfortably (2^18: 0.557
-/// vs 0.612 ms, 2^19: 0.754 vs 0.820) and lose on small tables (2^16: 0.388 vs 0.358, 2^14: 0.350 vs 0.322) and
-/// small batches (16384 at 2^19: 0.501 vs 0.479; 32768: equal). KernelOptions::trainTwoPass 0 / 1 forces a path.
-bool trainTwoPass(const KernelOptions& o, size_t table16Bytes, int64_t batch)
-{
-  if (o.trainTwoPass >= 0)
-    return o.trainTwoPass != 0;
-  return table16Bytes > (size_t(16) << 20) && batch > 32768;
-}
-
-TrainFn pickTrain(int W, int F, bool two)
-{
-#define NV_CASE(w, f)                                                                              \
-  if (W == w && F == f)                                                                            \
-    return two ? trainWmmaKernel<w, f, true> : trainWmmaKernel<w, f, false>;
-  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
-  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
-  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
-  NV_CASE(128, 1) NV_CASE(128, 2) NV_CASE(128, 4) NV_CASE(128, 8)
-#undef NV_CASE
-  NV_THROW("unsupported network width / features per level on the GPU");
-}
-
-constexpr int kRegWarps = 8;
-
-/// Register-resident kernel for W <= 64 (GpuTrainRegKernel.cuh); null for other widths.
-TrainFn pickReg(int W, int F, bool two)
-{
-#define NV_CASE(w, f)                                                                              \
-  if (W == w && F == f)                                                                            \
-    return two ? trainRegKernel<w, f, kRegWarps, true> : trainRegKernel<w, f, kRegWarps, false>;
-  NV_CASE(16, 1) NV_CASE(16, 2) NV_CASE(16, 4) NV_CASE(16, 8)
-  NV_CASE(32, 1) NV_CASE(32, 2) NV_CASE(32, 4) NV_CASE(32, 8)
-  NV_CASE(64, 1) NV_CASE(64, 2) NV_CASE(64, 4) NV_CASE(64, 8)
-#undef NV_CASE
-  return nullptr;
-}
-
-int gridFor(int64_t n, int threads = 256)
-{
-  const int64_t b = (n + threads - 1) / threads;
-  return static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(b, int64_t(deviceInfo().sms) * 16)));
-}
 
 class GpuTrainer final : public Trainer
 {
@@ -451,24 +403,7 @@ private:
     Slots.allocate(size_t(Blocks) * Network.shape.total, "per-block MLP gradients");
   }
 
-  AdamArgs adamArgs(int64_t s) const
-  {
-    const OptimizerConfig& o = Train.optimizer;
-    const double bc1 = 1.0 - std::pow(o.beta1, static_cast<double>(s));
-    const double bc2 = 1.0 - std::pow(o.beta2, static_cast<double>(s));
-    const double lr = static_cast<float>(o.learningRateAt(s) * Plateau.scale());
-    AdamArgs a;
-    a.b1 = static_cast<float>(o.beta1);
-    a.b2 = static_cast<float>(o.beta2);
-    a.a1 = 1.0f - a.b1;
-    a.a2 = 1.0f - a.b2;
-    a.eps = static_cast<float>(o.epsilon);
-    a.stepSize = static_cast<float>(lr / bc1);
-    a.invSqrtBc2 = static_cast<float>(1.0 / std::sqrt(bc2));
-    a.stateScale = static_cast<float>(Train.batchSize);
-    a.noise = static_cast<uint32_t>(mix64(Train.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(s)));
-    return a;
-  }
+  AdamArgs adamArgs(int64_t s) const { return makeAdamArgs(Train, Plateau.scale(), s); }
 
   /// Forward/backward of step s on n samples (xyz null: random points). Two-pass mode: level-major encode, MLP
   /// kernel, level-major scatter of the table gradient.
