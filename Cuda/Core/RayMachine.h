@@ -298,8 +298,38 @@ NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, i
       accumulateProjection(P, r, s[0]);
       continue;
     }
-    if (marchSample(P, r, s, j, t))
+    float e[4];
+    lookup(P, s[0], e);
+    const float alpha = 1.0f - expNeg(e[3] * P.dt);
+    if (!(alpha > 0.0f))
+      continue;
+    float rgb[3] = { e[0], e[1], e[2] };
+    if (P.blend == Additive)
+    {
+      for (int c = 0; c < 3; ++c)
+        r.c[c] += alpha * rgb[c];
+      r.c[3] += alpha;
+      continue;
+    }
+    if (P.shading == RayMarchGradient)
+      shadeGradient(P, r, s, rgb);
+    if (P.shading == RayMarchShadows)
+    {
+      for (int c = 0; c < 3; ++c)
+        r.pend[c] = rgb[c];
+      r.pend[3] = alpha;
+      r.j = j + 1;
+      startShadow(P, r, r.o + r.d * t, P.lightW);
+      r.phase = Shadow;
       return;
+    }
+    compositeSample(r, rgb, alpha);
+    if (r.c[3] >= P.termination)
+    {
+      r.plain = j + 1;
+      r.phase = Done;
+      return;
+    }
   }
   r.j = j;
 }
