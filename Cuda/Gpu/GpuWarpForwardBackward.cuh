@@ -59,29 +59,6 @@ __device__ __forceinline__ void trainPoint(const TrainArgs& a, int64_t gi, float
   }
 }
 
-/// 1-3. The forward pass of the warp's 16 samples: encodings into X_0 (from the fp32 table, or pre-encoded), X_l
-/// staged for the backward pass and the weight gradients; the outputs and X_H into `fo`.
-template <int W, int F, bool Pre>
-__device__ __forceinline__ void warpTrainForward(const TrainArgs& a, const WarpNet& net, const StageActivations& stage,
-  int64_t base, __half* X0, int lane, WarpOut<W>& fo)
-{
-  const RegPlan& p = a.reg;
-  const MlpShape& s = a.shape;
-  const int r16 = lane & 15;
-  if constexpr (Pre)
-  {
-    const PreEncoded src{ a.encG, base, a.n };
-    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, X0, p.ldX0, lane, stage, fo);
-  }
-  else
-  {
-    float x[3];
-    trainPoint(a, base + r16, x);
-    const EncodeFrom<float> src{ a.table32 };
-    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, X0, p.ldX0, lane, stage, fo);
-  }
-}
-
 /// 3. The loss gradient of the lane's two outputs (rows g and g + 8), times gradScale for L2 (L1: +-1), and the
 /// loss into lossAcc (one lane of four adds it). Samples beyond n and NaN targets give 0.
 __device__ __forceinline__ void warpLossGradient(const TrainArgs& a, int64_t base, int lane, float gradScale,
@@ -174,63 +151,6 @@ __device__ __forceinline__ void hiddenLayersBackward(const RegPlan& p, const Mlp
   }
 }
 
-/// 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time: level-major into global memory (Pre), or into the warp's
-/// dEnc rows dEw in shared memory (fused mode).
-template <int W, int F, bool Pre>
-__device__ __forceinline__ void encodingGradient(const TrainArgs& a, __half* sh, float* dEw, int64_t base, int lane,
-  const uint32_t (&dA)[W / 16][4])
-{
-  const RegPlan& p = a.reg;
-  const MlpShape& s = a.shape;
-  const int g = lane >> 2, t = lane & 3;
-  for (int n0 = 0; n0 < s.paddedInputs; n0 += 64)
-  {
-    const int nt = min(8, (s.paddedInputs - n0) / 8);
-    float E[8][4];
-#pragma unroll
-    for (int j = 0; j < 8; ++j)
-      E[j][0] = E[j][1] = E[j][2] = E[j][3] = 0.0f;
-#pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-      mmaChunkT<8>(E, dA[kc], sh + p.w[0], p.ldX0, kc * 16, n0, nt, lane);
-#pragma unroll
-    for (int j = 0; j < 8; ++j)
-    {
-      const int c = n0 + 8 * j + 2 * t;
-      if (j >= nt || c >= s.inputs)
-        continue;
-#pragma unroll
-      for (int k = 0; k < 2; ++k)
-      {
-        const float e0 = E[j][2 * k], e1 = E[j][2 * k + 1];
-        if constexpr (Pre)
-        {
-          const int64_t gi = base + g + 8 * k;
-          if (gi >= a.n)
-            continue;
-          if constexpr (F == 1)
-          {
-            a.dEncG[c * a.n + gi] = e0;
-            if (c + 1 < s.inputs)
-              a.dEncG[(c + 1) * a.n + gi] = e1;
-          }
-          else
-          {
-            const int l = c / F, f = c % F;
-            *reinterpret_cast<float2*>(a.dEncG + (l * a.n + gi) * F + f) = make_float2(e0, e1);
-          }
-        }
-        else
-        {
-          float* d = dEw + (g + 8 * k) * p.ldDE + c;
-          d[0] = e0;
-          d[1] = e1;
-        }
-      }
-    }
-  }
-}
-
 /// Fused mode: the warp's dEnc rows into the table gradient. The lane owns sample r16 and levels lane >> 4, +2, ...
 template <int F>
 __device__ __forceinline__ void scatterEncodingGradient(const TrainArgs& a, const float* dEw, int64_t base, int lane)
@@ -278,8 +198,20 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
 
   const WarpNet net{ sh, p.w, p.ldX0, p.ldA, swout };
   const StageActivations stage{ sh + row0 * p.ldA, p.x, p.ldA, nullptr, 0 };
+  // 1-3. Forward pass (encodings into X_0, X_l staged for the backward pass and the weight gradients), outputs.
   WarpOut<W> fo;
-  warpTrainForward<W, F, Pre>(a, net, stage, base, X0, lane, fo);
+  if constexpr (Pre)
+  {
+    const PreEncoded src{ a.encG, base, a.n };
+    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, X0, p.ldX0, lane, stage, fo);
+  }
+  else
+  {
+    float x[3];
+    trainPoint(a, base + (lane & 15), x);
+    const EncodeFrom<float> src{ a.table32 };
+    warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, X0, p.ldX0, lane, stage, fo);
+  }
   float gr[2] = { 0.0f, 0.0f };
   warpLossGradient(a, base, lane, gradScale, fo.lo, fo.hi, gr, lossAcc);
 
@@ -287,8 +219,56 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
   outputLayerBackward<W>(p, s, sh, swout, row0, lane, fo.xh, gr, woutAcc, dA);
   hiddenLayersBackward<W>(p, s, sh, row0, lane, dA);
 
+  // 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time (inline here: as a helper it changed the fused kernels'
+  // register counts), level-major to global memory (Pre) or to the warp's dEnc rows for the scatter.
+  const int g = lane >> 2, t = lane & 3;
   float* dEw = reinterpret_cast<float*>(smem + p.de) + row0 * p.ldDE; // fused mode only
-  encodingGradient<W, F, Pre>(a, sh, dEw, base, lane, dA);
+  for (int n0 = 0; n0 < s.paddedInputs; n0 += 64)
+  {
+    const int nt = min(8, (s.paddedInputs - n0) / 8);
+    float E[8][4];
+#pragma unroll
+    for (int j = 0; j < 8; ++j)
+      E[j][0] = E[j][1] = E[j][2] = E[j][3] = 0.0f;
+#pragma unroll
+    for (int kc = 0; kc < W / 16; ++kc)
+      mmaChunkT<8>(E, dA[kc], sh + p.w[0], p.ldX0, kc * 16, n0, nt, lane);
+#pragma unroll
+    for (int j = 0; j < 8; ++j)
+    {
+      const int c = n0 + 8 * j + 2 * t;
+      if (j >= nt || c >= s.inputs)
+        continue;
+#pragma unroll
+      for (int k = 0; k < 2; ++k)
+      {
+        const float e0 = E[j][2 * k], e1 = E[j][2 * k + 1];
+        if constexpr (Pre)
+        {
+          const int64_t gi = base + g + 8 * k;
+          if (gi >= a.n)
+            continue;
+          if constexpr (F == 1)
+          {
+            a.dEncG[c * a.n + gi] = e0;
+            if (c + 1 < s.inputs)
+              a.dEncG[(c + 1) * a.n + gi] = e1;
+          }
+          else
+          {
+            const int l = c / F, f = c % F;
+            *reinterpret_cast<float2*>(a.dEncG + (l * a.n + gi) * F + f) = make_float2(e0, e1);
+          }
+        }
+        else
+        {
+          float* d = dEw + (g + 8 * k) * p.ldDE + c;
+          d[0] = e0;
+          d[1] = e1;
+        }
+      }
+    }
+  }
   if constexpr (!Pre)
   {
     __syncwarp();
