@@ -86,7 +86,7 @@ inline size_t roundUp128(size_t x)
 /// Shared-memory plan of a block (bytes offsets). Training keeps every hidden activation for the backward pass.
 struct SmemPlan
 {
-  int T, warps;
+  int tileSamples, warps; ///< samples per block iteration (16 per warp), warps per block
   int ldE, ldA, ldDE; ///< leading dimensions: enc (halves), activations (halves), dEnc (floats)
   int xyz, tgt, g, enc, acts, dz0, dz1, stage, w, wout;
   int wOff[kMaxHidden]; ///< smem weight layer offsets (halves, relative to w)
@@ -98,7 +98,7 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
 {
   SmemPlan p{};
   p.warps = warps;
-  p.T = 16 * warps;
+  p.tileSamples = 16 * warps;
   p.ldE = s.paddedInputs + 8;
   p.ldA = s.width + 8;
   p.ldDE = s.paddedInputs + 4;
@@ -109,7 +109,7 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
     o += roundUp128(bytes);
     return static_cast<int>(at);
   };
-  const size_t T = p.T;
+  const size_t T = p.tileSamples;
   p.xyz = take(T * 3 * 4);
   p.tgt = take(T * 4);
   p.g = take(T * 4);

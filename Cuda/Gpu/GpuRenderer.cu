@@ -90,8 +90,8 @@ void GridTexture::assign(const float* device, int64_t nx, int64_t ny, int64_t nz
 // ---------------------------------------------------------------------------------------------------------
 
 GpuRenderer::GpuRenderer(const DeviceModel& dm, cudaStream_t stream)
-  : Dm(dm)
-  , St(stream)
+  : Network(dm)
+  , RenderStream(stream)
 {
   Counters.allocate(1, "render counters");
   HostCounters.allocate(1);
@@ -100,7 +100,7 @@ GpuRenderer::GpuRenderer(const DeviceModel& dm, cudaStream_t stream)
 
 GpuRenderer::~GpuRenderer()
 {
-  cudaStreamSynchronize(St);
+  cudaStreamSynchronize(RenderStream);
 }
 
 int64_t GpuRenderer::deviceMemoryBytes() const
@@ -132,14 +132,14 @@ void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
       const double v = q.grid->at(i);
       h[size_t(i)] = std::isfinite(v) ? static_cast<float>(range.normalize(v)) : std::nanf("");
     }
-    NV_CUDA(cudaMemcpyAsync(GridLinear.get(), h.data(), n * sizeof(float), cudaMemcpyHostToDevice, St));
-    NV_CUDA(cudaStreamSynchronize(St)); // h goes out of scope
+    NV_CUDA(cudaMemcpyAsync(GridLinear.get(), h.data(), n * sizeof(float), cudaMemcpyHostToDevice, RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream)); // h goes out of scope
   }
   else
   {
-    launchInference(Dm, nullptr, nx, ny, nz, 0, 0, n, GridLinear.get(), St);
+    launchInference(Network, nullptr, nx, ny, nz, 0, 0, n, GridLinear.get(), RenderStream);
   }
-  Grid.assign(GridLinear.get(), nx, ny, nz, St);
+  Grid.assign(GridLinear.get(), nx, ny, nz, RenderStream);
   GridDims[0] = nx;
   GridDims[1] = ny;
   GridDims[2] = nz;
@@ -181,12 +181,12 @@ void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     const int64_t n = L[0] * L[1] * L[2];
     if (Lattice.size() < size_t(n))
       Lattice.allocate(size_t(n), "macrocell lattice");
-    launchInference(Dm, nullptr, L[0], L[1], L[2], 0, 0, n, Lattice.get(), St);
+    launchInference(Network, nullptr, L[0], L[1], L[2], 0, 0, n, Lattice.get(), RenderStream);
     lattice = Lattice.get();
     margin = kNetworkRangeMargin;
   }
-  cellRangeKernel<<<gridFor(cells), 256, 0, St>>>(s.cells, lattice, L[0], L[1], L[2], margin, occupancy, background,
-    Range.get());
+  cellRangeKernel<<<gridFor(cells), 256, 0, RenderStream>>>(s.cells, lattice, L[0], L[1], L[2], margin, occupancy,
+    background, Range.get());
   NV_CUDA_LAUNCH();
   Ranges = k;
   ++RangeStamp;
@@ -200,13 +200,13 @@ void GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
   {
     if (Majorant.size() < size_t(cells))
       Majorant.allocate(size_t(cells), "macrocell majorants");
-    NV_CUDA(cudaMemsetAsync(&Counters.get()->maxMajorantBits, 0, sizeof(unsigned int), St));
-    majorantKernel<<<gridFor(cells), 256, 0, St>>>(Range.get(), cells, Tf.get(), P.tfSize, P.tfScale, P.tfShift,
-      Majorant.get(), Counters.get());
+    NV_CUDA(cudaMemsetAsync(&Counters.get()->maxMajorantBits, 0, sizeof(unsigned int), RenderStream));
+    majorantKernel<<<gridFor(cells), 256, 0, RenderStream>>>(Range.get(), cells, Tf.get(), P.tfSize, P.tfScale,
+      P.tfShift, Majorant.get(), Counters.get());
     NV_CUDA_LAUNCH();
     NV_CUDA(cudaMemcpyAsync(HostScalars.get(), &Counters.get()->maxMajorantBits, sizeof(unsigned int),
-      cudaMemcpyDeviceToHost, St));
-    NV_CUDA(cudaStreamSynchronize(St));
+      cudaMemcpyDeviceToHost, RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream));
     const uint32_t bits = HostScalars.get()[0];
     std::memcpy(&MaxMajorant, &bits, sizeof(float));
     MajorantKey = h;
@@ -230,16 +230,18 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
     Offsets.allocate(size_t(pixels), "query offsets");
   }
   size_t temp = 0;
-  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, Counts.get(), Offsets.get(), static_cast<int>(pixels), St));
+  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, Counts.get(), Offsets.get(), static_cast<int>(pixels),
+    RenderStream));
   if (ScanTemp.size() < temp)
     ScanTemp.allocate(temp, "scan scratch");
   RenderCounters* c = Counters.get();
-  NV_CUDA(cudaMemsetAsync(c->active, 0, sizeof(c->active), St));
-  initRaysKernel<<<gridFor(pixels), 256, 0, St>>>(P, sample, Rays.get(), Active[0].get(), c, Image.get(), accum);
+  NV_CUDA(cudaMemsetAsync(c->active, 0, sizeof(c->active), RenderStream));
+  initRaysKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(P, sample, Rays.get(), Active[0].get(), c, Image.get(),
+    accum);
   NV_CUDA_LAUNCH();
   uint32_t* h = HostScalars.get();
-  NV_CUDA(cudaMemcpyAsync(h, &c->active[0], sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
-  NV_CUDA(cudaStreamSynchronize(St));
+  NV_CUDA(cudaMemcpyAsync(h, &c->active[0], sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
+  NV_CUDA(cudaStreamSynchronize(RenderStream));
   uint32_t live = h[0];
   // Rays per batch: their slots (K steps of qps queries each) hold at most kMaxStreamQueries points.
   const int stride = K * qps;
@@ -254,32 +256,33 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
   int cur = 0;
   while (live > 0)
   {
-    NV_CUDA(cudaMemsetAsync(&c->active[cur ^ 1], 0, sizeof(uint32_t), St));
+    NV_CUDA(cudaMemsetAsync(&c->active[cur ^ 1], 0, sizeof(uint32_t), RenderStream));
     for (int64_t start = 0; start < live; start += batch)
     {
       const uint32_t m = static_cast<uint32_t>(std::min<int64_t>(batch, live - start));
       const uint32_t* act = Active[cur].get() + start;
-      emitKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, stride, Slots.get(), Counts.get());
+      emitKernel<<<gridFor(m), 256, 0, RenderStream>>>(P, Rays.get(), act, m, K, stride, Slots.get(), Counts.get());
       NV_CUDA_LAUNCH();
-      NV_CUDA(cub::DeviceScan::ExclusiveSum(ScanTemp.get(), temp, Counts.get(), Offsets.get(), static_cast<int>(m), St));
-      NV_CUDA(cudaMemcpyAsync(h, Offsets.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
-      NV_CUDA(cudaMemcpyAsync(h + 1, Counts.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
-      NV_CUDA(cudaStreamSynchronize(St));
+      NV_CUDA(cub::DeviceScan::ExclusiveSum(ScanTemp.get(), temp, Counts.get(), Offsets.get(), static_cast<int>(m),
+        RenderStream));
+      NV_CUDA(cudaMemcpyAsync(h, Offsets.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
+      NV_CUDA(cudaMemcpyAsync(h + 1, Counts.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
+      NV_CUDA(cudaStreamSynchronize(RenderStream));
       const int64_t total = int64_t(h[0]) + h[1];
       if (total > 0)
       {
-        packKernel<<<gridFor(int64_t(m) * stride), 256, 0, St>>>(m, stride, Slots.get(), Counts.get(), Offsets.get(),
-          Points.get());
+        packKernel<<<gridFor(int64_t(m) * stride), 256, 0, RenderStream>>>(m, stride, Slots.get(), Counts.get(),
+          Offsets.get(), Points.get());
         NV_CUDA_LAUNCH();
-        launchInference(Dm, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), St);
+        launchInference(Network, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), RenderStream);
       }
-      consumeKernel<<<gridFor(m), 256, 0, St>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(), Points.get(),
-        Values.get(), Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
+      consumeKernel<<<gridFor(m), 256, 0, RenderStream>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(),
+        Points.get(), Values.get(), Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
       NV_CUDA_LAUNCH();
       ++st.wavefronts;
     }
-    NV_CUDA(cudaMemcpyAsync(h, &c->active[cur ^ 1], sizeof(uint32_t), cudaMemcpyDeviceToHost, St));
-    NV_CUDA(cudaStreamSynchronize(St));
+    NV_CUDA(cudaMemcpyAsync(h, &c->active[cur ^ 1], sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream));
     live = h[0];
     cur ^= 1;
   }
@@ -322,7 +325,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
         if (Occupancy.size() != words)
           Occupancy.allocate(words, "occupancy mask");
         NV_CUDA(cudaMemcpyAsync(Occupancy.get(), model.source.occupancy.data(), words * sizeof(uint32_t),
-          cudaMemcpyHostToDevice, St));
+          cudaMemcpyHostToDevice, RenderStream));
         OccupancyVersion = version;
       }
       P.occupancy = Occupancy.get();
@@ -330,7 +333,8 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     prepareRanges(model, version, q, s, P.occupancy, P.background);
     if (Tf.size() < s.table.size())
       Tf.allocate(s.table.size(), "transfer function");
-    NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice, St));
+    NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice,
+      RenderStream));
     P.tf = Tf.get();
     if (P.domain)
     {
@@ -341,7 +345,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
         if (Domain.size() != words)
           Domain.allocate(words, "domain mask");
         NV_CUDA(cudaMemcpyAsync(Domain.get(), model.source.domain.data(), words * sizeof(uint32_t),
-          cudaMemcpyHostToDevice, St));
+          cudaMemcpyHostToDevice, RenderStream));
         DomainVersion = version;
       }
       P.domain = Domain.get();
@@ -351,10 +355,10 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     {
       if (Depth.size() < size_t(pixels))
         Depth.allocate(size_t(pixels), "depth buffer");
-      NV_CUDA(cudaMemcpyAsync(Depth.get(), q.depth, pixels * sizeof(float), cudaMemcpyHostToDevice, St));
+      NV_CUDA(cudaMemcpyAsync(Depth.get(), q.depth, pixels * sizeof(float), cudaMemcpyHostToDevice, RenderStream));
       P.depth = Depth.get();
     }
-    NV_CUDA(cudaStreamSynchronize(St));
+    NV_CUDA(cudaStreamSynchronize(RenderStream));
     st.decodeMilliseconds = since(t0);
 
     float4* accum = nullptr;
@@ -363,7 +367,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       const uint64_t key = mixKey(imageKey, 0x5A17ull);
       if (!q.accumulate || key != AccumKey)
       {
-        NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), St));
+        NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), RenderStream));
         Frames = 0;
         AccumKey = key;
       }
@@ -371,19 +375,19 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       accum = Accum.get();
     }
     RenderCounters* c = Counters.get();
-    NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), St));
-    NV_CUDA(cudaEventRecord(Begin.get(), St));
+    NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), RenderStream));
+    NV_CUDA(cudaEventRecord(Begin.get(), RenderStream));
     for (int sample = 0; sample < spp; ++sample)
     {
       if (q.path == RenderPath::Decode)
       {
-        marchGridKernel<<<gridFor(pixels), 256, 0, St>>>(P, Grid.texture(), float(GridDims[0] - 1),
+        marchGridKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(P, Grid.texture(), float(GridDims[0] - 1),
           float(GridDims[1] - 1), float(GridDims[2] - 1), static_cast<uint32_t>(sample), Image.get(), accum, c);
         NV_CUDA_LAUNCH();
       }
       else if (q.path == RenderPath::InShader)
       {
-        NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), St));
+        NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), RenderStream));
         InShaderArgs a{};
         a.rayParams = P;
         a.total = static_cast<uint32_t>(pixels);
@@ -391,7 +395,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
         a.counters = c;
         a.image = Image.get();
         a.accum = accum;
-        launchInShader(Dm, a, St);
+        launchInShader(Network, a, RenderStream);
       }
       else
       {
@@ -401,12 +405,13 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     if (pt)
     {
       ++Frames;
-      resolveKernel<<<gridFor(pixels), 256, 0, St>>>(Accum.get(), pixels, 1.0f / float(Frames * spp), Image.get());
+      resolveKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(Accum.get(), pixels, 1.0f / float(Frames * spp),
+        Image.get());
       NV_CUDA_LAUNCH();
     }
-    NV_CUDA(cudaEventRecord(End.get(), St));
-    NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, St));
-    NV_CUDA(cudaStreamSynchronize(St));
+    NV_CUDA(cudaEventRecord(End.get(), RenderStream));
+    NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream));
     float ms = 0.0f;
     NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
     st.renderMilliseconds = ms;
@@ -435,8 +440,9 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   {
     const auto copyStart = std::chrono::steady_clock::now();
     result.rgba.resize(size_t(pixels) * 4);
-    NV_CUDA(cudaMemcpyAsync(result.rgba.data(), Image.get(), pixels * sizeof(float4), cudaMemcpyDeviceToHost, St));
-    NV_CUDA(cudaStreamSynchronize(St));
+    NV_CUDA(cudaMemcpyAsync(result.rgba.data(), Image.get(), pixels * sizeof(float4), cudaMemcpyDeviceToHost,
+      RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream));
     st.hostCopyMilliseconds =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - copyStart).count();
     result.deviceRgba = nullptr;

@@ -69,8 +69,8 @@ private:
   void prepareMajorants(const RenderSetup& s, ray::Params& P);
   void renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum, RenderStats& st);
 
-  const DeviceModel& Dm;
-  cudaStream_t St;
+  const DeviceModel& Network;
+  cudaStream_t RenderStream;
   DeviceBuffer<float> Tf, Majorant, Lattice, GridLinear, Depth;
   DeviceBuffer<float2> Range;
   GridTexture Grid;

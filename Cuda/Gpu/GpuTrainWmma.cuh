@@ -19,7 +19,7 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
   extern __shared__ __align__(128) unsigned char smem[];
   const SmemPlan& p = a.plan;
   const MlpShape& s = a.shape;
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.T, warps = p.warps;
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.tileSamples, warps = p.warps;
   float* sx = reinterpret_cast<float*>(smem + p.xyz);
   float* stgt = reinterpret_cast<float*>(smem + p.tgt);
   float* sg = reinterpret_cast<float*>(smem + p.g);

@@ -398,7 +398,7 @@ private:
     Reg = RegPlan{};
     TrainKernel = pickTrain(Network.shape.width, Network.grid.features, two);
     Plan = choosePlan(Network.shape, true, reinterpret_cast<const void*>(TrainKernel), limit, &perSm);
-    const int64_t tiles = (B + Plan.T - 1) / Plan.T;
+    const int64_t tiles = (B + Plan.tileSamples - 1) / Plan.tileSamples;
     Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
     Slots.allocate(size_t(Blocks) * Network.shape.total, "per-block MLP gradients");
   }
@@ -415,7 +415,7 @@ private:
     a.shape = Network.shape;
     a.plan = Plan;
     for (int l = 1; l < Network.shape.hiddenLayers; ++l)
-      a.actOff[l] = (l - 1) * Plan.T * Plan.ldA;
+      a.actOff[l] = (l - 1) * Plan.tileSamples * Plan.ldA;
     a.reg = Reg;
     a.table16 = Network.table16.get();
     a.table32 = Params.get();
@@ -446,7 +446,7 @@ private:
     }
     else
     {
-      const int64_t tiles = (n + Plan.T - 1) / Plan.T;
+      const int64_t tiles = (n + Plan.tileSamples - 1) / Plan.tileSamples;
       a.tiles = static_cast<int>(tiles);
       blocks = static_cast<int>(std::min<int64_t>(tiles, Blocks));
       threads = Plan.warps * 32;
