@@ -234,45 +234,6 @@ NV_HD_INLINE void accumulateProjection(const Params& P, Ray& r, float y)
   }
 }
 
-/// One ray-marching sample (value s[0], gradient neighbours after it) of step j at distance t: composited (or
-/// added), or, with shadows, held while the shadow ray starts. True when the ray leaves the March phase.
-NV_HD_INLINE bool marchSample(const Params& P, Ray& r, const float* s, int j, float t)
-{
-  float e[4];
-  lookup(P, s[0], e);
-  const float alpha = 1.0f - expNeg(e[3] * P.dt);
-  if (!(alpha > 0.0f))
-    return false;
-  float rgb[3] = { e[0], e[1], e[2] };
-  if (P.blend == Additive)
-  {
-    for (int c = 0; c < 3; ++c)
-      r.c[c] += alpha * rgb[c];
-    r.c[3] += alpha;
-    return false;
-  }
-  if (P.shading == RayMarchGradient)
-    shadeGradient(P, r, s, rgb);
-  if (P.shading == RayMarchShadows)
-  {
-    for (int c = 0; c < 3; ++c)
-      r.pend[c] = rgb[c];
-    r.pend[3] = alpha;
-    r.j = j + 1;
-    startShadow(P, r, r.o + r.d * t, P.lightW);
-    r.phase = Shadow;
-    return true;
-  }
-  compositeSample(r, rgb, alpha);
-  if (r.c[3] >= P.termination)
-  {
-    r.plain = j + 1;
-    r.phase = Done;
-    return true;
-  }
-  return false;
-}
-
 /// consume() in the March phase: up to K samples of queriesPerStep(P) values each.
 NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, int n)
 {
