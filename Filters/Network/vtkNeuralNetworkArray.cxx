@@ -41,6 +41,24 @@ vtkNeuralSessionRegistry::Fingerprint VerifiedFingerprint(const uint8_t* bytes, 
   return f;
 }
 
+/// The registered session of a written network (its key in the field data), or none.
+void WriteSessionKey(vtkFieldData* fd, const std::shared_ptr<nv::NetworkSession>& session,
+  const vtkNeuralSessionRegistry::Fingerprint& fingerprint, bool live)
+{
+  fd->RemoveArray(vtkNeuralNetworkArray::GetSessionKeyArrayName());
+  if (!session)
+  {
+    return;
+  }
+  const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(session, fingerprint, live);
+  vtkNew<vtkTypeUInt64Array> keyArray;
+  keyArray->SetName(vtkNeuralNetworkArray::GetSessionKeyArrayName());
+  keyArray->SetNumberOfTuples(2);
+  keyArray->SetValue(0, key.Process);
+  keyArray->SetValue(1, key.Serial);
+  fd->AddArray(keyArray);
+}
+
 /// The byte range of the network array, stored where vtkDataArray caches its ranges (the per-component range and
 /// finite range; cleared by the array's next Modified()). ParaView's data information asks every field data array
 /// for both, and VTK's generic range computation over a network of a few MB takes 0.1-0.2 s on each update of the
@@ -98,18 +116,8 @@ void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::vector<uint8_t>& 
   }
   SetKnownRange(network);
   fd->AddArray(network);
-  fd->RemoveArray(GetSessionKeyArrayName());
-  if (session)
-  {
-    const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(
-      session, VerifiedFingerprint(bytes.data(), bytes.size()), live);
-    vtkNew<vtkTypeUInt64Array> keyArray;
-    keyArray->SetName(GetSessionKeyArrayName());
-    keyArray->SetNumberOfTuples(2);
-    keyArray->SetValue(0, key.Process);
-    keyArray->SetValue(1, key.Serial);
-    fd->AddArray(keyArray);
-  }
+  WriteSessionKey(fd, session, session ? VerifiedFingerprint(bytes.data(), bytes.size())
+                                      : vtkNeuralSessionRegistry::Fingerprint(), live);
 }
 
 const uint8_t* vtkNeuralNetworkArray::SharedNetwork::data() const
@@ -143,20 +151,10 @@ void vtkNeuralNetworkArray::Write(vtkFieldData* fd, const std::shared_ptr<const 
     throw nv::Error("no field data to write the network to, or no network");
   }
   fd->AddArray(network->Array);
-  fd->RemoveArray(GetSessionKeyArrayName());
-  if (session)
-  {
-    vtkNeuralSessionRegistry::Fingerprint fingerprint;
-    fingerprint.Size = network->size();
-    fingerprint.Crc = network->Crc;
-    const vtkNeuralSessionRegistry::Key key = vtkNeuralSessionRegistry::Instance().Register(session, fingerprint, live);
-    vtkNew<vtkTypeUInt64Array> keyArray;
-    keyArray->SetName(GetSessionKeyArrayName());
-    keyArray->SetNumberOfTuples(2);
-    keyArray->SetValue(0, key.Process);
-    keyArray->SetValue(1, key.Serial);
-    fd->AddArray(keyArray);
-  }
+  vtkNeuralSessionRegistry::Fingerprint fingerprint;
+  fingerprint.Size = network->size();
+  fingerprint.Crc = network->Crc;
+  WriteSessionKey(fd, session, fingerprint, live);
 }
 
 vtkUnsignedCharArray* vtkNeuralNetworkArray::Find(vtkFieldData* fd)
