@@ -77,9 +77,9 @@ bool vtkNeuralVolumeMapper::GetLastDecodePending() const
 {
   return this->Internals->Stats.decodePending;
 }
-void vtkNeuralVolumeMapper::GetLastFrameTimings(double timings[6]) const
+void vtkNeuralVolumeMapper::GetLastFrameTimings(double timings[FrameTimingCount]) const
 {
-  std::copy(this->Internals->Timings, this->Internals->Timings + 6, timings);
+  std::copy(this->Internals->Timings, this->Internals->Timings + FrameTimingCount, timings);
 }
 const char* vtkNeuralVolumeMapper::GetLastDisplayPath() const
 {
@@ -230,7 +230,7 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 {
   vtkInternals& in = *this->Internals;
   const auto frameStart = std::chrono::steady_clock::now();
-  std::fill(in.Timings, in.Timings + 6, 0.0);
+  std::fill(in.Timings, in.Timings + FrameTimingCount, 0.0);
   // Hardware selection passes draw ids, not colours: the volume takes no part in them.
   if (!ren || !vol || !ren->GetRenderWindow() || ren->GetSelector())
   {

@@ -173,8 +173,11 @@ public:
   /// Where the last frame's time went, wall milliseconds in the render thread: [0] reading the view's depth buffer
   /// (0 when no opaque geometry is shown), [1] the engine's render call (kernels, or CPU rays, and the copy of the
   /// image to the host), [2] of which the copy to the host (GPU engine), [3] the image's way into the texture (the
-  /// upload of a host image, or the interop copy), [4] drawing the blended quad, [5] the whole mapper Render.
-  void GetLastFrameTimings(double timings[6]) const;
+  /// upload of a host image, or the interop copy), [4] drawing the blended quad, [5] the whole mapper Render; inside
+  /// [1]: [6] the engine's preparation (decode, macrocells, uploads), [7] its rendering (GPU: kernel time by CUDA
+  /// events). [1] - [6] - [7] is the call's own overhead (locks, launches, synchronisation).
+  static constexpr int FrameTimingCount = 8;
+  void GetLastFrameTimings(double timings[FrameTimingCount]) const;
   /// "CUDA-OpenGL interop", "host copy", or "host copy (interop: <reason>)" for the last frame.
   const char* GetLastDisplayPath() const;
   ///@}

@@ -98,7 +98,7 @@ struct vtkNeuralVolumeMapper::vtkInternals
   bool WarnedDepth = false;
 
   // The last frame: where its time went (GetLastFrameTimings) and how its image reached the view.
-  double Timings[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+  double Timings[vtkNeuralVolumeMapper::FrameTimingCount] = {};
   std::string DisplayPath = "none";
   std::string InteropRefused; ///< why CUDA-OpenGL interop is not possible in this view ("" until it was refused)
 };

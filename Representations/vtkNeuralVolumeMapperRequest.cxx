@@ -196,9 +196,14 @@ void vtkNeuralVolumeMapper::RenderToCompositor(vtkRenderer* ren, const nv::Rende
   nv::NetworkSession& session = *in.Session;
   const auto start = std::chrono::steady_clock::now();
   const bool interop = this->CudaGLInterop && session.device() == nv::Device::Cuda && in.InteropRefused.empty();
+  auto recordCall = [&]() {
+    in.Timings[1] = MillisecondsSince(start);
+    in.Timings[2] = in.Result.stats.hostCopyMilliseconds;
+    in.Timings[6] = in.Result.stats.decodeMilliseconds;
+    in.Timings[7] = in.Result.stats.renderMilliseconds;
+  };
   session.render(q, in.Result, interop ? nv::Memory::Device : nv::Memory::Host);
-  in.Timings[1] = MillisecondsSince(start);
-  in.Timings[2] = in.Result.stats.hostCopyMilliseconds;
+  recordCall();
   if (interop)
   {
     std::string why;
@@ -211,8 +216,7 @@ void vtkNeuralVolumeMapper::RenderToCompositor(vtkRenderer* ren, const nv::Rende
     // Not possible in this view (GL is not NVIDIA's, ...): the host from now on; this frame again, to the host.
     in.InteropRefused = why.empty() ? std::string("the engine returned no device image") : why;
     session.render(q, in.Result, nv::Memory::Host);
-    in.Timings[1] = MillisecondsSince(start);
-    in.Timings[2] = in.Result.stats.hostCopyMilliseconds;
+    recordCall();
   }
   const size_t expected = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
   if (in.Result.rgba.size() != expected)

@@ -56,7 +56,7 @@ public:
   int GetLastAccumulatedFrames();
   int* GetLastImageSize() VTK_SIZEHINT(2);
   double GetLastRenderMilliseconds();
-  double* GetLastFrameTimings() VTK_SIZEHINT(6);
+  double* GetLastFrameTimings() VTK_SIZEHINT(8);
   const char* GetLastDisplayPath();
   int GetEngineRenderCount();
   int GetWorkPending();
@@ -84,7 +84,7 @@ protected:
   int HasNetwork = 0;
   bool ReportedMissing = false;
   int LastImageSize[2] = { 0, 0 };
-  double LastFrameTimings[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+  double LastFrameTimings[8] = {};
   vtkNew<vtkNeuralVolumeMapper> NeuralMapper;
   vtkSmartPointer<vtkDataObject> RepresentedData; ///< see GetRenderedDataObject
 

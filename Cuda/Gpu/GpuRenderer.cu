@@ -112,13 +112,13 @@ int64_t GpuRenderer::deviceMemoryBytes() const
   return static_cast<int64_t>(b);
 }
 
-void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s)
+bool GpuRenderer::prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s)
 {
   const int64_t nx = s.gridDims[0], ny = s.gridDims[1], nz = s.gridDims[2];
   const void* source = q.grid ? q.grid->data : nullptr;
   if (Grid.texture() && GridVersion == version && GridSource == source && GridDims[0] == nx && GridDims[1] == ny &&
     GridDims[2] == nz)
-    return;
+    return false;
   const int64_t n = nx * ny * nz;
   if (GridLinear.size() < size_t(n))
     GridLinear.allocate(size_t(n), "decoded grid");
@@ -145,9 +145,10 @@ void GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
   GridDims[2] = nz;
   GridVersion = version;
   GridSource = source;
+  return true;
 }
 
-void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+bool GpuRenderer::prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
   const uint32_t* occupancy, float background)
 {
   RangeKey k;
@@ -170,7 +171,7 @@ void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
   for (int a = 0; a < 3; ++a)
     k.dims[a] = L[a] * 100000 + s.cells.dims[a]; // the cell layout is part of the key
   if (k == Ranges)
-    return;
+    return false;
   const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
   if (Range.size() < size_t(cells))
     Range.allocate(size_t(cells), "macrocell ranges");
@@ -190,13 +191,15 @@ void GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
   NV_CUDA_LAUNCH();
   Ranges = k;
   ++RangeStamp;
+  return true;
 }
 
-void GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
+bool GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
 {
   const uint64_t h = mixKey(s.tableKey, RangeStamp);
   const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
-  if (h != MajorantKey)
+  const bool work = h != MajorantKey;
+  if (work)
   {
     if (Majorant.size() < size_t(cells))
       Majorant.allocate(size_t(cells), "macrocell majorants");
@@ -213,6 +216,7 @@ void GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
   }
   P.majorant = Majorant.get();
   P.maxMajorant = MaxMajorant;
+  return work;
 }
 
 void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum,
@@ -288,147 +292,179 @@ void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t
   }
 }
 
-void GpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& result,
-  Memory where)
+bool GpuRenderer::uploadMasks(const Model& model, uint64_t version, ray::Params& P)
 {
-  const RenderSetup s = makeRenderSetup(q, model.source);
-  ray::Params P = s.params;
-  const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
-  const int spp = pt ? q.samplesPerPixel : 1;
-  const int64_t pixels = int64_t(q.width) * q.height;
-  RenderStats st;
-  st.path = q.path;
-  st.device = Device::Cuda;
-  st.rays = pixels * spp;
-
-  const uint64_t imageKey = mixKey(mixKey(s.key, version), static_cast<uint64_t>(q.path) + 1) | 1ull;
-  const bool reuse = !pt && imageKey == ImageKey && Pixels == pixels;
-  if (!reuse)
+  // A sparse source's occupancy mask and its domain mask, uploaded once per network version.
+  bool uploaded = false;
+  auto upload = [&](const std::vector<uint32_t>& mask, DeviceBuffer<uint32_t>& buffer, uint64_t& bufferVersion,
+                  const char* what) {
+    if (bufferVersion == version && buffer.size() == mask.size())
+      return;
+    if (buffer.size() != mask.size())
+      buffer.allocate(mask.size(), what);
+    NV_CUDA(cudaMemcpyAsync(buffer.get(), mask.data(), mask.size() * sizeof(uint32_t), cudaMemcpyHostToDevice,
+      RenderStream));
+    bufferVersion = version;
+    uploaded = true;
+  };
+  if (P.occupancy)
   {
-    const auto t0 = std::chrono::steady_clock::now();
-    if (Pixels != pixels)
-    {
-      Image.allocate(size_t(pixels), "image");
-      Accum.allocate(size_t(pixels), "accumulation");
-      Pixels = pixels;
-      AccumKey = 0;
-      ImageKey = 0;
-    }
-    if (q.path == RenderPath::Decode)
-      prepareGrid(model, version, q, s);
-    if (P.occupancy)
-    {
-      // A sparse source's occupancy mask, uploaded once per network version (the ranges of its version use it).
-      const size_t words = model.source.occupancy.size();
-      if (OccupancyVersion != version || Occupancy.size() != words)
-      {
-        if (Occupancy.size() != words)
-          Occupancy.allocate(words, "occupancy mask");
-        NV_CUDA(cudaMemcpyAsync(Occupancy.get(), model.source.occupancy.data(), words * sizeof(uint32_t),
-          cudaMemcpyHostToDevice, RenderStream));
-        OccupancyVersion = version;
-      }
-      P.occupancy = Occupancy.get();
-    }
-    prepareRanges(model, version, q, s, P.occupancy, P.background);
+    upload(model.source.occupancy, Occupancy, OccupancyVersion, "occupancy mask");
+    P.occupancy = Occupancy.get();
+  }
+  if (P.domain)
+  {
+    upload(model.source.domain, Domain, DomainVersion, "domain mask");
+    P.domain = Domain.get();
+  }
+  return uploaded;
+}
+
+bool GpuRenderer::prepareScene(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+  ray::Params& P)
+{
+  bool work = false;
+  if (q.path == RenderPath::Decode)
+    work |= prepareGrid(model, version, q, s);
+  work |= uploadMasks(model, version, P);
+  work |= prepareRanges(model, version, q, s, P.occupancy, P.background);
+  if (Tf.size() < s.table.size() || TfKey != s.tableKey)
+  {
+    // The transfer function, uploaded when it changes (a turning camera keeps it).
     if (Tf.size() < s.table.size())
       Tf.allocate(s.table.size(), "transfer function");
     NV_CUDA(cudaMemcpyAsync(Tf.get(), s.table.data(), s.table.size() * sizeof(float), cudaMemcpyHostToDevice,
       RenderStream));
-    P.tf = Tf.get();
-    if (P.domain)
-    {
-      // The source's domain mask, uploaded once per network version.
-      const size_t words = model.source.domain.size();
-      if (DomainVersion != version || Domain.size() != words)
-      {
-        if (Domain.size() != words)
-          Domain.allocate(words, "domain mask");
-        NV_CUDA(cudaMemcpyAsync(Domain.get(), model.source.domain.data(), words * sizeof(uint32_t),
-          cudaMemcpyHostToDevice, RenderStream));
-        DomainVersion = version;
-      }
-      P.domain = Domain.get();
-    }
-    prepareMajorants(s, P);
-    if (q.depth)
-    {
-      if (Depth.size() < size_t(pixels))
-        Depth.allocate(size_t(pixels), "depth buffer");
-      NV_CUDA(cudaMemcpyAsync(Depth.get(), q.depth, pixels * sizeof(float), cudaMemcpyHostToDevice, RenderStream));
-      P.depth = Depth.get();
-    }
-    NV_CUDA(cudaStreamSynchronize(RenderStream));
-    st.decodeMilliseconds = since(t0);
+    NV_CUDA(cudaStreamSynchronize(RenderStream)); // the setup's table is freed when render() returns
+    TfKey = s.tableKey;
+  }
+  P.tf = Tf.get();
+  work |= prepareMajorants(s, P);
+  if (q.depth)
+  {
+    const int64_t pixels = int64_t(q.width) * q.height;
+    if (Depth.size() < size_t(pixels))
+      Depth.allocate(size_t(pixels), "depth buffer");
+    NV_CUDA(cudaMemcpyAsync(Depth.get(), q.depth, pixels * sizeof(float), cudaMemcpyHostToDevice, RenderStream));
+    P.depth = Depth.get();
+  }
+  return work;
+}
 
-    float4* accum = nullptr;
-    if (pt)
+void GpuRenderer::traceSamples(const RenderRequest& q, const RenderSetup& s, ray::Params& P, int spp, float4* accum,
+  RenderStats& st)
+{
+  const int64_t pixels = int64_t(q.width) * q.height;
+  RenderCounters* c = Counters.get();
+  for (int sample = 0; sample < spp; ++sample)
+  {
+    if (q.path == RenderPath::Decode)
     {
-      const uint64_t key = mixKey(imageKey, 0x5A17ull);
-      if (!q.accumulate || key != AccumKey)
-      {
-        NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), RenderStream));
-        Frames = 0;
-        AccumKey = key;
-      }
-      P.frame = static_cast<uint32_t>(Frames * spp);
-      accum = Accum.get();
-    }
-    RenderCounters* c = Counters.get();
-    NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), RenderStream));
-    NV_CUDA(cudaEventRecord(Begin.get(), RenderStream));
-    for (int sample = 0; sample < spp; ++sample)
-    {
-      if (q.path == RenderPath::Decode)
-      {
-        marchGridKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(P, Grid.texture(), float(GridDims[0] - 1),
-          float(GridDims[1] - 1), float(GridDims[2] - 1), static_cast<uint32_t>(sample), Image.get(), accum, c);
-        NV_CUDA_LAUNCH();
-      }
-      else if (q.path == RenderPath::InShader)
-      {
-        NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), RenderStream));
-        InShaderArgs a{};
-        a.rayParams = P;
-        a.total = static_cast<uint32_t>(pixels);
-        a.sample = static_cast<uint32_t>(sample);
-        a.counters = c;
-        a.image = Image.get();
-        a.accum = accum;
-        launchInShader(Network, a, RenderStream);
-      }
-      else
-      {
-        renderStreaming(P, s, static_cast<uint32_t>(sample), accum, st);
-      }
-    }
-    if (pt)
-    {
-      ++Frames;
-      resolveKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(Accum.get(), pixels, 1.0f / float(Frames * spp),
-        Image.get());
+      marchGridKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(P, Grid.texture(), float(GridDims[0] - 1),
+        float(GridDims[1] - 1), float(GridDims[2] - 1), static_cast<uint32_t>(sample), Image.get(), accum, c);
       NV_CUDA_LAUNCH();
     }
-    NV_CUDA(cudaEventRecord(End.get(), RenderStream));
-    NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
+    else if (q.path == RenderPath::InShader)
+    {
+      NV_CUDA(cudaMemsetAsync(&c->nextRay, 0, sizeof(unsigned int), RenderStream));
+      InShaderArgs a{};
+      a.rayParams = P;
+      a.total = static_cast<uint32_t>(pixels);
+      a.sample = static_cast<uint32_t>(sample);
+      a.counters = c;
+      a.image = Image.get();
+      a.accum = accum;
+      launchInShader(Network, a, RenderStream);
+    }
+    else
+    {
+      renderStreaming(P, s, static_cast<uint32_t>(sample), accum, st);
+    }
+  }
+}
+
+void GpuRenderer::renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+  uint64_t imageKey, RenderStats& st)
+{
+  ray::Params P = s.params;
+  const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
+  const int spp = pt ? q.samplesPerPixel : 1;
+  const int64_t pixels = int64_t(q.width) * q.height;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Pixels != pixels)
+  {
+    Image.allocate(size_t(pixels), "image");
+    Accum.allocate(size_t(pixels), "accumulation");
+    Pixels = pixels;
+    AccumKey = 0;
+    ImageKey = 0;
+  }
+  // Decoding and macrocell work is timed to its end; a frame that only turns the camera waits for nothing here.
+  if (prepareScene(model, version, q, s, P))
     NV_CUDA(cudaStreamSynchronize(RenderStream));
-    float ms = 0.0f;
-    NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
-    st.renderMilliseconds = ms;
-    st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
-    st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
-    st.accumulatedFrames = pt ? Frames : 0;
+  st.decodeMilliseconds = since(t0);
+
+  float4* accum = nullptr;
+  if (pt)
+  {
+    const uint64_t key = mixKey(imageKey, 0x5A17ull);
+    if (!q.accumulate || key != AccumKey)
+    {
+      NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), RenderStream));
+      Frames = 0;
+      AccumKey = key;
+    }
+    P.frame = static_cast<uint32_t>(Frames * spp);
+    accum = Accum.get();
+  }
+  RenderCounters* c = Counters.get();
+  NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), RenderStream));
+  NV_CUDA(cudaEventRecord(Begin.get(), RenderStream));
+  traceSamples(q, s, P, spp, accum, st);
+  if (pt)
+  {
+    ++Frames;
+    resolveKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(Accum.get(), pixels, 1.0f / float(Frames * spp),
+      Image.get());
+    NV_CUDA_LAUNCH();
+  }
+  NV_CUDA(cudaEventRecord(End.get(), RenderStream));
+  NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
+  NV_CUDA(cudaStreamSynchronize(RenderStream));
+  float ms = 0.0f;
+  NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
+  st.renderMilliseconds = ms;
+  st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
+  st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  st.accumulatedFrames = pt ? Frames : 0;
+}
+
+void GpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& result,
+  Memory where)
+{
+  const RenderSetup s = makeRenderSetup(q, model.source);
+  const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
+  const int64_t pixels = int64_t(q.width) * q.height;
+  RenderStats st;
+  st.path = q.path;
+  st.device = Device::Cuda;
+  st.rays = pixels * (pt ? q.samplesPerPixel : 1);
+
+  const uint64_t imageKey = mixKey(mixKey(s.key, version), static_cast<uint64_t>(q.path) + 1) | 1ull;
+  if (!pt && imageKey == ImageKey && Pixels == pixels)
+  {
+    st = ImageStats;
+    st.reused = true;
+    st.decodeMilliseconds = st.renderMilliseconds = 0.0;
+  }
+  else
+  {
+    renderImage(model, version, q, s, imageKey, st);
     if (!pt)
     {
       ImageKey = imageKey;
       ImageStats = st;
     }
-  }
-  else
-  {
-    st = ImageStats;
-    st.reused = true;
-    st.decodeMilliseconds = st.renderMilliseconds = 0.0;
   }
 
   if (where == Memory::Device)
@@ -443,8 +479,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     NV_CUDA(cudaMemcpyAsync(result.rgba.data(), Image.get(), pixels * sizeof(float4), cudaMemcpyDeviceToHost,
       RenderStream));
     NV_CUDA(cudaStreamSynchronize(RenderStream));
-    st.hostCopyMilliseconds =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - copyStart).count();
+    st.hostCopyMilliseconds = since(copyStart);
     result.deviceRgba = nullptr;
   }
   result.stats = st;

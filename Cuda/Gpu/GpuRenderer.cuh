@@ -62,11 +62,22 @@ private:
     }
   };
 
-  void prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
+  /// One frame's image (not the cached one): scene preparation, the samples, the path-tracing average, stats.
+  void renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+    uint64_t imageKey, RenderStats& st);
+  /// Everything a frame reads besides the network, made current; true if GPU work was enqueued for it (decoding,
+  /// macrocells, masks), false when a frame only moved the camera.
+  bool prepareScene(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+    ray::Params& P);
+  bool uploadMasks(const Model& model, uint64_t version, ray::Params& P);
+  void traceSamples(const RenderRequest& q, const RenderSetup& s, ray::Params& P, int spp, float4* accum,
+    RenderStats& st);
+  // Each returns whether it had work to do (its inputs changed).
+  bool prepareGrid(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s);
   /// occupancy: a sparse source's occupancy mask in device memory (null: none), background normalised.
-  void prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
+  bool prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
     const uint32_t* occupancy, float background);
-  void prepareMajorants(const RenderSetup& s, ray::Params& P);
+  bool prepareMajorants(const RenderSetup& s, ray::Params& P);
   void renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum, RenderStats& st);
 
   const DeviceModel& Network;
@@ -84,6 +95,7 @@ private:
   RangeKey Ranges;
   uint64_t RangeStamp = 0;   ///< increments whenever Range changes
   uint64_t MajorantKey = 0;  ///< hash of (RangeStamp, table, mapping)
+  uint64_t TfKey = 0;        ///< hash of the transfer-function table in Tf (RenderSetup::tableKey)
   float MaxMajorant = 0.0f;
   DeviceBuffer<float4> Image, Accum;
   int64_t Pixels = 0;

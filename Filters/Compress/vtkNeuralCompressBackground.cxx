@@ -65,6 +65,7 @@ bool vtkNeuralCompress::ExecuteInBackground(const nvi::InputRequest& request, co
   double bounds[6] = { 1.0, -1.0, 1.0, -1.0, 1.0, -1.0 };
   if (!request.IsImage)
     nvi::InputBounds(request.Object, bounds); // before the work starts: the copy is the thread's afterwards
+  in.StopBeforeStart = false; // a Stop asked before this preparation was for the previous one
   in.Preparing.reset(new nvi::Preparation(
     identity,
     [this, copy, settings](nvi::Preparation& self) { return this->PrepareField(copy, settings, self.Result()); },

@@ -114,9 +114,15 @@ void vtkNeuralCompress::FastForward()
 
 void vtkNeuralCompress::StopTraining()
 {
+  vtkInternals& in = *this->Internals;
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
     run->stop();
+    this->Modified();
+  }
+  else if (in.Preparing && !in.Preparing->Adopted)
+  {
+    in.StopBeforeStart = true; // kept for the job that the preparation starts (a Stop is never lost)
     this->Modified();
   }
 }
@@ -130,16 +136,25 @@ void vtkNeuralCompress::DecodeNow()
 void vtkNeuralCompress::WaitForTraining(double seconds)
 {
   vtkInternals& in = *this->Internals;
+  const auto start = std::chrono::steady_clock::now();
   if (in.Preparing && !in.Preparing->Adopted)
   {
     // The field is being prepared: its job starts here when it is ready (or its error is printed).
-    in.Preparing->Wait();
+    if (seconds < 0.0)
+    {
+      in.Preparing->Wait();
+    }
+    else if (!in.Preparing->WaitFor(seconds))
+    {
+      return; // still preparing after `seconds`
+    }
     this->AdoptPreparation();
     this->Modified();
   }
   if (nvi::TrainingRun* run = this->CurrentRun())
   {
-    run->wait(seconds);
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    run->wait(seconds < 0.0 ? seconds : std::max(0.0, seconds - spent));
     this->Modified();
   }
 }

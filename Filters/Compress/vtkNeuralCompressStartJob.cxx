@@ -240,6 +240,11 @@ void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, in
   if (job.InitialNetworkPending())
     job.Run->setPrologue([jobPtr]() { jobPtr->InstallInitialNetwork(); }); // in the run's thread
   job.Run->extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)
+  if (this->Internals->StopBeforeStart)
+  {
+    job.Run->stop(); // the user stopped while the field was prepared: the run ends before its first step
+    this->Internals->StopBeforeStart = false;
+  }
   if (this->TrainInBackground)
   {
     job.Run->startInBackground();

@@ -37,6 +37,9 @@ struct vtkNeuralCompress::vtkInternals
   size_t NotesPrinted = 0;    ///< notes of the current run printed (as text)
   size_t WarningsPrinted = 0; ///< warnings of the current run printed
   vtkIdType StepsOfEndedJobs = 0;
+  /// StopTraining while the field was still being prepared (no run yet): the job started from that preparation
+  /// stops at once instead of training (cleared when a new preparation begins).
+  bool StopBeforeStart = false;
 
   // The key of the last input seen (recomputed when the input, its content or the settings change).
   nvi::InputIdentity KeyIdentity;

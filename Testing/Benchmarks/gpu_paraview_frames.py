@@ -40,7 +40,8 @@ def orbit_ms(view, render, display=None):
             parts.append(list(display.GetPropertyValue("LastFrameTimings")))
     result = {"render_ms": round(1000 * statistics.median(seconds), 3)}
     if parts:
-        names = ["depth_ms", "engine_call_ms", "host_copy_ms", "upload_ms", "draw_ms", "mapper_ms"]
+        names = ["depth_ms", "engine_call_ms", "host_copy_ms", "upload_ms", "draw_ms", "mapper_ms", "engine_setup_ms",
+                 "engine_gpu_ms"]
         for k, name in enumerate(names):
             result[name] = round(statistics.median(p[k] for p in parts), 3)
         display.SMProxy.UpdatePropertyInformation()
@@ -107,6 +108,15 @@ def training_share(source, array, size, seconds=3.0):
         nc = NeuralCompress(Input=source, SelectInputScalars=["POINTS", array], Device=DEVICE, TrainInBackground=1,
                             TrainingSteps=10 ** 7, TimeBudget=0, PSNRInterval=0, Log2TableSize=19)
         nc.UpdatePipeline()
+        waited = time.perf_counter()
+        while time.perf_counter() - waited < 120.0:  # a large field is prepared first (no steps yet)
+            nc.SMProxy.UpdatePropertyInformation()
+            if nc.GetPropertyValue("TotalStepsTrained") > 0:
+                break
+            time.sleep(0.05)
+            nc.SMProxy.GetClientSideObject().Modified()  # as the GUI's live-source timer: the job starts once
+            nc.SMProxy.MarkModified(nc.SMProxy)          # an execution finds its field prepared
+            nc.UpdatePipeline()
         renders = 0
         view = None
         if with_view:

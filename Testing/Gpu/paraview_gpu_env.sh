@@ -16,11 +16,19 @@ fi
 [ -e "$root/usr/bin/pvserver" ] || [ ! -f "$here/.devcarry/bin/pvserver" ] || install -m 755 "$here/.devcarry/bin/pvserver" "$root/usr/bin/pvserver"
 # shellcheck disable=SC1091
 source "$root/env.sh"
+# The GUI's extras (Qt's X11 platform plugins, xdotool; Testing/Gpu/pack_gui_extras.sh), when carried
+if [ -f "$here/.devcarry/gui-extras.tar.xz" ]; then
+  [ -d "$here/.devcarry/gui-root/gui" ] || { mkdir -p "$here/.devcarry/gui-root" &&
+    tar -xJf "$here/.devcarry/gui-extras.tar.xz" -C "$here/.devcarry/gui-root"; }
+  gui=$here/.devcarry/gui-root/gui
+  export PATH=$gui/bin:$PATH QT_PLUGIN_PATH=$gui/qt5/plugins LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$gui/lib
+  export NV_PARAVIEW=$root/usr/bin/paraview NV_HOST_PYTHON=$root/usr/bin/python3.11 # the runtime's own (PYTHONHOME)
+fi
 plugin_dir=$here/.devcarry/plugin/NeuralVolume
 export LD_LIBRARY_PATH=$plugin_dir:$LD_LIBRARY_PATH
 export __GLX_VENDOR_LIBRARY_NAME=nvidia PYTHONUNBUFFERED=1
 export NV_PLUGIN=$plugin_dir/NeuralVolume.so NV_TEST_OUTPUT=$out NV_PVBATCH=$root/usr/bin/pvbatch
 export NV_DATA_DIR=$here/.devcarry/data NV_BASELINE_DIR=$here/Testing/ParaView/Baseline
-pgrep -f "Xvfb :57" > /dev/null || { Xvfb :57 -screen 0 1920x1200x24 -nolisten tcp -xkbdir "$NV_XKB_DIR" > "$out/xvfb.log" 2>&1 & sleep 2; }
+pgrep -f "Xvfb :57" > /dev/null || { Xvfb :57 -screen 0 2560x1600x24 -nolisten tcp -xkbdir "$NV_XKB_DIR" > "$out/xvfb.log" 2>&1 & sleep 2; }
 export DISPLAY=:57
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$out/gpu.txt"

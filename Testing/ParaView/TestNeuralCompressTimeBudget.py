@@ -1,6 +1,7 @@
 """TimeBudget bounds the whole Apply on an unstructured grid: resampling or probing, training and the final
 measurement end within 10% of the budget, in a blocking run and in the background (where Apply returns at once
-and the panel's status line says what is being prepared)."""
+and the panel's status line says what is being prepared). A Stop while the field is still prepared is kept: the job
+starts stopped (it was lost: a 10^8-step run trained on and WaitForTraining never returned)."""
 import os
 import sys
 import time
@@ -85,5 +86,24 @@ for sampling in ("Resample", "Probe"):
     within_budget("%s, background" % sampling, took)
     check(state == "Finished" and steps > 0 and psnr > 15.0, "%s, background: a trained network" % sampling)
     Delete(nc)
+
+# Stop before the first step: the Apply returns while the field is still prepared, the user stops at once.
+nc = NeuralCompress(Input=grid, SelectInputScalars=["POINTS", "RTData"], Sampling="Resample",
+                    SamplingDimensions=[40, 40, 40], **dict(SMALL, TrainingSteps=10 ** 8, TimeBudget=0))
+nc.UpdatePipeline()
+nc.UpdatePropertyInformation()
+status = nc.GetPropertyValue("TrainingStatus")
+check(status.startswith("Preparing:"), "stop while preparing: the field is still prepared (%r)" % status)
+start = time.time()
+nc.StopTraining()
+nc.WaitForTraining()
+nc.UpdatePipeline()
+took = time.time() - start
+state, steps, seconds, psnr = figures(nc)
+log("stop while preparing: %s after %.2f s, %d steps" % (state, took, steps))
+check(state == "Stopped" and steps == 0, "the kept Stop ends the run before its first step (%s, %d steps)"
+      % (state, steps))
+check(took < 20.0, "the stopped Apply ended in %.2f s (it trained on before)" % took)
+Delete(nc)
 
 nvtest.finish()
