@@ -248,6 +248,10 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
   try
   {
     const bool interactive = ren->GetRenderWindow()->GetDesiredUpdateRate() > 1.0;
+    if (interactive)
+    {
+      this->PaceInteractiveFrame();
+    }
     int vw = 0, vh = 0, vx = 0, vy = 0;
     ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
     if (vw < 1 || vh < 1)
@@ -302,6 +306,24 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     return;
   }
   this->DrawImage(ren, frameStart);
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeMapper::PaceInteractiveFrame()
+{
+  vtkInternals& in = *this->Internals;
+  const auto now = std::chrono::steady_clock::now();
+  if (this->MaximumInteractiveFrameRate > 0.0 && in.LastInteractiveFrame.time_since_epoch().count() != 0)
+  {
+    const auto slot = in.LastInteractiveFrame +
+      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(1.0 / this->MaximumInteractiveFrameRate));
+    if (now < slot)
+    {
+      std::this_thread::sleep_until(slot);
+    }
+  }
+  in.LastInteractiveFrame = std::chrono::steady_clock::now();
 }
 
 //------------------------------------------------------------------------------
@@ -519,6 +541,7 @@ void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "DecodeResolution: " << this->DecodeResolution[0] << " " << this->DecodeResolution[1] << " "
      << this->DecodeResolution[2] << "\n"
      << indent << "InteractiveImageScale: " << this->InteractiveImageScale << "\n"
+     << indent << "MaximumInteractiveFrameRate: " << this->MaximumInteractiveFrameRate << "\n"
      << indent << "ProgressiveRefinement: " << this->ProgressiveRefinement << "\n"
      << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n"
      << indent << "FrameBudget: " << this->FrameBudget << "\n"

@@ -149,6 +149,14 @@ public:
   ///@}
 
   ///@{
+  /// Interactive renders at most this many a second (a display's rate; 0: as fast as they come): one that comes
+  /// sooner waits for its slot, so the GPU's time between frames is the training's while a network trains beside the
+  /// view. Still renders are never held.
+  vtkSetClampMacro(MaximumInteractiveFrameRate, double, 0.0, 1000.0);
+  vtkGetMacro(MaximumInteractiveFrameRate, double);
+  ///@}
+
+  ///@{
   /// Off (default): a still render returns the final picture. On: renders never wait for the engine
   /// beyond about FrameBudget; the picture refines in the background (see above).
   vtkSetMacro(ProgressiveRefinement, bool);
@@ -251,6 +259,7 @@ protected:
   bool EmptySpaceSkipping = true;
   int DecodeResolution[3] = { 0, 0, 0 };
   double InteractiveImageScale = 0.5;
+  double MaximumInteractiveFrameRate = 60.0;
   bool ProgressiveRefinement = false;
   double FrameBudget = 50.0;
   bool CudaGLInterop = true;
@@ -269,6 +278,8 @@ private:
   /// The session of the input's network (made again when the array changes). False (after Fail) without one.
   bool UpdateSession(vtkImageData* image);
   /// The picture's key without the network's version (a training network publishes new versions of one scene).
+  /// Holds an interactive frame that comes sooner than MaximumInteractiveFrameRate allows until its slot.
+  void PaceInteractiveFrame();
   uint64_t SceneKey(const nv::RenderRequest& q) const;
   /// Progressive mode (CPU engine): the background renderer's newest image of `q` (RenderInBackground).
   bool RenderProgressive(const nv::RenderRequest& q, bool interactive, double scale, std::string& error);

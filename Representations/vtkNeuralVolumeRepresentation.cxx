@@ -84,6 +84,10 @@ void vtkNeuralVolumeRepresentation::SetInteractiveImageScale(double scale)
 {
   this->NeuralMapper->SetInteractiveImageScale(scale);
 }
+void vtkNeuralVolumeRepresentation::SetMaximumInteractiveFrameRate(double framesPerSecond)
+{
+  this->NeuralMapper->SetMaximumInteractiveFrameRate(framesPerSecond);
+}
 void vtkNeuralVolumeRepresentation::SetProgressiveRefinement(int progressive)
 {
   this->NeuralMapper->SetProgressiveRefinement(progressive != 0);

@@ -39,8 +39,9 @@ for path in sys.argv[1:]:
         data = json.load(f)
     for line in rows(data):
         print(line)
-    if "training_share" in data:
-        shares.append((data["data"], data["training_share"]))
+    for key in ("training_share", "training_share_unpaced"):
+        if key in data:
+            shares.append((data["data"] + ("" if key == "training_share" else " (renders not paced)"), data[key]))
 print()
 print("| data | training alone (steps/s) | beside a turning 1920x1080 view | share | interactive renders/s |")
 print("|---|---|---|---|---|")
