@@ -1,0 +1,58 @@
+// NeuralVolume engine, out-of-core training (issue 22): where a volume's samples lie in a file, read from its header
+// alone -- the file's samples are never loaded whole. Formats (each header checked against the data file's size):
+//   .nhdr  NRRD with a detached header ("data file:" beside it), raw encoding
+//   .nrrd  NRRD with the raw samples after the header's blank line
+//   .bov   Brick of Values (DATA_FILE, DATA_SIZE, DATA_FORMAT, DATA_ENDIAN, BRICK_ORIGIN, BRICK_SIZE, CENTERING,
+//          BYTE_OFFSET, DATA_COMPONENTS 1)
+//   .vti   VTK XML image data whose point array is appended raw (no compressor, no base64)
+// Sample types: uint8, int16, uint16, int32, float32, float64, little or big endian; x fastest, then y, then z.
+//
+//   nv::VolumeFileLayout layout = nv::readVolumeFileLayout("ct.nhdr");   // throws nv::Error with the reason
+//   nv::VolumeFileReader reader(layout);                                   // VolumeFileReader.h: reads bricks
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace nv
+{
+
+enum class FileScalarType
+{
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  Float32,
+  Float64
+};
+
+/// Bytes of one sample of `type`.
+int bytesPerSample(FileScalarType type);
+/// "uint8", "int16", ... (as the messages and the ParaView panel say it).
+const char* scalarTypeName(FileScalarType type);
+
+struct VolumeFileLayout
+{
+  std::string headerPath;  ///< the file the user named
+  std::string dataPath;    ///< the file that holds the samples (the header's own file for .nrrd and .vti)
+  int64_t dataOffset = 0;  ///< byte of the first sample in dataPath
+  int64_t dims[3] = { 0, 0, 0 };
+  FileScalarType type = FileScalarType::Float32;
+  bool bigEndian = false;
+  double origin[3] = { 0.0, 0.0, 0.0 };
+  double spacing[3] = { 1.0, 1.0, 1.0 };
+  std::string arrayName;   ///< the field's name (the header's, else the file's stem)
+  std::string format;      ///< "NRRD (detached header)", "NRRD", "BOV", "VTK XML image data"
+
+  int64_t samples() const { return dims[0] * dims[1] * dims[2]; }
+  int64_t bytes() const { return samples() * bytesPerSample(type); }
+};
+
+/// Reads the header of `path` (by its extension: .nhdr, .nrrd, .bov, .vti) and checks it: three positive sizes whose
+/// product fits, a supported type and encoding, positive finite spacing, and a data file that holds every byte the
+/// header promises (the message names both figures when it does not). `arrayName`: the .vti point array to use (empty:
+/// the active scalars, else the first single-component array). Throws nv::Error.
+VolumeFileLayout readVolumeFileLayout(const std::string& path, const std::string& arrayName = std::string());
+
+} // namespace nv

@@ -1,0 +1,141 @@
+// NeuralVolume engine, out-of-core training: boxes of samples read from a volume file with pread (VolumeFileReader.h).
+#include "VolumeFileReader.h"
+
+#include "Core/Error.h"
+
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
+#include <string>
+#include <unistd.h>
+#include <utility>
+#include <vector>
+
+namespace nv
+{
+namespace
+{
+/// Sample `index` of a row of raw bytes as a value of the file's type and byte order.
+template <typename Stored>
+double sampleAt(const unsigned char* row, int64_t index, bool swap)
+{
+  unsigned char bytes[sizeof(Stored)];
+  std::memcpy(bytes, row + index * static_cast<int64_t>(sizeof(Stored)), sizeof(Stored));
+  if (swap)
+  {
+    for (size_t k = 0; k < sizeof(Stored) / 2; ++k)
+      std::swap(bytes[k], bytes[sizeof(Stored) - 1 - k]);
+  }
+  Stored value;
+  std::memcpy(&value, bytes, sizeof(Stored));
+  return static_cast<double>(value);
+}
+
+template <typename Out>
+void convertRow(const unsigned char* row, int64_t count, FileScalarType type, bool swap, Out* out)
+{
+  for (int64_t i = 0; i < count; ++i)
+  {
+    double v = 0.0;
+    switch (type)
+    {
+      case FileScalarType::UInt8:
+        v = row[i];
+        break;
+      case FileScalarType::Int16:
+        v = sampleAt<int16_t>(row, i, swap);
+        break;
+      case FileScalarType::UInt16:
+        v = sampleAt<uint16_t>(row, i, swap);
+        break;
+      case FileScalarType::Int32:
+        v = sampleAt<int32_t>(row, i, swap);
+        break;
+      case FileScalarType::Float32:
+        v = sampleAt<float>(row, i, swap);
+        break;
+      case FileScalarType::Float64:
+        v = sampleAt<double>(row, i, swap);
+        break;
+    }
+    out[i] = static_cast<Out>(v);
+  }
+}
+
+bool hostIsBigEndian()
+{
+  const uint16_t probe = 1;
+  unsigned char first = 0;
+  std::memcpy(&first, &probe, 1);
+  return first == 0;
+}
+} // namespace
+
+VolumeFileReader::VolumeFileReader(const VolumeFileLayout& layout)
+  : Layout(layout)
+{
+  this->FileDescriptor = ::open(layout.dataPath.c_str(), O_RDONLY | O_CLOEXEC);
+  if (this->FileDescriptor < 0)
+    NV_THROW("cannot open '" + layout.dataPath + "': " + std::strerror(errno));
+}
+
+VolumeFileReader::~VolumeFileReader()
+{
+  if (this->FileDescriptor >= 0)
+    ::close(this->FileDescriptor);
+}
+
+int64_t VolumeFileReader::bytesRead() const
+{
+  return this->BytesRead.load();
+}
+
+void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char* into) const
+{
+  int64_t done = 0;
+  while (done < count)
+  {
+    const ssize_t got = ::pread(this->FileDescriptor, into + done, static_cast<size_t>(count - done),
+      static_cast<off_t>(position + done));
+    if (got < 0 && errno == EINTR)
+      continue;
+    if (got <= 0)
+      NV_THROW("reading '" + this->Layout.dataPath + "' at byte " + std::to_string(position + done) + " failed: " +
+        (got < 0 ? std::string(std::strerror(errno)) : std::string("the file ends there (it shrank)")));
+    done += got;
+  }
+  this->BytesRead += count;
+}
+
+template <typename Out>
+void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, Out* out) const
+{
+  for (int axis = 0; axis < 3; ++axis)
+    NV_CHECK(origin[axis] >= 0 && size[axis] >= 1 && origin[axis] + size[axis] <= this->Layout.dims[axis],
+      "the box must lie inside the volume");
+  const int bytes = bytesPerSample(this->Layout.type);
+  const bool swap = bytes > 1 && this->Layout.bigEndian != hostIsBigEndian();
+  std::vector<unsigned char> row(static_cast<size_t>(size[0] * bytes));
+  const int64_t nx = this->Layout.dims[0], ny = this->Layout.dims[1];
+  for (int64_t z = 0; z < size[2]; ++z)
+  {
+    for (int64_t y = 0; y < size[1]; ++y)
+    {
+      const int64_t first = ((origin[2] + z) * ny + origin[1] + y) * nx + origin[0];
+      this->readBytes(this->Layout.dataOffset + first * bytes, size[0] * bytes, row.data());
+      convertRow(row.data(), size[0], this->Layout.type, swap, out + (z * size[1] + y) * size[0]);
+    }
+  }
+}
+
+void VolumeFileReader::readBox(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, float* out) const
+{
+  this->readBoxAs(origin, size, out);
+}
+
+void VolumeFileReader::readBox(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, double* out) const
+{
+  this->readBoxAs(origin, size, out);
+}
+
+} // namespace nv
