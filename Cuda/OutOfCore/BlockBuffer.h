@@ -1,0 +1,96 @@
+// NeuralVolume engine, out-of-core training (issue 22): the paper's random block buffer. A bounded number of blocks
+// of a volume file (VolumeFileReader.h) are resident; training samples are drawn from them at random positions
+// (trilinear, as the in-memory samplers interpolate the field); reader threads load replacement blocks with pread
+// while training goes on, and advance() swaps the ready ones in. Memory: every slot, resident or loading, fits the
+// byte budget given; nothing else grows with the file.
+//
+//   nv::BlockBuffer buffer(layout, { 256 << 20, 32, 4 });  // 256 MiB, 32^3-cell blocks, 4 reader threads
+//   buffer.drawSamples(65536, seed, step, xyz, values);     // xyz in [0,1]^3 of the volume, values in file units
+//   buffer.advance(8);                                      // up to 8 blocks replaced by loaded ones (never waits)
+#pragma once
+
+#include "VolumeFileReader.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace nv
+{
+
+struct BlockBufferConfig
+{
+  int64_t memoryBudgetBytes = int64_t(256) << 20; ///< every slot's samples (resident and loading)
+  int blockCells = 32;    ///< cells per block edge; a block holds (blockCells + 1)^3 samples (its far faces shared)
+  int readerThreads = 4;  ///< threads reading replacement blocks
+  uint64_t seed = 1;      ///< which blocks are read, in which order
+};
+
+struct BlockBufferStats
+{
+  int64_t residentBlocks = 0;   ///< blocks samples are drawn from
+  int64_t loadingSlots = 0;     ///< slots the readers fill meanwhile
+  int64_t blocksRead = 0;       ///< blocks read since the start
+  int64_t blocksSwapped = 0;    ///< replacements made by advance()
+  int64_t swapsMissed = 0;      ///< replacements advance() asked for while no block was ready (reads too slow)
+  int64_t bytesRead = 0;        ///< bytes read from the file
+  int64_t bufferBytes = 0;      ///< bytes held by the slots
+};
+
+class BlockBuffer
+{
+public:
+  /// Fills every resident slot before it returns (the first reads), then starts the readers. Throws nv::Error when
+  /// the budget cannot hold two blocks or the file cannot be read.
+  BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig& config);
+  ~BlockBuffer();
+  BlockBuffer(const BlockBuffer&) = delete;
+  BlockBuffer& operator=(const BlockBuffer&) = delete;
+
+  /// `count` samples of step `step`: positions xyz (interleaved, [0,1]^3 of the whole volume) uniform inside the
+  /// resident blocks, each block equally likely, and the trilinearly interpolated values in the file's units. Not to
+  /// be called while advance() runs (the training loop calls them in turn).
+  void drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values) const;
+  /// Swaps up to `blocks` loaded blocks in for random resident ones (the replaced slots go back to the readers);
+  /// never waits for a read. Rethrows a reader's error (the file shrank, an I/O error).
+  void advance(int blocks);
+  BlockBufferStats stats() const;
+  const VolumeFileLayout& layout() const { return Reader.layout(); }
+
+private:
+  struct Slot
+  {
+    int64_t origin[3] = { 0, 0, 0 }; ///< first sample of the block
+    int64_t cells[3] = { 1, 1, 1 };  ///< cells it spans per axis (fewer at the volume's far faces)
+    std::vector<float> samples;      ///< (cells + 1) per axis, x fastest
+  };
+
+  void load(Slot& slot, uint64_t blockIndex);
+  uint64_t randomBlock(uint64_t draw) const;
+  void readerLoop();
+
+  VolumeFileReader Reader;
+  BlockBufferConfig Config;
+  int64_t BlocksPerAxis[3] = { 1, 1, 1 };
+  int64_t BlockCount = 1;
+  std::vector<Slot> Slots;         ///< resident first (Resident[k] indexes them), then loading
+  std::vector<int64_t> Resident;   ///< slot of each resident block
+  std::vector<int64_t> Free;       ///< slots waiting for a reader
+  std::vector<int64_t> Ready;      ///< slots a reader filled, waiting for advance()
+  mutable std::mutex Mutex;
+  std::condition_variable Wake;
+  std::vector<std::thread> Readers;
+  bool Stopping = false;
+  std::exception_ptr ReaderError;
+  uint64_t NextDraw = 0;           ///< readers' block draws (under Mutex)
+  uint64_t SwapDraw = 0;           ///< advance()'s choices of the block to replace
+  std::atomic<int64_t> BlocksRead{ 0 };
+  int64_t BlocksSwapped = 0, SwapsMissed = 0;
+};
+
+} // namespace nv

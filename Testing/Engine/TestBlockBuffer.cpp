@@ -1,0 +1,186 @@
+// Out-of-core training's random block buffer (issue 22): samples drawn from the resident blocks sit where their
+// values say (a linear field, which trilinear interpolation reproduces), the slots fit the memory budget, readers
+// replace blocks while samples are drawn until the whole volume has been visited, a volume that fits is resident
+// whole, and a file that shrinks under the readers is an error at the next advance(), never a crash.
+//   nvTestBlockBuffer [case]
+#include "Core/Error.h"
+#include "OutOfCore/BlockBuffer.h"
+#include "TestHarness.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <string>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+namespace
+{
+std::string tempDir()
+{
+  static std::string dir;
+  if (dir.empty())
+  {
+    char pattern[] = "/tmp/nvTestBlockBufferXXXXXX";
+    dir = mkdtemp(pattern);
+  }
+  return dir;
+}
+
+double linear(double x, double y, double z)
+{
+  return 1.0 + 2.0 * x + 3.0 * y + 5.0 * z;
+}
+
+/// A float32 .nhdr volume of the linear field; its layout.
+nv::VolumeFileLayout linearVolume(const std::string& name, int64_t nx, int64_t ny, int64_t nz)
+{
+  const std::string raw = tempDir() + "/" + name + ".raw";
+  std::ofstream data(raw, std::ios::binary);
+  for (int64_t z = 0; z < nz; ++z)
+    for (int64_t y = 0; y < ny; ++y)
+      for (int64_t x = 0; x < nx; ++x)
+      {
+        const float v = static_cast<float>(linear(double(x), double(y), double(z)));
+        data.write(reinterpret_cast<const char*>(&v), sizeof(v));
+      }
+  data.close();
+  std::ofstream header(tempDir() + "/" + name + ".nhdr");
+  header << "NRRD0004\ntype: float\ndimension: 3\nsizes: " << nx << " " << ny << " " << nz
+         << "\nencoding: raw\nendian: little\ndata file: " << name << ".raw\n";
+  header.close();
+  return nv::readVolumeFileLayout(tempDir() + "/" + name + ".nhdr");
+}
+
+/// Samples whose value is not the linear field at their position (in samples: xyz * (dims - 1)).
+int64_t misplaced(const nv::VolumeFileLayout& layout, const std::vector<float>& xyz, const std::vector<float>& values)
+{
+  int64_t wrong = 0;
+  for (size_t i = 0; i < values.size(); ++i)
+  {
+    double p[3];
+    for (int axis = 0; axis < 3; ++axis)
+      p[axis] = layout.dims[axis] == 1 ? 0.0 : xyz[3 * i + axis] * double(layout.dims[axis] - 1);
+    const double expected = linear(p[0], p[1], p[2]);
+    wrong += !(std::fabs(values[i] - expected) <= 1e-3 * (1.0 + std::fabs(expected)));
+  }
+  return wrong;
+}
+} // namespace
+
+NV_TEST(samples_sit_where_their_values_say)
+{
+  const nv::VolumeFileLayout layout = linearVolume("lin", 37, 21, 17);
+  nv::BlockBufferConfig config;
+  config.blockCells = 8;
+  config.memoryBudgetBytes = 12 * 9 * 9 * 9 * 4; // 12 slots of 9^3 samples: 9 resident, 3 loading
+  nv::BlockBuffer buffer(layout, config);
+  const nv::BlockBufferStats s = buffer.stats();
+  EXPECT_TRUE(s.residentBlocks == 9 && s.loadingSlots == 3);
+  EXPECT_TRUE(s.bufferBytes <= config.memoryBudgetBytes);
+  std::vector<float> xyz(3 * 20000), values(20000);
+  for (uint64_t step = 0; step < 20; ++step)
+  {
+    buffer.drawSamples(20000, 7, step, xyz.data(), values.data());
+    EXPECT_NEAR_REL(double(misplaced(layout, xyz, values)), 0.0, 0.0, 0.0);
+    buffer.advance(2);
+  }
+  // A flat volume (one sample along z): z at the middle, the values those of the plane.
+  const nv::VolumeFileLayout flat = linearVolume("flat", 9, 7, 1);
+  nv::BlockBuffer flatBuffer(flat, config);
+  flatBuffer.drawSamples(1000, 3, 0, xyz.data(), values.data());
+  values.resize(1000);
+  xyz.resize(3000);
+  EXPECT_TRUE(xyz[2] == 0.5f && xyz[2997 + 2] == 0.5f);
+  EXPECT_NEAR_REL(double(misplaced(flat, xyz, values)), 0.0, 0.0, 0.0);
+}
+
+NV_TEST(readers_visit_the_whole_volume_within_the_budget)
+{
+  const nv::VolumeFileLayout layout = linearVolume("visit", 65, 49, 33); // 8 x 6 x 4 blocks of 8 cells
+  nv::BlockBufferConfig config;
+  config.blockCells = 8;
+  config.readerThreads = 2;
+  config.memoryBudgetBytes = 20 * 9 * 9 * 9 * 4;
+  nv::BlockBuffer buffer(layout, config);
+  std::set<int64_t> visited;
+  std::vector<float> xyz(3 * 4096), values(4096);
+  const auto start = std::chrono::steady_clock::now();
+  for (uint64_t step = 0; visited.size() < 192 && std::chrono::steady_clock::now() - start < std::chrono::seconds(60);
+       ++step)
+  {
+    buffer.drawSamples(4096, 11, step, xyz.data(), values.data());
+    for (int i = 0; i < 4096; ++i)
+    {
+      int64_t block[3];
+      for (int axis = 0; axis < 3; ++axis)
+        block[axis] = std::min<int64_t>(static_cast<int64_t>(xyz[3 * i + axis] * double(layout.dims[axis] - 1)) / 8,
+          (layout.dims[axis] - 2) / 8);
+      visited.insert((block[2] * 6 + block[1]) * 8 + block[0]);
+    }
+    buffer.advance(3);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const nv::BlockBufferStats s = buffer.stats();
+  std::printf("  %zu of 192 blocks visited, %lld read, %lld swapped, %lld swaps missed, %lld bytes read, buffer %lld "
+              "bytes\n", visited.size(), (long long)s.blocksRead, (long long)s.blocksSwapped,
+    (long long)s.swapsMissed, (long long)s.bytesRead, (long long)s.bufferBytes);
+  EXPECT_TRUE(visited.size() == 192);
+  EXPECT_TRUE(s.blocksSwapped > 0 && s.bufferBytes <= config.memoryBudgetBytes);
+  EXPECT_TRUE(s.bytesRead >= s.blocksRead * 9 * 9 * 4); // at least a row of every block read
+  config.memoryBudgetBytes = 9 * 9 * 9 * 4; // one block
+  EXPECT_THROW_MSG(nv::BlockBuffer(layout, config), "holds fewer than two blocks");
+}
+
+NV_TEST(a_volume_that_fits_is_resident_whole_and_repeatable)
+{
+  const nv::VolumeFileLayout layout = linearVolume("fits", 17, 17, 9); // 2 x 2 x 1 blocks of 8 cells
+  nv::BlockBufferConfig config;
+  config.blockCells = 8;
+  config.memoryBudgetBytes = int64_t(1) << 20;
+  nv::BlockBuffer first(layout, config), second(layout, config);
+  EXPECT_TRUE(first.stats().residentBlocks == 4 && first.stats().loadingSlots == 0);
+  std::vector<float> xyz1(3 * 5000), v1(5000), xyz2(3 * 5000), v2(5000);
+  first.drawSamples(5000, 5, 1, xyz1.data(), v1.data());
+  first.advance(10); // nothing to replace
+  second.drawSamples(5000, 5, 1, xyz2.data(), v2.data());
+  EXPECT_TRUE(xyz1 == xyz2 && v1 == v2);
+  EXPECT_TRUE(first.stats().blocksSwapped == 0 && first.stats().blocksRead == 4);
+}
+
+NV_TEST(a_file_that_shrinks_under_the_readers_is_an_error)
+{
+  const nv::VolumeFileLayout layout = linearVolume("shrinks", 65, 65, 65);
+  nv::BlockBufferConfig config;
+  config.blockCells = 8;
+  config.memoryBudgetBytes = 16 * 9 * 9 * 9 * 4;
+  nv::BlockBuffer buffer(layout, config);
+  EXPECT_TRUE(truncate(layout.dataPath.c_str(), 4096) == 0);
+  std::string message;
+  const auto start = std::chrono::steady_clock::now();
+  while (message.empty() && std::chrono::steady_clock::now() - start < std::chrono::seconds(10))
+  {
+    try
+    {
+      buffer.advance(4);
+    }
+    catch (const nv::Error& e)
+    {
+      message = e.what();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(message.find("it shrank") != std::string::npos);
+}
+
+int main(int argc, char** argv)
+{
+  const int result = nvtest::runCases(argc, argv);
+  const std::string cleanup = "rm -rf '" + tempDir() + "'";
+  if (std::system(cleanup.c_str()) != 0)
+    std::printf("could not remove %s\n", tempDir().c_str());
+  return result;
+}
