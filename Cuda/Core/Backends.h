@@ -17,6 +17,8 @@ namespace nv
 TrainConfig trainerConfig(const VolumeView& volume, const TrainConfig& config, const SessionOptions& options);
 /// The same for a bank of training points: a non-empty bank with positions and values.
 TrainConfig trainerConfig(const TrainingPoints& points, const TrainConfig& config, const SessionOptions& options);
+/// The same for a source of batches (BatchSource.h).
+TrainConfig trainerConfig(const BatchSource& source, const TrainConfig& config, const SessionOptions& options);
 
 std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options);
 

@@ -40,6 +40,16 @@ TrainConfig trainerConfig(const TrainingPoints& points, const TrainConfig& confi
   return c;
 }
 
+TrainConfig trainerConfig(const BatchSource&, const TrainConfig& config, const SessionOptions& options)
+{
+  validate(config);
+  TrainConfig c = config;
+  c.importanceGrid = 0; // error-guided sampling needs the whole field at hand
+  if (c.threads == 0)
+    c.threads = options.threads;
+  return c;
+}
+
 namespace
 {
 template <typename T>

@@ -11,6 +11,7 @@
 //   s->render(request, result);
 #pragma once
 
+#include "BatchSource.h"
 #include "Config.h"
 #include "Engine.h"
 #include "Model.h"
@@ -82,6 +83,10 @@ public:
   /// A trainer on a bank of points (TrainingPoints.h; must outlive it): each step draws its batch from the bank. The
   /// CUDA backend keeps the bank in GPU memory (TrainConfig::strategy is ignored).
   virtual std::unique_ptr<Trainer> createTrainer(const TrainingPoints& points, const TrainConfig& config) = 0;
+  /// A trainer on a source of batches it does not hold (BatchSource.h: out-of-core training from a file); the source
+  /// must outlive it. The CUDA backend copies each host batch (positions and targets) to the GPU, the next one
+  /// prepared while the GPU trains (TrainConfig::strategy is ignored).
+  virtual std::unique_ptr<Trainer> createTrainer(BatchSource& source, const TrainConfig& config) = 0;
 
   /// Network output (normalised units) at n points (xyz interleaved, each in [0,1]); xyz and out in `where`.
   virtual void inferPoints(const float* xyz, int64_t n, float* out, Memory where = Memory::Host) = 0;

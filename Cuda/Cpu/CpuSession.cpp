@@ -90,6 +90,15 @@ std::unique_ptr<Trainer> CpuSession::createTrainer(const TrainingPoints& points,
   return std::unique_ptr<Trainer>(new CpuTrainer(SessionModel, VolumeView(), points, c, publisher()));
 }
 
+std::unique_ptr<Trainer> CpuSession::createTrainer(BatchSource& source, const TrainConfig& config)
+{
+  const TrainConfig c = trainerConfig(source, config, Options);
+  std::lock_guard<std::mutex> lock(Mutex);
+  std::unique_ptr<CpuTrainer> trainer(new CpuTrainer(SessionModel, VolumeView(), TrainingPoints(), c, publisher()));
+  trainer->setBatchSource(&source);
+  return std::unique_ptr<Trainer>(trainer.release());
+}
+
 void CpuSession::inferPoints(const float* xyz, int64_t n, float* out, Memory where)
 {
   NV_CHECK(where == Memory::Host, "the CPU backend has no device memory");

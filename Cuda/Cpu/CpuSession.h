@@ -28,6 +28,7 @@ public:
   Model currentModel() override;
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override;
   std::unique_ptr<Trainer> createTrainer(const TrainingPoints& points, const TrainConfig& config) override;
+  std::unique_ptr<Trainer> createTrainer(BatchSource& source, const TrainConfig& config) override;
   void inferPoints(const float* xyz, int64_t n, float* out, Memory where) override;
   void decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out, Memory where) override;
   void render(const RenderRequest& request, RenderResult& result, Memory where) override;

@@ -141,7 +141,14 @@ float CpuTrainer::step()
   const int64_t s = Steps + 1;
   const int64_t B = Train.batchSize;
   std::vector<int64_t> counts(Pool.size(), 0);
+  if (Source)
+    Source->prepareStep(static_cast<uint64_t>(s)); // blocks swapped in before the batch is drawn
   Pool.parallelFor(B, [&](int64_t b, int64_t e, int w) {
+    if (Source)
+    {
+      counts[w] = Source->fill(Train.seed, static_cast<uint64_t>(s), b, e - b, &Xyz[3 * b], &Targets[b], &Valid[b]);
+      return;
+    }
     if (Points.count > 0)
     {
       // A bank of points: the batch is drawn from it (the same indices as the CUDA trainer's gather).

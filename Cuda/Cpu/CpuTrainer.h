@@ -1,6 +1,7 @@
 // NeuralVolume engine: training on the CPU (multithreaded; deterministic for a seed and thread count).
 #pragma once
 
+#include "Core/BatchSource.h"
 #include "Core/Engine.h"
 #include "Core/PlateauSchedule.h"
 #include "CpuAdam.h"
@@ -46,6 +47,8 @@ public:
 
   float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
     std::vector<float>& grad) override;
+  /// Draw every batch from `source` instead (BatchSource.h; it must outlive the trainer).
+  void setBatchSource(BatchSource* source) { Source = source; }
 
 private:
   float forwardBackward(int64_t n, int64_t nValid, bool measure = false);
@@ -57,6 +60,7 @@ private:
   TrainConfig Train;
   VolumeView Volume;
   TrainingPoints Points;
+  BatchSource* Source = nullptr; ///< out-of-core batches (setBatchSource), else Volume or Points
   ThreadPool Pool;
   std::vector<float> Params;
   std::vector<float> Grad;

@@ -29,6 +29,9 @@ std::unique_ptr<Trainer> createTrainer(const Model& model, const VolumeView& vol
 /// A trainer on a bank of points, uploaded once (GPU-resident).
 std::unique_ptr<Trainer> createTrainer(const Model& model, const TrainingPoints& points, const TrainConfig& config,
   const KernelOptions& options, PublishFn publish);
+/// A trainer on out-of-core batches (BatchSource.h): drawn on the host, positions and targets copied each step.
+std::unique_ptr<Trainer> createTrainer(const Model& model, BatchSource& source, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish);
 
 } // namespace gpu
 } // namespace nv

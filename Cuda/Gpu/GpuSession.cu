@@ -116,6 +116,15 @@ public:
       [this](const float* dParams, void* stream) { publish(dParams, static_cast<cudaStream_t>(stream)); });
   }
 
+  std::unique_ptr<Trainer> createTrainer(BatchSource& source, const TrainConfig& config) override
+  {
+    const TrainConfig c = trainerConfig(source, config, Options);
+    std::lock_guard<std::mutex> lock(Mutex);
+    syncLocked();
+    return gpu::createTrainer(HostModel, source, c, Options.kernels,
+      [this](const float* dParams, void* stream) { publish(dParams, static_cast<cudaStream_t>(stream)); });
+  }
+
   void inferPoints(const float* xyz, int64_t n, float* out, Memory where) override
   {
     NV_CHECK(n >= 0 && (n == 0 || (xyz && out)), "inferPoints: invalid arguments");

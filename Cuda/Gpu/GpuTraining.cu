@@ -31,12 +31,15 @@ namespace
 class GpuTrainer final : public Trainer
 {
 public:
+  /// source: out-of-core batches (BatchSource.h), drawn on the host like the host-sampled strategy's, their
+  /// positions copied with their targets; else volume or points.
   GpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
-    const KernelOptions& options, PublishFn publish)
+    const KernelOptions& options, PublishFn publish, BatchSource* source = nullptr)
     : Config(model.config())
     , Train(config)
     , Volume(volume)
     , Points(points)
+    , Source(source)
     , Options(options)
     , Publish(std::move(publish))
   {
@@ -97,7 +100,7 @@ public:
       ComputeStream.sync();
       return;
     }
-    Strategy = config.strategy;
+    Strategy = source ? TrainingStrategy::HostSampled : config.strategy;
     if (Strategy == TrainingStrategy::Auto)
     {
       size_t freeB = 0, totalB = 0;
@@ -127,6 +130,12 @@ public:
       Pool.reset(new ThreadPool(config.threads));
       for (int k = 0; k < 2; ++k)
         HTargets[k].allocate(B);
+      if (Source)
+      {
+        for (int k = 0; k < 2; ++k)
+          HXyz[k].allocate(3 * B);
+        Xyz.allocate(size_t(3 * B), "training batch positions");
+      }
       Next = std::async(std::launch::async, [this] { return prepare(1, 1); }); // step s uses buffer s % 2
     }
   }
@@ -181,9 +190,11 @@ public:
           HCounts[k] = static_cast<int>(Next.get());
           NV_CUDA(cudaMemcpyAsync(&slot(s)->nValid, &HCounts[k], sizeof(int), cudaMemcpyHostToDevice, st));
           NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
+          if (Source)
+            NV_CUDA(cudaMemcpyAsync(Xyz.get(), HXyz[k].get(), 3 * B * sizeof(float), cudaMemcpyHostToDevice, st));
           Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
         }
-        launchTrain(Points.count > 0 || Importance.enabled() ? Xyz.get() : nullptr, B, s);
+        launchTrain(Points.count > 0 || Importance.enabled() || Source ? Xyz.get() : nullptr, B, s);
         launchAdam(s);
         if (Importance.enabled() && s % kImportanceInterval == 0)
           launchImportance();
@@ -297,6 +308,8 @@ private:
     const int64_t B = Train.batchSize;
     float* out = HTargets[k].get();
     std::vector<int64_t> counts(Pool->size(), 0);
+    if (Source)
+      Source->prepareStep(static_cast<uint64_t>(s)); // blocks swapped in before the batch is drawn
     Pool->parallelFor(B, [&](int64_t b, int64_t e, int w) {
       constexpr int64_t kChunk = 1024;
       float xyz[3 * kChunk];
@@ -304,9 +317,14 @@ private:
       for (int64_t c0 = b; c0 < e; c0 += kChunk)
       {
         const int64_t m = std::min(kChunk, e - c0);
-        for (int64_t i = 0; i < m; ++i)
-          randomPoint(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(c0 + i), xyz + 3 * i);
-        counts[w] += sampleTargets(Volume, xyz, m, out + c0, ok);
+        if (Source)
+          counts[w] += Source->fill(Train.seed, static_cast<uint64_t>(s), c0, m, HXyz[k].get() + 3 * c0, out + c0, ok);
+        else
+        {
+          for (int64_t i = 0; i < m; ++i)
+            randomPoint(Train.seed, static_cast<uint64_t>(s), static_cast<uint64_t>(c0 + i), xyz + 3 * i);
+          counts[w] += sampleTargets(Volume, xyz, m, out + c0, ok);
+        }
         for (int64_t i = 0; i < m; ++i)
           if (!ok[i])
             out[c0 + i] = std::nanf("");
@@ -564,6 +582,8 @@ private:
   GpuImportanceGrid Importance; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
   PinnedBuffer<Counters> HostStepCounters;
   PinnedBuffer<float> HTargets[2];
+  PinnedBuffer<float> HXyz[2]; ///< out-of-core batches: the positions the source drew
+  BatchSource* Source = nullptr;
   int HCounts[2] = { 0, 0 };
   std::unique_ptr<ThreadPool> Pool;
   std::future<int64_t> Next;
@@ -588,6 +608,13 @@ std::unique_ptr<Trainer> createTrainer(const Model& model, const TrainingPoints&
 {
   return std::unique_ptr<Trainer>(
     new GpuTrainer(model, VolumeView(), points, config, options, std::move(publish)));
+}
+
+std::unique_ptr<Trainer> createTrainer(const Model& model, BatchSource& source, const TrainConfig& config,
+  const KernelOptions& options, PublishFn publish)
+{
+  return std::unique_ptr<Trainer>(
+    new GpuTrainer(model, VolumeView(), TrainingPoints(), config, options, std::move(publish), &source));
 }
 
 } // namespace gpu

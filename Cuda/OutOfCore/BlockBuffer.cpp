@@ -114,20 +114,22 @@ void BlockBuffer::load(Slot& slot, uint64_t blockIndex)
   ++this->BlocksRead;
 }
 
-void BlockBuffer::drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values) const
+void BlockBuffer::drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values,
+  int64_t first) const
 {
   const int64_t* dims = this->Reader.layout().dims;
   const int64_t resident = static_cast<int64_t>(this->Resident.size());
   for (int64_t i = 0; i < count; ++i)
   {
+    const uint64_t index = static_cast<uint64_t>(first + i);
     const Slot& slot = this->Slots[static_cast<size_t>(
-      this->Resident[static_cast<size_t>(randomBankIndex(seed, step, static_cast<uint64_t>(i), resident))])];
+      this->Resident[static_cast<size_t>(randomBankIndex(seed, step, index, resident))])];
     float u[3];
     int64_t base[3];
     float t[3];
     for (int axis = 0; axis < 3; ++axis)
     {
-      const uint64_t h = mix64(mix64(seed ^ (step * 0x9E3779B97F4A7C15ull)) + static_cast<uint64_t>(3 * i + axis));
+      const uint64_t h = mix64(mix64(seed ^ (step * 0x9E3779B97F4A7C15ull)) + 3 * index + static_cast<uint64_t>(axis));
       u[axis] = unitFloat(h) * static_cast<float>(slot.cells[axis]);
       base[axis] = std::min<int64_t>(static_cast<int64_t>(u[axis]), std::max<int64_t>(0, slot.cells[axis] - 1));
       t[axis] = slot.cells[axis] == 0 ? 0.0f : u[axis] - static_cast<float>(base[axis]);

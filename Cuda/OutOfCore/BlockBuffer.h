@@ -55,7 +55,9 @@ public:
   /// `count` samples of step `step`: positions xyz (interleaved, [0,1]^3 of the whole volume) uniform inside the
   /// resident blocks, each block equally likely, and the trilinearly interpolated values in the file's units. Not to
   /// be called while advance() runs (the training loop calls them in turn).
-  void drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values) const;
+  /// `first`: the index of the first sample (draws are a function of seed, step and index: threads may fill disjoint
+  /// ranges of one step).
+  void drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values, int64_t first = 0) const;
   /// Swaps up to `blocks` loaded blocks in for random resident ones (the replaced slots go back to the readers);
   /// never waits for a read. Rethrows a reader's error (the file shrank, an I/O error).
   void advance(int blocks);
