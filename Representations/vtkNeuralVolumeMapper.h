@@ -45,6 +45,7 @@
 
 class vtkFloatArray;
 class vtkImageData;
+class vtkVolumeProperty;
 namespace nv
 {
 struct RenderRequest;
@@ -294,6 +295,10 @@ private:
   /// buffer). "" on success, else why the volume cannot be drawn.
   std::string BuildRequest(vtkRenderer* ren, vtkVolume* vol, vtkImageData* image, bool interactive, double scale,
     nv::RenderRequest& q);
+  /// BuildRequest's steps: the transfer function sampled from the volume's property (refused, with why, for a
+  /// value range wider than the largest double), then the path, shading, lighting and sampling settings.
+  std::string RequestTransferFunction(vtkVolume* vol, nv::RenderRequest& q);
+  void RequestShading(vtkRenderer* ren, vtkVolumeProperty* property, bool interactive, nv::RenderRequest& q);
   /// The engine's blend mode for BlendMode (Isosurface and Slice: Composite, with a warning once).
   nv::BlendMode EngineBlendMode();
   /// The Decode path's grid for DecodeResolution and this machine (a warning when it is clamped).

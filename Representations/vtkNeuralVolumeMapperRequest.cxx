@@ -38,9 +38,28 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
     return message;
   }
 
+  message = this->RequestTransferFunction(vol, q);
+  if (!message.empty())
+  {
+    return message;
+  }
+  this->RequestShading(ren, vol->GetProperty(), interactive, q);
+  this->FitDecodeGrid();
+  std::copy(in.DecodeUsed, in.DecodeUsed + 3, q.decodeResolution);
+  // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
+  // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
+  q.waitForDecode = !this->ProgressiveRefinement && !interactive;
+  q.seed = 1;
+  return std::string();
+}
+
+//------------------------------------------------------------------------------
+std::string vtkNeuralVolumeMapper::RequestTransferFunction(vtkVolume* vol, nv::RenderRequest& q)
+{
+  vtkInternals& in = *this->Internals;
+  const nv::SourceInfo& src = in.Session->model().source;
   // ParaView 5.11's colour maps (a vtkLookupTable under the discretized colour function) abort on a value range
   // whose width overflows a double, as a Surface coloured by such a field does: refuse before evaluating them.
-  const nv::SourceInfo& src = session.model().source;
   if (nv::ValueRange(src.valueMin, src.valueMax).halved())
   {
     std::ostringstream os;
@@ -66,7 +85,13 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
     if (!(q.transfer.unitDistance > 0.0))
       q.transfer.unitDistance = 1.0;
   }
+  return std::string();
+}
 
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeMapper::RequestShading(
+  vtkRenderer* ren, vtkVolumeProperty* property, bool interactive, nv::RenderRequest& q)
+{
   q.path = static_cast<nv::RenderPath>(this->RenderPath);
   int shading = this->ShadingMode;
   if (shading == RAY_MARCHING && property->GetShade(0))
@@ -99,13 +124,6 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
   q.accumulate = true;
   q.streamingSamples = this->StreamingSamples;
   q.emptySpaceSkipping = this->EmptySpaceSkipping;
-  this->FitDecodeGrid();
-  std::copy(in.DecodeUsed, in.DecodeUsed + 3, q.decodeResolution);
-  // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
-  // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
-  q.waitForDecode = !this->ProgressiveRefinement && !interactive;
-  q.seed = 1;
-  return std::string();
 }
 
 //------------------------------------------------------------------------------

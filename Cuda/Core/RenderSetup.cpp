@@ -138,7 +138,7 @@ bool invert3(const double* m, double b[9])
 /// 64-bit FNV-style hash, eight bytes per step (four chains for long arrays) (a depth buffer of a 1080p view is 8 MB, hashed every frame).
 struct Hasher
 {
-  uint64_t h = 1469598103934665603ull;
+  uint64_t hash = 1469598103934665603ull;
   void add(const void* p, size_t n)
   {
     const unsigned char* b = static_cast<const unsigned char*>(p);
@@ -146,7 +146,8 @@ struct Hasher
     if (n >= 64)
     {
       // Four independent chains (the multiplies overlap), combined at the end.
-      uint64_t c[4] = { h, h ^ 0x9E3779B97F4A7C15ull, h ^ 0xBF58476D1CE4E5B9ull, h ^ 0x94D049BB133111EBull };
+      uint64_t c[4] = { hash, hash ^ 0x9E3779B97F4A7C15ull, hash ^ 0xBF58476D1CE4E5B9ull,
+        hash ^ 0x94D049BB133111EBull };
       for (; i + 32 <= n; i += 32)
         for (int k = 0; k < 4; ++k)
         {
@@ -154,17 +155,17 @@ struct Hasher
           std::memcpy(&w, b + i + 8 * k, 8);
           c[k] = (c[k] ^ w) * 1099511628211ull;
         }
-      h = mix64(c[0] ^ mix64(c[1] ^ mix64(c[2] ^ mix64(c[3]))));
+      hash = mix64(c[0] ^ mix64(c[1] ^ mix64(c[2] ^ mix64(c[3]))));
     }
     for (; i + 8 <= n; i += 8)
     {
       uint64_t w;
       std::memcpy(&w, b + i, 8);
-      h = (h ^ w) * 1099511628211ull;
+      hash = (hash ^ w) * 1099511628211ull;
     }
     for (; i < n; ++i)
-      h = (h ^ b[i]) * 1099511628211ull;
-    h ^= h >> 29; // fold the high bits down so the last words reach every bit
+      hash = (hash ^ b[i]) * 1099511628211ull;
+    hash ^= hash >> 29; // fold the high bits down so the last words reach every bit
   }
   template <typename T>
   void add(const T& v)
@@ -273,14 +274,16 @@ uint64_t renderKey(const RenderRequest& q)
     h.add(q.grid->data);
     h.add(q.grid->dims, sizeof(q.grid->dims));
   }
-  return h.h;
+  return h.hash;
 }
 
-RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
+namespace
 {
-  validate(q);
-  RenderSetup s;
-  ray::Params& P = s.params;
+// makeRenderSetup's steps, in its order (every check throws in the order it always did).
+
+/// The camera (clip to world) and the volume transform (world to unit box, 3 x 4).
+void setCamera(const RenderRequest& q, ray::Params& P)
+{
   P.width = q.width;
   P.height = q.height;
   double inv[16];
@@ -289,7 +292,12 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
     P.clipToWorld[i] = static_cast<float>(inv[i]);
   for (int i = 0; i < 12; ++i)
     P.worldToUnit[i] = static_cast<float>(q.worldToUnit[i]);
+}
 
+/// The sample distance (one sample per voxel by default), the gradient's half-step, the bounds on a ray's work and
+/// the termination opacity.
+void setSampleDistances(const RenderRequest& q, const SourceInfo& src, ray::Params& P)
+{
   // One sample per voxel by default: the world length of a voxel step along the finest axis.
   double b[9];
   invert3(q.worldToUnit, b);
@@ -320,8 +328,13 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.dtShadow = static_cast<float>(2.0 * dt);
   // >= 1 is off: a ray's opacity can reach exactly 1.0f, so "off" must be out of reach.
   P.termination = q.terminationOpacity >= 1.0 ? 2.0f : static_cast<float>(q.terminationOpacity);
+}
 
-  // Transfer function: opacity per unit distance -> extinction per world unit.
+/// The transfer function: its table (opacity per unit distance -> extinction per world unit) and the map from the
+/// network's normalised values to table entries (tfScale, tfShift).
+void setTransferFunction(const RenderRequest& q, const SourceInfo& src, RenderSetup& s)
+{
+  ray::Params& P = s.params;
   const TransferFunction& tf = q.transfer;
   const int n = static_cast<int>(tf.rgba.size() / 4);
   s.table.resize(tf.rgba.size());
@@ -364,7 +377,12 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   NV_CHECK(std::isfinite(P.tfScale) && std::isfinite(P.tfShift),
     "the transfer function's range is too small for the field's value range");
   P.unitDistance = static_cast<float>(ud);
+}
 
+/// The macrocell layout, skipping, shading and blend modes and the Average Intensity range.
+void setCellsAndModes(const RenderRequest& q, const SourceInfo& src, RenderSetup& s)
+{
+  ray::Params& P = s.params;
   s.cells = macrocellLayout(src.dims);
   for (int a = 0; a < 3; ++a)
   {
@@ -374,6 +392,7 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.skipping = q.emptySpaceSkipping ? 1 : 0;
   P.shading = static_cast<int>(q.shading);
   P.blend = static_cast<int>(q.blend);
+  const ValueRange source(src.valueMin, src.valueMax);
   if (q.averageRange[1] > q.averageRange[0] && source.spans())
   {
     P.avgLo = static_cast<float>(source.fraction(q.averageRange[0]));
@@ -384,6 +403,11 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
     P.avgLo = 1.0f;
     P.avgHi = 0.0f;
   }
+}
+
+/// The light, the Phong terms, the sun's lobe, the phase function, bounces and the random streams' seed.
+void setLighting(const RenderRequest& q, ray::Params& P)
+{
   ray::V3 l = ray::mk(static_cast<float>(q.lightDirection[0]), static_cast<float>(q.lightDirection[1]),
     static_cast<float>(q.lightDirection[2]));
   P.lightW = ray::dot(l, l) > 0.0f ? ray::normalize(l) : ray::mk(0.0f, 0.0f, 1.0f);
@@ -401,17 +425,26 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
   P.frame = 0;
-  // The source's domain: host memory here (the GPU renderer points P.domain at its device copy).
+}
+
+/// The source's domain mask and a sparse source's occupancy (host memory here; the GPU renderer points them at its
+/// device copies) and its background value.
+void setDomain(const SourceInfo& src, ray::Params& P)
+{
   const int64_t domainSamples = src.dims[0] * src.dims[1] * src.dims[2];
   const bool domain = !src.domain.empty() && int64_t(src.domain.size()) == (domainSamples + 31) / 32;
   P.domain = domain ? src.domain.data() : nullptr;
   for (int a = 0; a < 3; ++a)
     P.domainDims[a] = static_cast<int>(src.dims[a]);
-  // A sparse source's occupancy (host memory here; the GPU renderer points P.occupancy at its device copy).
   const bool occupancy = !src.occupancy.empty() && int64_t(src.occupancy.size()) == occupancyWords(src.dims);
   P.occupancy = occupancy ? src.occupancy.data() : nullptr;
+  const ValueRange source(src.valueMin, src.valueMax);
   P.background = static_cast<float>(source.fraction(src.background));
+}
 
+/// The Decode path's grid size and Sample Streaming's K.
+void setPathSizes(const RenderRequest& q, const SourceInfo& src, RenderSetup& s)
+{
   for (int a = 0; a < 3; ++a)
     s.gridDims[a] = q.decodeResolution[a] > 0 ? q.decodeResolution[a] : std::max<int64_t>(1, src.dims[a]);
   if (q.decodeResolution[0] <= 0 || q.decodeResolution[1] <= 0 || q.decodeResolution[2] <= 0)
@@ -421,13 +454,28 @@ RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
     for (int a = 0; a < 3; ++a)
       s.gridDims[a] = q.grid->dims[a];
   s.streamingSamples = q.streamingSamples > 0 ? q.streamingSamples : kDefaultStreamingSamples;
+}
+} // namespace
+
+RenderSetup makeRenderSetup(const RenderRequest& q, const SourceInfo& src)
+{
+  validate(q);
+  RenderSetup s;
+  ray::Params& P = s.params;
+  setCamera(q, P);
+  setSampleDistances(q, src, P);
+  setTransferFunction(q, src, s);
+  setCellsAndModes(q, src, s);
+  setLighting(q, P);
+  setDomain(src, P);
+  setPathSizes(q, src, s);
 
   s.key = renderKey(q);
   Hasher t;
   t.add(s.table.data(), s.table.size() * sizeof(float));
   t.add(P.tfScale);
   t.add(P.tfShift);
-  s.tableKey = t.h;
+  s.tableKey = t.hash;
   return s;
 }
 

@@ -94,7 +94,7 @@ namespace
 /// Slicing-by-8 tables of the reflected CRC-32 polynomial (built once, thread-safe).
 struct CrcTables
 {
-  uint32_t t[8][256];
+  uint32_t table[8][256]; ///< [0]: the byte-wise table; [s]: a byte carried through s more bytes
   CrcTables()
   {
     for (uint32_t i = 0; i < 256; ++i)
@@ -102,11 +102,11 @@ struct CrcTables
       uint32_t c = i;
       for (int k = 0; k < 8; ++k)
         c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[0][i] = c;
+      table[0][i] = c;
     }
     for (uint32_t i = 0; i < 256; ++i)
       for (int s = 1; s < 8; ++s)
-        t[s][i] = (t[s - 1][i] >> 8) ^ t[0][t[s - 1][i] & 0xFFu];
+        table[s][i] = (table[s - 1][i] >> 8) ^ table[0][table[s - 1][i] & 0xFFu];
   }
 };
 
@@ -126,7 +126,7 @@ const float* halfTable()
 uint32_t crc32(const uint8_t* data, size_t size)
 {
   static const CrcTables tables;
-  const auto& t = tables.t;
+  const auto& t = tables.table;
   uint32_t c = 0xFFFFFFFFu;
   size_t i = 0;
   for (; i + 8 <= size; i += 8)
@@ -143,13 +143,14 @@ uint32_t crc32(const uint8_t* data, size_t size)
   return c ^ 0xFFFFFFFFu;
 }
 
-std::vector<uint8_t> serialize(const Model& model)
+namespace
 {
-  checkLittleEndian();
-  validate(model.source); // the reader refuses what this refuses: every written model reads back
-  NV_CHECK(model.source.arrayName.size() <= 4096 && model.stats.device.size() <= 4096,
-    "array and device names of a model are at most 4096 bytes");
-  Writer h; // header fields
+// serialize()'s steps, in the order of the bytes they write.
+
+/// The header's fields: the configuration, the source's geometry and values, the training statistics.
+Writer headerFields(const Model& model)
+{
+  Writer h;
   const ModelConfig& c = model.config();
   h.put<int32_t>(c.encoding.levels);
   h.put<int32_t>(c.encoding.featuresPerLevel);
@@ -182,17 +183,12 @@ std::vector<uint8_t> serialize(const Model& model)
   h.put<double>(t.maxError);
   h.put<int64_t>(t.invalidSamples);
   h.putString(t.device);
+  return h;
+}
 
-  const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
-  const bool quantized = model.storagePrecision() == Precision::Quantized8;
-  Writer w;
-  w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.put<uint32_t>(quantized ? kFormatVersionQuantized
-      : occupancy           ? kFormatVersionOccupancy
-      : mask                ? kFormatVersionDomain
-                            : kFormatVersionNoMask);
-  w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
-  w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
+/// The parameters in the model's storage precision (Quantized8: the coded block, with its size first).
+void putParameters(Writer& w, const Model& model, bool quantized)
+{
   const std::vector<float>& p = model.params();
   w.put<uint64_t>(p.size());
   if (quantized)
@@ -222,42 +218,74 @@ std::vector<uint8_t> serialize(const Model& model)
     const uint8_t* b = reinterpret_cast<const uint8_t*>(p.data());
     w.bytes.insert(w.bytes.end(), b, b + p.size() * sizeof(float));
   }
-  // A bit mask of `count` bits as alternating run lengths, starting with 0-bits.
-  auto putRuns = [&w](const std::vector<uint32_t>& bits, int64_t count) {
-    std::vector<uint32_t> runs;
-    uint32_t value = 0, length = 0;
-    for (int64_t i = 0; i < count; ++i)
+}
+
+/// A bit mask of `count` bits as alternating run lengths, starting with 0-bits.
+void putRuns(Writer& w, const std::vector<uint32_t>& bits, int64_t count)
+{
+  std::vector<uint32_t> runs;
+  uint32_t value = 0, length = 0;
+  for (int64_t i = 0; i < count; ++i)
+  {
+    const uint32_t bit = (bits[size_t(i >> 5)] >> (i & 31)) & 1u;
+    if (bit != value)
     {
-      const uint32_t bit = (bits[size_t(i >> 5)] >> (i & 31)) & 1u;
-      if (bit != value)
-      {
-        runs.push_back(length);
-        value = bit;
-        length = 0;
-      }
-      ++length;
+      runs.push_back(length);
+      value = bit;
+      length = 0;
     }
-    runs.push_back(length);
-    w.put<uint64_t>(runs.size());
-    for (uint32_t r : runs)
-      w.put<uint32_t>(r);
-  };
+    ++length;
+  }
+  runs.push_back(length);
+  w.put<uint64_t>(runs.size());
+  for (uint32_t r : runs)
+    w.put<uint32_t>(r);
+}
+
+/// The mask flags (versions 3 and 4), the domain mask, the occupancy mask and the background.
+void putMasks(Writer& w, const SourceInfo& s, bool quantized)
+{
+  const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
   if (occupancy || quantized)
     w.put<uint32_t>((mask ? 1u : 0u) | (occupancy ? 2u : 0u));
   if (mask)
   {
     const int64_t samples = s.dims[0] * s.dims[1] * s.dims[2];
     NV_CHECK(int64_t(s.domain.size()) == (samples + 31) / 32, "domain mask size does not match the source dims");
-    putRuns(s.domain, samples);
+    putRuns(w, s.domain, samples);
   }
   if (occupancy)
   {
     const MacrocellLayout cells = macrocellLayout(s.dims);
     const int64_t count = int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2];
     NV_CHECK(int64_t(s.occupancy.size()) == (count + 31) / 32, "occupancy mask size does not match the macrocells");
-    putRuns(s.occupancy, count);
+    putRuns(w, s.occupancy, count);
     w.put<double>(s.background);
   }
+}
+} // namespace
+
+std::vector<uint8_t> serialize(const Model& model)
+{
+  checkLittleEndian();
+  validate(model.source); // the reader refuses what this refuses: every written model reads back
+  NV_CHECK(model.source.arrayName.size() <= 4096 && model.stats.device.size() <= 4096,
+    "array and device names of a model are at most 4096 bytes");
+  const Writer h = headerFields(model);
+
+  const SourceInfo& s = model.source;
+  const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
+  const bool quantized = model.storagePrecision() == Precision::Quantized8;
+  Writer w;
+  w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
+  w.put<uint32_t>(quantized ? kFormatVersionQuantized
+      : occupancy           ? kFormatVersionOccupancy
+      : mask                ? kFormatVersionDomain
+                            : kFormatVersionNoMask);
+  w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
+  w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
+  putParameters(w, model, quantized);
+  putMasks(w, s, quantized);
   w.put<uint32_t>(crc32(w.bytes.data(), w.bytes.size()));
   return std::move(w.bytes);
 }
@@ -335,7 +363,13 @@ std::vector<uint32_t> fillRuns(const uint8_t* runs, uint64_t count, int64_t samp
 }
 } // namespace
 
-ModelFileInfo inspectModel(const uint8_t* data, size_t size)
+namespace
+{
+// inspectModel()'s steps, in the order of the bytes they read: every check where it always was.
+
+/// The magic, the version, the header's size (the header, parameter count and checksum must fit) and the checksum
+/// over the whole file. Leaves `r` at the header; returns its size.
+uint32_t readPreamble(Reader& r, const uint8_t* data, size_t size, ModelFileInfo& info)
 {
   checkLittleEndian();
   NV_CHECK(data != nullptr || size == 0, "null model data");
@@ -343,8 +377,6 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   {
     NV_THROW("not a NeuralVolume model (bad magic; " + std::to_string(size) + " bytes)");
   }
-  ModelFileInfo info;
-  Reader r(data, size);
   r.skip(8);
   info.version = r.get<uint32_t>("version");
   if (info.version < kFormatVersionNoMask || info.version > kFormatVersion)
@@ -362,10 +394,13 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   {
     NV_THROW("corrupt or truncated NeuralVolume model: checksum mismatch over " + std::to_string(size) + " bytes");
   }
+  return headerBytes;
+}
 
-  // The header, read within its own bytes.
-  Reader h(r.here(), headerBytes, "model header");
-  r.skip(headerBytes);
+/// The header's fields, read within its own `headerBytes` bytes (all of them). Returns the parameter count the
+/// configuration needs.
+uint64_t readHeader(Reader& h, uint32_t headerBytes, ModelFileInfo& info)
+{
   ModelConfig& c = info.config;
   c.encoding.levels = h.get<int32_t>("levels");
   c.encoding.featuresPerLevel = h.get<int32_t>("features");
@@ -412,7 +447,13 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
       " read)");
   if (t.steps < 0 || t.invalidSamples < 0)
     corrupt("negative training counts");
+  return expected;
+}
 
+/// The parameter count (it must be `expected`) and the stored parameters, checked and skipped.
+void readParameters(Reader& r, size_t size, uint64_t expected, ModelFileInfo& info)
+{
+  const ModelConfig& c = info.config;
   info.parameterCount = r.get<uint64_t>("parameter count");
   if (info.parameterCount != expected)
     corrupt(std::to_string(info.parameterCount) + " parameters stored, the configuration needs " +
@@ -442,7 +483,13 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
     r.skip(size_t(expected) * bytesPer);
   }
   info.hostBytes = expected * 4;
+}
 
+/// The mask flags (versions 3 and 4), the domain mask's and the occupancy mask's runs (checked, not filled) and the
+/// background.
+void readMasks(Reader& r, ModelFileInfo& info)
+{
+  SourceInfo& s = info.source;
   // Version 2: a domain mask; versions 3 and 4: flags saying which masks follow (version 3: an occupancy mask always).
   const uint32_t flags = info.version >= 3 ? r.get<uint32_t>("mask flags") : info.version == 2 ? 1u : 0u;
   if (flags > 3u || (info.version == 3 && !(flags & 2u)))
@@ -468,6 +515,20 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
       corrupt("a background that is not finite");
     info.hostBytes += uint64_t(occupancyWords(s.dims)) * 4;
   }
+}
+} // namespace
+
+ModelFileInfo inspectModel(const uint8_t* data, size_t size)
+{
+  ModelFileInfo info;
+  Reader r(data, size);
+  const uint32_t headerBytes = readPreamble(r, data, size, info);
+  // The header, read within its own bytes.
+  Reader h(r.here(), headerBytes, "model header");
+  r.skip(headerBytes);
+  const uint64_t expected = readHeader(h, headerBytes, info);
+  readParameters(r, size, expected, info);
+  readMasks(r, info);
   if (r.pos() + 4 != size)
     corrupt(std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
   return info;

@@ -61,6 +61,40 @@ struct CpuGridDecoder::Job
       finished.fetch_add(1);
     }
   }
+
+  /// The job's thread: allocates the grid, decodes blocks on `pool` (alongside a caller that waits), then publishes
+  /// the result (unless cancelled) or the error, and sets `done`.
+  void run(ThreadPool& pool, bool lowPriority)
+  {
+    if (lowPriority)
+      lowerCurrentThreadPriority(); // the pool's worker 0
+    try
+    {
+      auto g = std::make_shared<DecodedGrid>();
+      g->values.resize(static_cast<size_t>(dims[0] * dims[1] * dims[2]));
+      grid = g;
+      ready = true;
+      const CpuInference net(model);
+      work(pool, net);
+      if (!cancel.load())
+      {
+        g->id = newGridId();
+        g->version = version;
+        for (int a = 0; a < 3; ++a)
+          g->dims[a] = dims[a];
+        result = g; // complete once every block is decoded (a helping caller may still be on its last ones)
+      }
+    }
+    catch (const std::bad_alloc&)
+    {
+      error = "out of memory for a decode grid of " + std::to_string(dims[0] * dims[1] * dims[2]) + " samples";
+    }
+    catch (const std::exception& e)
+    {
+      error = e.what();
+    }
+    done = true;
+  }
 };
 
 CpuGridDecoder::CpuGridDecoder(ThreadPool& pool, int64_t progressiveSamples)
@@ -186,26 +220,7 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   }
   if (Running && Running->version == version && Running->dims[0] == dims[0] && Running->dims[1] == dims[1] &&
     Running->dims[2] == dims[2])
-  {
-    if (wait && !Running->done.load())
-      finishRunning(); // the caller waits: its pool decodes the blocks left, alongside the job's thread
-    if (!Running->done.load())
-    {
-      r.grid = Coarse;
-      r.pending = true;
-      return r;
-    }
-    if (Running->thread.joinable())
-      Running->thread.join();
-    std::unique_ptr<Job> job = std::move(Running);
-    Pending = false;
-    if (!job->result)
-      NV_THROW("background decode failed: " + (job->error.empty() ? std::string("cancelled") : job->error));
-    Full = job->result;
-    r.grid = Full;
-    r.decoded = true; // the refined grid is new to the caller
-    return r;
-  }
+    return takeRunning(wait);
   cancelJob(); // a job for another version or resolution: its result would be stale
   r.decoded = true;
   if (wait || dims[0] * dims[1] * dims[2] <= ProgressiveSamples)
@@ -214,6 +229,37 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
     r.grid = Full;
     return r;
   }
+  return startBackgroundDecode(model, version, dims);
+}
+
+CpuGridDecoder::Result CpuGridDecoder::takeRunning(bool wait)
+{
+  Result r;
+  if (wait && !Running->done.load())
+    finishRunning(); // the caller waits: its pool decodes the blocks left, alongside the job's thread
+  if (!Running->done.load())
+  {
+    r.grid = Coarse;
+    r.pending = true;
+    return r;
+  }
+  if (Running->thread.joinable())
+    Running->thread.join();
+  std::unique_ptr<Job> job = std::move(Running);
+  Pending = false;
+  if (!job->result)
+    NV_THROW("background decode failed: " + (job->error.empty() ? std::string("cancelled") : job->error));
+  Full = job->result;
+  r.grid = Full;
+  r.decoded = true; // the refined grid is new to the caller
+  return r;
+}
+
+CpuGridDecoder::Result CpuGridDecoder::startBackgroundDecode(const Model& model, uint64_t version,
+  const int64_t dims[3])
+{
+  Result r;
+  r.decoded = true;
   int64_t cd[3];
   coarseDims(dims, cd);
   if (!matches(Coarse.get(), version, cd))
@@ -232,40 +278,9 @@ CpuGridDecoder::Result CpuGridDecoder::acquire(const Model& model, uint64_t vers
   // Blocks of slices of about 2^18 samples: a cancelled background decode stops within one block.
   job->block = std::max<int64_t>(1, (int64_t(1) << 18) / (dims[0] * dims[1]));
   job->blocks = (dims[2] + job->block - 1) / job->block;
-  auto body = [j, pool, lowPriority] {
-    if (lowPriority)
-      lowerCurrentThreadPriority(); // the pool's worker 0
-    try
-    {
-      auto g = std::make_shared<DecodedGrid>();
-      g->values.resize(static_cast<size_t>(j->dims[0] * j->dims[1] * j->dims[2]));
-      j->grid = g;
-      j->ready = true;
-      const CpuInference net(j->model);
-      j->work(*pool, net);
-      if (!j->cancel.load())
-      {
-        g->id = newGridId();
-        g->version = j->version;
-        for (int a = 0; a < 3; ++a)
-          g->dims[a] = j->dims[a];
-        j->result = g; // complete once every block is decoded (a helping caller may still be on its last ones)
-      }
-    }
-    catch (const std::bad_alloc&)
-    {
-      j->error = "out of memory for a decode grid of " + std::to_string(j->dims[0] * j->dims[1] * j->dims[2]) +
-        " samples";
-    }
-    catch (const std::exception& e)
-    {
-      j->error = e.what();
-    }
-    j->done = true;
-  };
   try
   {
-    job->thread = std::thread(body);
+    job->thread = std::thread([j, pool, lowPriority] { j->run(*pool, lowPriority); });
   }
   catch (const std::system_error&)
   {

@@ -77,6 +77,12 @@ private:
   void cancelJob();
   /// Decodes the running job's remaining blocks on Pool, then joins its thread.
   void finishRunning();
+  /// acquire() while the running job decodes the grid asked for: its grid once done (`wait`: finished first),
+  /// else the coarse one (pending).
+  Result takeRunning(bool wait);
+  /// acquire() of a grid too large to decode now: the coarse grid (decoded now unless cached) while a background
+  /// job decodes the full one (or the full one now when no thread can be started).
+  Result startBackgroundDecode(const Model& model, uint64_t version, const int64_t dims[3]);
   static std::shared_ptr<DecodedGrid> decode(ThreadPool& pool, const Model& model, uint64_t version,
     const int64_t dims[3], const std::atomic<bool>* cancel);
   static bool matches(const DecodedGrid* g, uint64_t version, const int64_t dims[3]);

@@ -16,13 +16,13 @@ public:
   /// values: dims[0] x dims[1] x dims[2], x fastest. nanAware: NaN samples are left out and the remaining weights
   /// renormalised (as the training sampler does); NaN only where every corner is NaN.
   CpuGridSampler(const float* values, const int64_t dims[3], bool nanAware)
-    : V(values)
+    : Values(values)
     , NanAware(nanAware)
   {
     for (int a = 0; a < 3; ++a)
     {
-      N[a] = dims[a];
-      S[a] = dims[a] > 1 ? static_cast<float>(dims[a] - 1) : 0.0f;
+      Dims[a] = dims[a];
+      MaxIndex[a] = dims[a] > 1 ? static_cast<float>(dims[a] - 1) : 0.0f;
     }
     Step[0] = dims[0] > 1 ? 1 : 0;
     Step[1] = dims[1] > 1 ? dims[0] : 0;
@@ -36,19 +36,19 @@ public:
       return nanAware(u);
     int64_t base = 0;
     float f[3];
-    const int64_t stride[3] = { 1, N[0], N[0] * N[1] };
+    const int64_t stride[3] = { 1, Dims[0], Dims[0] * Dims[1] };
     for (int a = 0; a < 3; ++a)
     {
-      float p = u[a] * S[a];
+      float p = u[a] * MaxIndex[a];
       p = p > 0.0f ? p : 0.0f; // also maps NaN to 0
       int64_t i = static_cast<int64_t>(p);
-      const int64_t last = N[a] > 1 ? N[a] - 2 : 0;
+      const int64_t last = Dims[a] > 1 ? Dims[a] - 2 : 0;
       i = i < last ? i : last;
       f[a] = p - static_cast<float>(i);
       f[a] = f[a] < 1.0f ? f[a] : 1.0f;
       base += i * stride[a];
     }
-    const float* c = V + base;
+    const float* c = Values + base;
     const int64_t dx = Step[0], dy = Step[1], dz = Step[2];
     const float x00 = c[0] + f[0] * (c[dx] - c[0]);
     const float x10 = c[dy] + f[0] * (c[dy + dx] - c[dy]);
@@ -61,17 +61,17 @@ public:
 private:
   float nanAware(const float u[3]) const
   {
-    const float* v = V;
+    const float* v = Values;
     float out;
-    if (!sampleTrilinear([v](int64_t i) { return v[i]; }, N, 0.0f, 1.0f, u, out))
+    if (!sampleTrilinear([v](int64_t i) { return v[i]; }, Dims, 0.0f, 1.0f, u, out))
       return std::numeric_limits<float>::quiet_NaN();
     return out;
   }
 
-  const float* V;
-  int64_t N[3];
-  float S[3];
-  int64_t Step[3];
+  const float* Values;
+  int64_t Dims[3];
+  float MaxIndex[3]; ///< dims - 1 per axis (0 where dims is 1): [0,1] to sample index
+  int64_t Step[3];   ///< index step to the next sample per axis (0 where dims is 1)
   bool NanAware;
 };
 

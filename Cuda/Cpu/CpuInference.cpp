@@ -10,25 +10,25 @@ namespace nv
 {
 
 CpuInference::CpuInference(const Model& m)
-  : M(m)
+  : Network(m)
   , Mlp(m)
-  , WT(Mlp.paramCount())
+  , TransposedWeights(Mlp.paramCount())
 {
-  Mlp.transpose(m.params().data() + m.encodingParamCount(), WT.data());
+  Mlp.transpose(m.params().data() + m.encodingParamCount(), TransposedWeights.data());
 }
 
 CpuInference::Scratch CpuInference::scratch() const
 {
   Scratch s;
-  s.enc.resize(static_cast<size_t>(kTile) * M.config().encoding.outputDims());
+  s.enc.resize(static_cast<size_t>(kTile) * Network.config().encoding.outputDims());
   s.acts.resize(static_cast<size_t>(kTile) * Mlp.width() * Mlp.hidden());
   return s;
 }
 
 void CpuInference::evaluate(const float* xyz, int n, float* out, Scratch& s) const
 {
-  CpuHashGrid::encode(M.layout(), M.params().data(), xyz, n, s.enc.data());
-  Mlp.forward(WT.data(), s.enc.data(), n, s.acts.data(), out);
+  CpuHashGrid::encode(Network.layout(), Network.params().data(), xyz, n, s.enc.data());
+  Mlp.forward(TransposedWeights.data(), s.enc.data(), n, s.acts.data(), out);
 }
 
 void CpuInference::inferPoints(ThreadPool& pool, const float* xyz, int64_t n, float* out) const

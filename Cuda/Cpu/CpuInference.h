@@ -42,9 +42,9 @@ public:
   void decodeGrid(ThreadPool& pool, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1, float* out) const;
 
 private:
-  const Model& M;
+  const Model& Network;                 ///< the model evaluated (its hash table read in place)
   CpuMlp Mlp;
-  std::vector<float> WT;
+  std::vector<float> TransposedWeights; ///< the MLP's layers transposed, [in][out] (CpuMlp::transpose)
 };
 
 } // namespace nv

@@ -116,6 +116,37 @@ void CpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   }
 }
 
+/// One render's state, from its setup to its image (renderImpl's steps share it).
+struct CpuRenderer::Frame
+{
+  RenderSetup setup;
+  RenderStats stats;
+  std::shared_ptr<const DecodedGrid> grid;    ///< Decode: the grid the rays sample
+  std::shared_ptr<const DecodedGrid> lattice; ///< the field the macrocells' ranges come from
+  Clock::time_point start, fieldReady;       ///< the render's start; the field and its macrocells ready
+  bool pathTrace = false;
+  bool deterministic = false; ///< not an accumulation: the image is kept for an identical request
+  uint64_t key = 0;           ///< the picture's key: the setup's, the network version, the lattice
+  size_t values = 0;          ///< floats of the image (width * height * 4)
+  int spp = 1;
+  std::vector<float> local;   ///< the image of a render that does not accumulate
+  float* target = nullptr;    ///< where the trace adds its paths: `local` or the accumulation
+  TraceCounters counters;
+};
+
+namespace
+{
+/// A cancelled render's result: no image.
+void setCancelled(RenderResult& out, RenderPath path)
+{
+  out.rgba.clear();
+  out.deviceRgba = nullptr;
+  out.stats = RenderStats();
+  out.stats.path = path;
+  out.stats.cancelled = true;
+}
+} // namespace
+
 void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& out)
 {
   const Clock::time_point t0 = Clock::now();
@@ -124,59 +155,84 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   if (q.grid && q.path != RenderPath::Decode)
     NV_THROW(std::string("invalid render request: a reference grid is rendered by the Decode path only (path is ") +
       renderPathName(q.path) + ")");
-  auto cancelled = [&] {
-    out.rgba.clear();
-    out.deviceRgba = nullptr;
-    out.stats = RenderStats();
-    out.stats.path = q.path;
-    out.stats.cancelled = true;
-  };
   if (q.control && q.control->cancel.load())
   {
-    cancelled();
+    setCancelled(out, q.path);
     return;
   }
-  RenderSetup setup = makeRenderSetup(q, model.source);
+  Frame f{ makeRenderSetup(q, model.source) };
+  f.start = t0;
   DecodeShown = q.path == RenderPath::Decode && !q.grid;
-  ray::Params& P = setup.params;
-  RenderStats st;
-  st.path = q.path;
-  st.device = Device::Cpu;
+  f.stats.path = q.path;
+  f.stats.device = Device::Cpu;
 
-  // 1. The field and its macrocells: the grid itself for Decode (exact ranges), a lattice of the network otherwise
-  // (ranges widened by network probes inside each cell).
-  std::shared_ptr<const DecodedGrid> grid, lattice;
+  // 1. The field and its macrocells.
+  if (!prepareField(model, version, q, f))
+  {
+    setCancelled(out, q.path);
+    return;
+  }
+  f.fieldReady = Clock::now();
+  f.stats.decodeMilliseconds = millis(f.start, f.fieldReady);
+
+  // 2. An identical deterministic request returns the previous image.
+  f.pathTrace = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
+  f.key = combine(combine(f.setup.key, version), f.lattice->id);
+  f.values = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
+  f.deterministic = !f.pathTrace || !q.accumulate;
+  if (f.deterministic && f.key == ImageKey && Image.size() == f.values)
+  {
+    out.rgba = Image;
+    out.deviceRgba = nullptr;
+    out.stats = ImageStats;
+    out.stats.reused = true;
+    out.stats.decodeMilliseconds = f.stats.decodeMilliseconds;
+    out.stats.renderMilliseconds = millis(f.fieldReady, Clock::now());
+    return;
+  }
+
+  // 3. Where the paths go; 4. trace; 5. the image.
+  chooseTarget(q, f);
+  trace(model, version, q, f);
+  finishImage(f, out);
+}
+
+bool CpuRenderer::prepareField(const Model& model, uint64_t version, const RenderRequest& q, Frame& f)
+{
+  // The grid itself for Decode (exact ranges), a lattice of the network otherwise (ranges widened by network probes
+  // inside each cell).
+  RenderSetup& setup = f.setup;
+  ray::Params& P = setup.params;
   if (q.path == RenderPath::Decode)
   {
     if (q.grid)
-      grid = referenceGrid(model, *q.grid);
+      f.grid = referenceGrid(model, *q.grid);
     else
     {
       const CpuGridDecoder::Result a = Decoder.acquire(model, version, setup.gridDims, q.waitForDecode);
-      grid = a.grid;
-      st.decodePending = a.pending;
+      f.grid = a.grid;
+      f.stats.decodePending = a.pending;
     }
-    lattice = grid;
-    Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id);
+    f.lattice = f.grid;
+    const DecodedGrid& lattice = *f.lattice;
+    Cells.updateRanges(Pool, setup.cells, lattice.values.data(), lattice.dims, lattice.id);
   }
   else
   {
-    lattice = networkLattice(model, version, q.control);
-    if (!lattice)
-    {
-      cancelled();
-      return;
-    }
+    f.lattice = networkLattice(model, version, q.control);
+    if (!f.lattice)
+      return false;
+    const DecodedGrid& lattice = *f.lattice;
     const int64_t cells = int64_t(setup.cells.dims[0]) * setup.cells.dims[1] * setup.cells.dims[2];
     const CpuInference net(model);
     if (Options.probesPerCell > 0)
     {
       const int probes = static_cast<int>(std::max<int64_t>(4, std::min<int64_t>(Options.probesPerCell,
         Options.maxProbes / cells)));
-      Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, 0.0f, &net, probes);
+      Cells.updateRanges(Pool, setup.cells, lattice.values.data(), lattice.dims, lattice.id, 0.0f, &net, probes);
     }
     else
-      Cells.updateRanges(Pool, setup.cells, lattice->values.data(), lattice->dims, lattice->id, kNetworkRangeMargin);
+      Cells.updateRanges(Pool, setup.cells, lattice.values.data(), lattice.dims, lattice.id, kNetworkRangeMargin);
   }
   if (P.occupancy)
     Cells.setEmptyCells(P.occupancy, P.background);
@@ -185,77 +241,62 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   P.majorant = Cells.majorants();
   P.maxMajorant = Cells.maxMajorant();
   P.depth = q.depth;
-  const Clock::time_point t1 = Clock::now();
-  st.decodeMilliseconds = millis(t0, t1);
+  return true;
+}
 
-  // 2. An identical deterministic request returns the previous image.
-  const bool pathTrace = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
-  const uint64_t key = combine(combine(setup.key, version), lattice->id);
-  const size_t values = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
-  const bool deterministic = !pathTrace || !q.accumulate;
-  if (deterministic && key == ImageKey && Image.size() == values)
-  {
-    out.rgba = Image;
-    out.deviceRgba = nullptr;
-    out.stats = ImageStats;
-    out.stats.reused = true;
-    out.stats.decodeMilliseconds = st.decodeMilliseconds;
-    out.stats.renderMilliseconds = millis(t1, Clock::now());
-    return;
-  }
-
-  // 3. Path tracing continues the accumulation while nothing changed; every path has its own frame index.
+void CpuRenderer::chooseTarget(const RenderRequest& q, Frame& f)
+{
+  // Path tracing continues the accumulation while nothing changed; every path has its own frame index.
   int frame = 0;
-  const int spp = pathTrace ? q.samplesPerPixel : 1;
-  std::vector<float> local;
-  float* target;
-  if (pathTrace)
+  f.spp = f.pathTrace ? q.samplesPerPixel : 1;
+  if (f.pathTrace)
   {
-    if (!(q.accumulate && key == AccumKey && Accum.size() == values && AccumFrames > 0))
+    if (!(q.accumulate && f.key == AccumKey && Accum.size() == f.values && AccumFrames > 0))
     {
-      Accum.assign(values, 0.0f);
+      Accum.assign(f.values, 0.0f);
       AccumFrames = 0;
-      AccumKey = key;
+      AccumKey = f.key;
     }
     frame = AccumFrames;
-    target = Accum.data();
+    f.target = Accum.data();
   }
   else
   {
-    local.assign(values, 0.0f);
-    target = local.data();
+    f.local.assign(f.values, 0.0f);
+    f.target = f.local.data();
   }
-  P.frame = static_cast<uint32_t>(frame) * static_cast<uint32_t>(spp); // path s of this render: P.frame + s
+  // path s of this render: P.frame + s
+  f.setup.params.frame = static_cast<uint32_t>(frame) * static_cast<uint32_t>(f.spp);
+}
 
-  // 4. Trace: the same machine, three ways of evaluating its queries.
-  TraceCounters c;
-  auto trace = [&] {
+void CpuRenderer::trace(const Model& model, uint64_t version, const RenderRequest& q, Frame& f)
+{
+  // The same machine, three ways of evaluating its queries.
+  const ray::Params& P = f.setup.params;
+  try
+  {
     switch (q.path)
     {
       case RenderPath::Decode:
       {
-        const CpuGridSampler sampler(grid->values.data(), grid->dims, grid->hasNaN);
-        traceDecode(Pool, P, spp, sampler, target, q.control, c);
+        const CpuGridSampler sampler(f.grid->values.data(), f.grid->dims, f.grid->hasNaN);
+        traceDecode(Pool, P, f.spp, sampler, f.target, q.control, f.counters);
         break;
       }
       case RenderPath::InShader:
       {
         HalfTable.update(model, version);
         const CpuHalfNetwork net(model, HalfTable.table());
-        traceInShader(Pool, P, spp, net, target, q.control, c);
+        traceInShader(Pool, P, f.spp, net, f.target, q.control, f.counters);
         break;
       }
       case RenderPath::SampleStreaming:
       {
         const CpuInference net(model);
-        traceStreaming(Pool, P, spp, setup.streamingSamples, net, target, q.control, c);
+        traceStreaming(Pool, P, f.spp, f.setup.streamingSamples, net, f.target, q.control, f.counters);
         break;
       }
     }
-  };
-  try
-  {
-    trace();
   }
   catch (...)
   {
@@ -264,46 +305,52 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     AccumFrames = 0;
     throw;
   }
-  st.rays = static_cast<int64_t>(q.width) * q.height * spp;
-  st.samplesEvaluated = c.evaluated;
+  f.stats.rays = static_cast<int64_t>(q.width) * q.height * f.spp;
+  f.stats.samplesEvaluated = f.counters.evaluated;
+}
+
+void CpuRenderer::finishImage(Frame& f, RenderResult& out)
+{
+  RenderStats& st = f.stats;
+  const TraceCounters& c = f.counters;
   if (c.cancelled)
   {
     // Stopped by the caller: nothing is cached, a partial path-tracing frame is not averaged in.
-    if (pathTrace)
+    if (f.pathTrace)
     {
       Accum.clear();
       AccumFrames = 0;
     }
     st.cancelled = true;
     st.wavefronts = c.wavefronts;
-    st.renderMilliseconds = millis(t1, Clock::now());
+    st.renderMilliseconds = millis(f.fieldReady, Clock::now());
     out.rgba.clear();
     out.deviceRgba = nullptr;
     out.stats = st;
     return;
   }
-  st.samplesPlain = pathTrace ? 0 : c.plain;
+  st.samplesPlain = f.pathTrace ? 0 : c.plain;
   st.wavefronts = c.wavefronts;
-  if (pathTrace)
+  if (f.pathTrace)
   {
     ++AccumFrames;
     st.accumulatedFrames = AccumFrames;
-    const float inv = 1.0f / (static_cast<float>(AccumFrames) * static_cast<float>(spp));
-    out.rgba.resize(values);
-    for (size_t i = 0; i < values; ++i)
+    const float inv = 1.0f / (static_cast<float>(AccumFrames) * static_cast<float>(f.spp));
+    out.rgba.resize(f.values);
+    for (size_t i = 0; i < f.values; ++i)
       out.rgba[i] = Accum[i] * inv;
   }
   else
   {
-    out.rgba.swap(local);
+    out.rgba.swap(f.local);
   }
   out.deviceRgba = nullptr;
-  st.renderMilliseconds = millis(t1, Clock::now());
+  st.renderMilliseconds = millis(f.fieldReady, Clock::now());
   out.stats = st;
-  if (deterministic)
+  if (f.deterministic)
   {
     Image = out.rgba;
-    ImageKey = key;
+    ImageKey = f.key;
     ImageStats = st;
   }
 }

@@ -72,6 +72,17 @@ private:
   std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version, const RenderControl* control);
 
   void renderImpl(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
+  // renderImpl's steps, in order, on one render's state (Frame, CpuRenderer.cpp).
+  struct Frame;
+  /// The field (Decode: the grid; network paths: the lattice) and its macrocells, ranges and majorants; the ray
+  /// parameters' pointers. False when the request's control cancelled the lattice's decode.
+  bool prepareField(const Model& model, uint64_t version, const RenderRequest& request, Frame& frame);
+  /// Where the paths go: the path-tracing accumulation (continued or restarted), else a fresh image; params.frame.
+  void chooseTarget(const RenderRequest& request, Frame& frame);
+  /// The rays traced by the request's path (a failure restarts the accumulation).
+  void trace(const Model& model, uint64_t version, const RenderRequest& request, Frame& frame);
+  /// The result: no image when cancelled, else the averaged accumulation or the image (kept when deterministic).
+  void finishImage(Frame& frame, RenderResult& result);
 
   ThreadPool& Pool;
   CpuRendererOptions Options;

@@ -22,7 +22,7 @@ CpuTrainer::CpuTrainer(const Model& model, const VolumeView& volume, const Train
   , Pool(config.threads, config.lowPriority)
   , Params(model.params())
   , Grad(model.paramCount(), 0.0f)
-  , WT(Mlp.paramCount())
+  , TransposedWeights(Mlp.paramCount())
   , Adam(config.optimizer, model.paramCount())
   , Plateau(config.optimizer)
   , Publish(std::move(publish))
@@ -67,7 +67,7 @@ float CpuTrainer::forwardBackward(int64_t n, int64_t nValid, bool measure)
 {
   const float* table = Params.data();
   const float* W = Params.data() + Layout.totalEntries * static_cast<size_t>(Layout.features);
-  Mlp.transpose(W, WT.data());
+  Mlp.transpose(W, TransposedWeights.data());
   const int D = Config.encoding.outputDims();
   const float scale = 1.0f / static_cast<float>(std::max<int64_t>(nValid, 1));
   const bool l1 = Train.loss == LossType::L1;
@@ -81,7 +81,7 @@ float CpuTrainer::forwardBackward(int64_t n, int64_t nValid, bool measure)
     {
       const int m = static_cast<int>(std::min<int64_t>(kTile, e - t0));
       CpuHashGrid::encode(Layout, table, Xyz.data() + 3 * t0, m, s.enc.data());
-      Mlp.forward(WT.data(), s.enc.data(), m, s.acts.data(), s.out.data());
+      Mlp.forward(TransposedWeights.data(), s.enc.data(), m, s.acts.data(), s.out.data());
       for (int k = 0; k < m; ++k)
       {
         const int64_t i = t0 + k;

@@ -64,7 +64,7 @@ private:
   ThreadPool Pool;
   std::vector<float> Params;
   std::vector<float> Grad;
-  std::vector<float> WT;
+  std::vector<float> TransposedWeights; ///< the MLP's layers transposed, [in][out] (CpuMlp::transpose)
   std::vector<float> Xyz;
   std::vector<float> Targets;
   std::vector<uint8_t> Valid;

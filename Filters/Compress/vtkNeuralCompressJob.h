@@ -1,5 +1,6 @@
 // Private to NeuralVolume::Filters: what vtkNeuralCompress keeps between executions -- the training job of the
-// current time step (its session, its run, the result of its last phase) and the networks of other time steps.
+// current time step (its session, its run, the result of its last phase) and the records of its networks (the
+// networks of other time steps: vtkNeuralCompressNetworkCache.h).
 #ifndef vtkNeuralCompressJob_h
 #define vtkNeuralCompressJob_h
 
@@ -14,7 +15,6 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -241,28 +241,6 @@ private:
   std::atomic<bool> InitialInstalled{ false };
   vtkSmartPointer<vtkDataArray> Decoded;
   int DecodedMode = 0;
-};
-
-/// Networks of the time steps seen, within a memory cap (least recently used first out; `keep` never).
-class NetworkCache
-{
-public:
-  void Put(const NetworkRecord& record);
-  const NetworkRecord* Find(double time, uint64_t key);
-  /// The complete network of the nearest time before `time` (else after) with `configBytes`-compatible layout.
-  const NetworkRecord* NearestForWarmStart(double time) const;
-  void Trim(int64_t capBytes, double keepTime);
-  std::vector<const NetworkRecord*> All() const;
-  void Clear() { this->Records.clear(); }
-
-private:
-  struct Entry
-  {
-    NetworkRecord Record;
-    uint64_t LastUse = 0;
-  };
-  std::map<double, Entry> Records;
-  uint64_t Clock = 0;
 };
 
 /// 64-bit key of a training: the field's values, geometry and the settings.

@@ -5,6 +5,7 @@
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressNetworkCache.h"
 #include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressResample.h"
 

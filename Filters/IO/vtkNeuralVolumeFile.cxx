@@ -16,12 +16,12 @@ const char kMagic[8] = { 'N', 'V', 'O', 'L', 'F', 'I', 'L', 'E' };
 
 struct Out
 {
-  std::vector<uint8_t> b;
+  std::vector<uint8_t> bytes;
   template <typename T>
   void put(const T& v)
   {
     const auto* p = reinterpret_cast<const uint8_t*>(&v);
-    b.insert(b.end(), p, p + sizeof(T));
+    bytes.insert(bytes.end(), p, p + sizeof(T));
   }
   template <typename T>
   void put(const T* v, int n)
@@ -33,20 +33,21 @@ struct Out
 
 struct In
 {
-  const uint8_t* d;
-  size_t n, at = 0;
+  const uint8_t* data;
+  size_t end;    ///< bytes readable (the file's size, then its size without the checksum)
+  size_t at = 0; ///< the next byte to read
   void need(size_t k, const char* what)
   {
-    if (k > n - at)
+    if (k > end - at)
       NV_THROW(std::string("truncated NeuralVolume file: ") + what + " needs " + std::to_string(k) + " bytes at offset " +
-        std::to_string(at) + ", " + std::to_string(n - at) + " left");
+        std::to_string(at) + ", " + std::to_string(end - at) + " left");
   }
   template <typename T>
   T get(const char* what)
   {
     need(sizeof(T), what);
     T v;
-    std::memcpy(&v, d + at, sizeof(T));
+    std::memcpy(&v, data + at, sizeof(T));
     at += sizeof(T);
     return v;
   }
@@ -98,7 +99,7 @@ std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries
 {
   NV_CHECK(!entries.empty() && entries.size() <= 65536, "a NeuralVolume file holds 1 to 65536 entries");
   Out o;
-  o.b.insert(o.b.end(), kMagic, kMagic + 8);
+  o.bytes.insert(o.bytes.end(), kMagic, kMagic + 8);
   o.put<uint32_t>(kVolumeFileVersion);
   o.put<uint32_t>(static_cast<uint32_t>(entries.size()));
   for (const VolumeFileEntry& e : entries)
@@ -116,12 +117,12 @@ std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries
     o.put<int32_t>(e.OnSourceGrid);
     o.put(e.ValueRange, 2);
     o.put<uint32_t>(static_cast<uint32_t>(e.Name.size()));
-    o.b.insert(o.b.end(), e.Name.begin(), e.Name.end());
+    o.bytes.insert(o.bytes.end(), e.Name.begin(), e.Name.end());
     o.put<uint64_t>(e.Network.size());
-    o.b.insert(o.b.end(), e.Network.begin(), e.Network.end());
+    o.bytes.insert(o.bytes.end(), e.Network.begin(), e.Network.end());
   }
-  o.put<uint32_t>(nv::crc32(o.b.data(), o.b.size()));
-  return o.b;
+  o.put<uint32_t>(nv::crc32(o.bytes.data(), o.bytes.size()));
+  return o.bytes;
 }
 
 std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
@@ -143,7 +144,7 @@ std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
   std::memcpy(&stored, data + size - 4, 4);
   if (nv::crc32(data, size - 4) != stored)
     NV_THROW("corrupt or truncated NeuralVolume file: checksum mismatch over " + std::to_string(size) + " bytes");
-  r.n = size - 4;
+  r.end = size - 4;
   std::vector<VolumeFileEntry> out(count);
   for (VolumeFileEntry& e : out)
   {
@@ -180,7 +181,7 @@ std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
     NV_CHECK(e.Cells == 0 || e.Cells == 1, "corrupt NeuralVolume file: unknown association");
     CheckExtent(e);
   }
-  NV_CHECK(r.at == r.n, "corrupt NeuralVolume file: " + std::to_string(r.n - r.at) + " unexpected trailing bytes");
+  NV_CHECK(r.at == r.end, "corrupt NeuralVolume file: " + std::to_string(r.end - r.at) + " unexpected trailing bytes");
   return out;
 }
 

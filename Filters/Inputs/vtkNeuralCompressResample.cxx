@@ -418,8 +418,8 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
   auto samples = std::make_shared<SourceSamples>();
   struct Leaf
   {
-    vtkDataSet* ds;
-    vtkDataArray* a;
+    vtkDataSet* dataSet;
+    vtkDataArray* array;
     vtkUnsignedCharArray* ghost;
   };
   std::vector<Leaf> leaves;
@@ -442,9 +442,9 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
   int64_t k = 0;
   for (const Leaf& l : leaves)
   {
-    const int nc = l.a->GetNumberOfComponents();
+    const int nc = l.array->GetNumberOfComponents();
     const int c = std::min(std::max(component, 0), nc - 1);
-    const vtkIdType n = l.a->GetNumberOfTuples();
+    const vtkIdType n = l.array->GetNumberOfTuples();
     for (vtkIdType i = 0; i < n; ++i)
     {
       if (l.ghost && (l.ghost->GetValue(i) & (cells ? skipCell : skipPoint)))
@@ -455,7 +455,7 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
       if (cells)
       {
         // Parametric centre of the cell, mapped to world coordinates.
-        l.ds->GetCell(i, cell);
+        l.dataSet->GetCell(i, cell);
         double pc[3];
         weights.resize(size_t(std::max<vtkIdType>(cell->GetNumberOfPoints(), 1)));
         int sub = cell->GetParametricCenter(pc);
@@ -463,15 +463,15 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
       }
       else
       {
-        l.ds->GetPoint(i, x);
+        l.dataSet->GetPoint(i, x);
       }
       double v = 0.0;
       if (nc == 1 || vectorMode == 1)
-        v = l.a->GetComponent(i, nc == 1 ? 0 : c);
+        v = l.array->GetComponent(i, nc == 1 ? 0 : c);
       else
       {
         for (int q = 0; q < nc; ++q)
-          v += l.a->GetComponent(i, q) * l.a->GetComponent(i, q);
+          v += l.array->GetComponent(i, q) * l.array->GetComponent(i, q);
         v = std::sqrt(v);
       }
       samples->Xyz.insert(samples->Xyz.end(), x, x + 3);

@@ -120,7 +120,7 @@ struct StitchTarget
   int Ref = -1;
   int Whole[6];
   int WholeLo[3], WholeHi[3];
-  vtkIdType N0 = 0, N1 = 0, Count = 0;
+  vtkIdType SamplesX = 0, SamplesY = 0, Count = 0; ///< samples along x, along y, in all
 };
 
 /// The target for `refArray` (its type, name, components) over the whole extent.
@@ -128,10 +128,10 @@ static void PrepareStitchTarget(vtkDataArray* refArray, const int whole[6], Stit
 {
   std::copy(whole, whole + 6, t.Whole);
   SampleRange(whole, t.Cells, t.WholeLo, t.WholeHi);
-  t.N0 = t.WholeHi[0] - t.WholeLo[0] + 1;
-  t.N1 = t.WholeHi[1] - t.WholeLo[1] + 1;
+  t.SamplesX = t.WholeHi[0] - t.WholeLo[0] + 1;
+  t.SamplesY = t.WholeHi[1] - t.WholeLo[1] + 1;
   const vtkIdType n2 = t.WholeHi[2] - t.WholeLo[2] + 1;
-  t.Count = t.N0 * t.N1 * n2;
+  t.Count = t.SamplesX * t.SamplesY * n2;
   t.Values.TakeReference(refArray->NewInstance());
   t.Values->SetName(refArray->GetName());
   t.Values->SetNumberOfComponents(refArray->GetNumberOfComponents());
@@ -160,7 +160,7 @@ static void CopyOwnedSamples(vtkImageData* image, vtkDataArray* a, const int lo[
     {
       const vtkIdType src = (k * l1 + j) * l0;
       const vtkIdType dst =
-        ((lo[2] - t.WholeLo[2] + k) * t.N1 + (lo[1] - t.WholeLo[1] + j)) * t.N0 + (lo[0] - t.WholeLo[0]);
+        ((lo[2] - t.WholeLo[2] + k) * t.SamplesY + (lo[1] - t.WholeLo[1] + j)) * t.SamplesX + (lo[0] - t.WholeLo[0]);
       // Runs of the row that this piece owns (ghost points or cells belong to a neighbour).
       vtkIdType i = 0;
       while (i < l0)
