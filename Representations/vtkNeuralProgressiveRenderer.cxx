@@ -45,8 +45,10 @@ void ResampleDepth(const std::vector<float>& depth, int width, int height, int w
 } // namespace
 
 vtkNeuralProgressiveRenderer::vtkNeuralProgressiveRenderer()
-  : Worker([this] { this->Run(); })
 {
+  // Here, not in a member initializer: a worker started there could run before the members declared after it are
+  // constructed and read garbage (issue 29: a GUI thread preempted right after creating the thread).
+  this->Worker = std::thread([this] { this->Run(); });
 }
 
 vtkNeuralProgressiveRenderer::~vtkNeuralProgressiveRenderer()

@@ -114,7 +114,6 @@ private:
   mutable std::mutex Mutex;
   std::condition_variable Wake;      ///< the worker: a job or Stop
   std::condition_variable Published; ///< the GUI thread: an image or the end of a job
-  std::thread Worker;
   bool Stopping = false;
 
   // The current job (guarded by Mutex).
@@ -142,6 +141,10 @@ private:
   std::atomic<double> AbandonMilliseconds{ 0.0 };
 
   std::map<int, double> MillisecondsPerRay; ///< per path x shading mode (worker only)
+
+  /// Declared last and started in the constructor's body: Run() reads every member above (Stopping and HaveNext at
+  /// once), so the worker must not start before they are all constructed.
+  std::thread Worker;
 };
 
 #endif

@@ -34,6 +34,7 @@
 #include <set>
 #include <vector>
 #include <string>
+#include <utility>
 
 vtkStandardNewMacro(vtkNeuralVolumeProxyObserver);
 
@@ -125,15 +126,70 @@ bool NetworkArray(vtkSMProxy* representation, std::string& name, int& associatio
 } // namespace
 
 //------------------------------------------------------------------------------
+namespace
+{
+/// The observers this helper added to proxies it does not own, by proxy. ParaView deletes its proxies when it ends
+/// (and on a session reset) without an UnRegisterEvent, before this helper -- a static of the plugin -- is destroyed:
+/// each proxy is held by a weak pointer, so that removing the observers never touches a deleted proxy (issue 29: a
+/// SIGSEGV in RemoveObserver at the exit of pvbatch), and a new proxy at a deleted one's address is observed anew.
+class ObservedProxies
+{
+public:
+  ObservedProxies() = default;
+  ObservedProxies(const ObservedProxies&) = delete;
+  ObservedProxies& operator=(const ObservedProxies&) = delete;
+  ~ObservedProxies() { this->RemoveAll(); }
+
+  /// Whether `proxy` is observed (the entry of a deleted proxy at that address is dropped).
+  bool Has(vtkSMProxy* proxy)
+  {
+    auto it = this->Entries.find(proxy);
+    if (it != this->Entries.end() && !it->second.Proxy)
+      this->Entries.erase(it);
+    return this->Entries.count(proxy) != 0;
+  }
+  void Add(vtkSMProxy* proxy, std::vector<unsigned long> tags)
+  {
+    this->Remove(proxy);
+    Entry& entry = this->Entries[proxy];
+    entry.Proxy = proxy;
+    entry.Tags = std::move(tags);
+  }
+  /// Removes the observers from `proxy` when it still exists, and forgets it.
+  void Remove(vtkSMProxy* proxy)
+  {
+    auto it = this->Entries.find(proxy);
+    if (it == this->Entries.end())
+      return;
+    if (vtkSMProxy* alive = it->second.Proxy)
+      for (unsigned long tag : it->second.Tags)
+        alive->RemoveObserver(tag);
+    this->Entries.erase(it);
+  }
+  void RemoveAll()
+  {
+    while (!this->Entries.empty())
+      this->Remove(this->Entries.begin()->first);
+  }
+
+private:
+  struct Entry
+  {
+    vtkWeakPointer<vtkSMProxy> Proxy;
+    std::vector<unsigned long> Tags;
+  };
+  std::map<vtkSMProxy*, Entry> Entries;
+};
+} // namespace
+
 struct vtkNeuralVolumeProxyObserver::vtkInternals
 {
   vtkWeakPointer<vtkSMProxyManager> Manager;
   unsigned long RegisterTag = 0;
   unsigned long UnRegisterTag = 0;
-  std::map<vtkSMProxy*, unsigned long> Representations; // PropertyModifiedEvent tags
-  std::map<vtkSMProxy*, unsigned long> Views;
-  std::map<vtkSMProxy*, unsigned long> ViewUpdates; // UpdateDataEvent tags
-  std::map<vtkSMProxy*, unsigned long> Sources; // Neural Compress filters: UpdateDataEvent tags
+  ObservedProxies Representations; // PropertyModifiedEvent
+  ObservedProxies Views;           // PropertyModifiedEvent, UpdateDataEvent
+  ObservedProxies Sources;         // Neural Compress filters: UpdateDataEvent
   std::set<vtkSMProxy*> AwaitingView;  // shown as Neural Volume before joining their view
   std::set<vtkSMProxy*> AwaitingRange; // coloured while the network had no usable range (constant or empty)
   /// Views registered but not yet given representations, with the view that was active before them (a view
@@ -149,9 +205,8 @@ vtkNeuralVolumeProxyObserver::vtkNeuralVolumeProxyObserver()
 vtkNeuralVolumeProxyObserver::~vtkNeuralVolumeProxyObserver()
 {
   vtkInternals& in = *this->Internals;
-  for (auto* map : { &in.Representations, &in.Views, &in.ViewUpdates, &in.Sources })
-    for (auto& entry : *map)
-      entry.first->RemoveObserver(entry.second);
+  for (ObservedProxies* observed : { &in.Representations, &in.Views, &in.Sources })
+    observed->RemoveAll();
   if (in.Manager)
   {
     in.Manager->RemoveObserver(in.RegisterTag);
@@ -217,15 +272,8 @@ void vtkNeuralVolumeProxyObserver::OnUnRegister(vtkObject*, unsigned long, void*
     return;
   }
   vtkInternals& in = *this->Internals;
-  for (auto* map : { &in.Representations, &in.Views, &in.ViewUpdates, &in.Sources })
-  {
-    auto it = map->find(info->Proxy);
-    if (it != map->end())
-    {
-      info->Proxy->RemoveObserver(it->second);
-      map->erase(it);
-    }
-  }
+  for (ObservedProxies* observed : { &in.Representations, &in.Views, &in.Sources })
+    observed->Remove(info->Proxy);
   in.AwaitingView.erase(info->Proxy);
   in.AwaitingRange.erase(info->Proxy);
   in.NewViews.erase(info->Proxy);
@@ -237,13 +285,13 @@ void vtkNeuralVolumeProxyObserver::AddRepresentation(vtkSMProxy* representation)
   vtkInternals& in = *this->Internals;
   const char* xmlName = representation->GetXMLName();
   if (!xmlName || std::strcmp(xmlName, "UniformGridRepresentation") != 0 ||
-    in.Representations.count(representation))
+    in.Representations.Has(representation))
   {
     return;
   }
   vtkNeuralVolumePanel::Adapt(representation);
-  in.Representations[representation] = representation->AddObserver(
-    vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnRepresentationModified);
+  in.Representations.Add(representation, { representation->AddObserver(vtkCommand::PropertyModifiedEvent, this,
+                                              &vtkNeuralVolumeProxyObserver::OnRepresentationModified) });
   // Show() picks the representation type before registering the representation and adds it to its view
   // afterwards: colour once it is in the view.
   if (IsNeuralVolume(representation) && !LoadingState(representation) && !this->Color(representation, nullptr))
@@ -255,15 +303,14 @@ void vtkNeuralVolumeProxyObserver::AddRepresentation(vtkSMProxy* representation)
 void vtkNeuralVolumeProxyObserver::AddView(vtkSMProxy* view, bool registering)
 {
   vtkInternals& in = *this->Internals;
-  if (!vtkSMViewProxy::SafeDownCast(view) || in.Views.count(view))
+  if (!vtkSMViewProxy::SafeDownCast(view) || in.Views.Has(view))
   {
     return;
   }
-  in.Views[view] =
-    view->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnViewModified);
   // A view's update (a time step, a re-execution) runs before its render and before ParaView's automatic rescaling.
-  in.ViewUpdates[view] =
-    view->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnViewUpdated);
+  in.Views.Add(view,
+    { view->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeProxyObserver::OnViewModified),
+      view->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnViewUpdated) });
   vtkSMSessionProxyManager* pxm = view->GetSessionProxyManager();
   vtkSMProxySelectionModel* active = pxm ? pxm->GetSelectionModel("ActiveView") : nullptr;
   if (registering && active && !LoadingState(view))
@@ -276,12 +323,12 @@ void vtkNeuralVolumeProxyObserver::AddSource(vtkSMProxy* source)
 {
   vtkInternals& in = *this->Internals;
   const char* xmlName = source->GetXMLName();
-  if (!xmlName || std::strcmp(xmlName, "NeuralCompress") != 0 || in.Sources.count(source))
+  if (!xmlName || std::strcmp(xmlName, "NeuralCompress") != 0 || in.Sources.Has(source))
   {
     return;
   }
-  in.Sources[source] =
-    source->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnSourceUpdated);
+  in.Sources.Add(
+    source, { source->AddObserver(vtkCommand::UpdateDataEvent, this, &vtkNeuralVolumeProxyObserver::OnSourceUpdated) });
 }
 
 void vtkNeuralVolumeProxyObserver::OnSourceUpdated(vtkObject* caller, unsigned long, void*)
@@ -325,7 +372,7 @@ void vtkNeuralVolumeProxyObserver::OnViewUpdated(vtkObject* caller, unsigned lon
   for (unsigned int i = 0; i < members.GetNumberOfElements(); ++i)
   {
     vtkSMProxy* representation = members.GetAsProxy(i);
-    if (representation && this->Internals->Representations.count(representation))
+    if (representation && this->Internals->Representations.Has(representation))
     {
       representations.push_back(representation);
     }

@@ -43,6 +43,10 @@ struct vtkNeuralVolumeRefreshDriver::vtkInternals
 {
   struct View
   {
+    /// ParaView deletes its views when it ends without an UnRegisterEvent, before this driver (a static of the
+    /// plugin) is destroyed: held weakly, a deleted view is never touched (issue 29: a SIGSEGV in RemoveObserver at
+    /// the exit of pvbatch), and a new view at a deleted one's address is observed anew.
+    vtkWeakPointer<vtkSMProxy> Proxy;
     vtkWeakPointer<vtkRenderWindowInteractor> Interactor;
     unsigned long ModifiedTag = 0;
     unsigned long RenderedTag = 0;
@@ -124,11 +128,17 @@ void vtkNeuralVolumeRefreshDriver::AddView(vtkSMProxy* proxy)
 {
   vtkInternals& in = *this->Internals;
   auto* view = vtkSMViewProxy::SafeDownCast(proxy);
+  auto known = in.Views.find(proxy);
+  if (known != in.Views.end() && !known->second.Proxy)
+  {
+    this->RemoveView(proxy); // a deleted view's entry at this address
+  }
   if (!view || in.Views.count(proxy) || !view->GetProperty("Representations"))
   {
     return;
   }
   vtkInternals::View& v = in.Views[proxy];
+  v.Proxy = proxy;
   v.ModifiedTag =
     proxy->AddObserver(vtkCommand::PropertyModifiedEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewModified);
   v.RenderedTag = proxy->AddObserver(vtkCommand::EndEvent, this, &vtkNeuralVolumeRefreshDriver::OnViewRendered);
@@ -144,9 +154,12 @@ void vtkNeuralVolumeRefreshDriver::RemoveView(vtkSMProxy* proxy)
     return;
   }
   vtkInternals::View& v = it->second;
-  proxy->RemoveObserver(v.ModifiedTag);
-  proxy->RemoveObserver(v.RenderedTag);
-  proxy->RemoveObserver(v.StartingTag);
+  if (vtkSMProxy* alive = v.Proxy)
+  {
+    alive->RemoveObserver(v.ModifiedTag);
+    alive->RemoveObserver(v.RenderedTag);
+    alive->RemoveObserver(v.StartingTag);
+  }
   if (v.Interactor)
   {
     if (v.TimerId >= 0)
@@ -275,7 +288,10 @@ void vtkNeuralVolumeRefreshDriver::OnTimer(vtkObject* caller, unsigned long, voi
     {
       v.TimerId = -1;
       v.Refreshing = true;
-      vtkSMViewProxy::SafeDownCast(entry.first)->StillRender();
+      if (auto* view = vtkSMViewProxy::SafeDownCast(v.Proxy))
+      {
+        view->StillRender();
+      }
       return;
     }
   }
