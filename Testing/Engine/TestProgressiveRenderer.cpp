@@ -75,6 +75,7 @@ public:
   void syncModel() override {}
   nv::Model currentModel() override { throw std::logic_error("not scripted"); }
   std::unique_ptr<nv::Trainer> createTrainer(const nv::VolumeView&, const nv::TrainConfig&) override { return nullptr; }
+  std::unique_ptr<nv::Trainer> createTrainer(nv::BatchSource&, const nv::TrainConfig&) override { return nullptr; }
   std::unique_ptr<nv::Trainer> createTrainer(const nv::TrainingPoints&, const nv::TrainConfig&) override
   {
     return nullptr;
