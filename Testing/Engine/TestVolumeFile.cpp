@@ -269,7 +269,8 @@ NV_TEST(bad_headers_and_short_files_are_refused_clearly)
   expectRefusal("huge.nhdr", "more samples than a file can hold");
   writeFile("spacing.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: 5 4 3\nspacings: 1 0 1\ndata file: full.raw\n");
   expectRefusal("spacing.nhdr", "must be positive");
-  writeFile("garbage.nhdr", std::string("\x7f\x01\x02 not a header at all", 25));
+  const char garbage[] = "\x7f\x01\x02 not a header at all";
+  writeFile("garbage.nhdr", std::string(garbage, sizeof(garbage) - 1));
   expectRefusal("garbage.nhdr", "not a NRRD file");
   writeFile("nodata.bov", "DATA_SIZE: 5 4 3\nDATA_FORMAT: SHORT\n");
   expectRefusal("nodata.bov", "missing: DATA_FILE");
