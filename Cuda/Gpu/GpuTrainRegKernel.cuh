@@ -33,7 +33,7 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
   {
     const int K = s.inDim(l), kv = K / 8;
     const uint4* src = reinterpret_cast<const uint4*>(a.w16 + s.off[l]);
-    __half* dst = sh + p.w[l];
+    __half* dst = sh + p.weights[l];
     for (int i = threadIdx.x; i < s.width * kv; i += blockDim.x)
       *reinterpret_cast<uint4*>(dst + (i / kv) * (K + 8) + (i % kv) * 8) = src[i];
   }
@@ -41,7 +41,7 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
   for (int i = threadIdx.x; i < s.width; i += blockDim.x)
     swout[i] = a.wout[i];
   for (int i = threadIdx.x; i < T * p.ldX0; i += blockDim.x)
-    sh[p.x[0] + i] = __float2half(0.0f);
+    sh[p.layerInputs[0] + i] = __float2half(0.0f);
   __syncthreads();
 
   // Weight-gradient tiles of this warp: row groups (layer, 16 outputs) w, w + Warps, ..., all column tiles;
@@ -88,8 +88,8 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
         if (rg < s.hiddenLayers * (W / 16))
         {
           const int l = rg / (W / 16), m0 = (rg % (W / 16)) * 16;
-          const __half* dz = sh + p.dz[l] + m0 + (q8 & 1) * 8 + ((q8 >> 1) * 8 + r8) * p.ldA;
-          const __half* X = sh + p.x[l] + (q8 * 8 + r8) * p.ldA; // ldX0 == ldA here
+          const __half* dz = sh + p.layerOutputGrads[l] + m0 + (q8 & 1) * 8 + ((q8 >> 1) * 8 + r8) * p.ldA;
+          const __half* X = sh + p.layerInputs[l] + (q8 * 8 + r8) * p.ldA; // ldX0 == ldA here
           for (int k0 = 0; k0 < T; k0 += 32)
           {
             uint32_t a0[4], a1[4];
@@ -121,14 +121,14 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
             const int d = desc[q], l = d & 15, m0 = (d >> 4) & 0xff, n0 = d >> 12, rg = d & 0xfff;
             if (rg != rgPrev)
             {
-              const __half* dz = sh + p.dz[l] + m0 + (q8 & 1) * 8;
+              const __half* dz = sh + p.layerOutputGrads[l] + m0 + (q8 & 1) * 8;
               ldsm4<true>(a0, dz + (k0 + (q8 >> 1) * 8 + r8) * p.ldA);
               ldsm4<true>(a1, dz + (k0 + 16 + (q8 >> 1) * 8 + r8) * p.ldA);
               rgPrev = rg;
             }
             const int ldx = l == 0 ? p.ldX0 : p.ldA;
             uint32_t b[4];
-            ldsm4<true>(b, sh + p.x[l] + (k0 + q8 * 8 + r8) * ldx + n0);
+            ldsm4<true>(b, sh + p.layerInputs[l] + (k0 + q8 * 8 + r8) * ldx + n0);
             mma16816(acc[q], a0, b[0], b[1]);
             mma16816(acc[q], a1, b[2], b[3]);
           }
@@ -212,23 +212,23 @@ inline RegPlan makeRegPlan(const MlpShape& s, int warps, bool fused)
   size_t h = 0; // halves
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.w[l] = static_cast<int>(h);
+    p.weights[l] = static_cast<int>(h);
     h += size_t(s.width) * (s.inDim(l) + 8);
   }
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.x[l] = static_cast<int>(h);
+    p.layerInputs[l] = static_cast<int>(h);
     h += T * (l == 0 ? p.ldX0 : p.ldA);
   }
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.dz[l] = static_cast<int>(h);
+    p.layerOutputGrads[l] = static_cast<int>(h);
     h += T * p.ldA;
   }
   size_t o = roundUp128(h * 2);
   p.wout = static_cast<int>(o);
   o += roundUp128(size_t(s.width) * 4);
-  p.de = static_cast<int>(o);
+  p.encodingGrads = static_cast<int>(o);
   if (fused)
     o += T * p.ldDE * 4;
   p.total = static_cast<int>(o);
