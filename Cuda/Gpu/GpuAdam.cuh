@@ -116,28 +116,28 @@ __device__ __forceinline__ void adamTable1(float* __restrict__ p, __half* __rest
 /// The MLP's parameters for the Adam kernel (unpadded Model layout; gradients in the padded accumulator).
 struct MlpAdam
 {
-  float* p;
-  float* m;
-  float* v;
+  float* params;       ///< the MLP's fp32 parameters (unpadded)
+  float* firstMoment;  ///< Adam's m
+  float* secondMoment; ///< Adam's v
   float* gradPad;
   __half* w16;
   float* wout;
-  MlpShape s;
+  MlpShape shape;
   int64_t count;
 };
 
 /// Adam for MLP parameter j (fp32 state): gradient from the padded accumulator (zeroed), fp16 padded copy out.
 __device__ __forceinline__ void adamMlpOne(const MlpAdam& q, int64_t j, float scale, const AdamArgs& a)
 {
-  const MlpSlot m = mlpSlot(q.s, j);
+  const MlpSlot m = mlpSlot(q.shape, j);
   const int pi = m.padded;
-  float pj = q.p[j], mj = q.m[j], vj = q.v[j], gj = q.gradPad[pi];
+  float pj = q.params[j], mj = q.firstMoment[j], vj = q.secondMoment[j], gj = q.gradPad[pi];
   adamOne(pj, gj, mj, vj, scale, a);
-  q.p[j] = pj;
-  q.m[j] = mj;
-  q.v[j] = vj;
+  q.params[j] = pj;
+  q.firstMoment[j] = mj;
+  q.secondMoment[j] = vj;
   q.gradPad[pi] = 0.0f;
-  if (m.layer == q.s.hiddenLayers)
+  if (m.layer == q.shape.hiddenLayers)
     q.wout[m.column] = pj;
   else
     q.w16[pi] = __float2half_rn(pj);

@@ -113,46 +113,46 @@ using PinnedBuffer = CudaBuffer<T, true>;
 class Stream
 {
 public:
-  Stream() { NV_CUDA(cudaStreamCreateWithFlags(&S, cudaStreamNonBlocking)); }
+  Stream() { NV_CUDA(cudaStreamCreateWithFlags(&Handle, cudaStreamNonBlocking)); }
   ~Stream()
   {
-    if (S)
-      cudaStreamDestroy(S);
+    if (Handle)
+      cudaStreamDestroy(Handle);
   }
   Stream(const Stream&) = delete;
   Stream& operator=(const Stream&) = delete;
   Stream(Stream&& o) noexcept
-    : S(o.S)
+    : Handle(o.Handle)
   {
-    o.S = nullptr;
+    o.Handle = nullptr;
   }
-  cudaStream_t get() const { return S; }
-  void sync() const { NV_CUDA(cudaStreamSynchronize(S)); }
+  cudaStream_t get() const { return Handle; }
+  void sync() const { NV_CUDA(cudaStreamSynchronize(Handle)); }
 
 private:
-  cudaStream_t S = nullptr;
+  cudaStream_t Handle = nullptr;
 };
 
 class Event
 {
 public:
-  Event() { NV_CUDA(cudaEventCreate(&E)); }
+  Event() { NV_CUDA(cudaEventCreate(&Handle)); }
   ~Event()
   {
-    if (E)
-      cudaEventDestroy(E);
+    if (Handle)
+      cudaEventDestroy(Handle);
   }
   Event(const Event&) = delete;
   Event& operator=(const Event&) = delete;
   Event(Event&& o) noexcept
-    : E(o.E)
+    : Handle(o.Handle)
   {
-    o.E = nullptr;
+    o.Handle = nullptr;
   }
-  cudaEvent_t get() const { return E; }
+  cudaEvent_t get() const { return Handle; }
 
 private:
-  cudaEvent_t E = nullptr;
+  cudaEvent_t Handle = nullptr;
 };
 
 } // namespace gpu

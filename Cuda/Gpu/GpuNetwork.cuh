@@ -88,7 +88,8 @@ struct SmemPlan
 {
   int tileSamples, warps; ///< samples per block iteration (16 per warp), warps per block
   int ldE, ldA, ldDE; ///< leading dimensions: enc (halves), activations (halves), dEnc (floats)
-  int xyz, tgt, g, enc, acts, dz0, dz1, stage, w, wout;
+  /// Byte offsets of the regions; outputGrads: the tile's outputs, turned into their loss gradients by the loss.
+  int xyz, targets, outputGrads, enc, acts, dz0, dz1, stage, weights, wout;
   int wOff[kMaxHidden]; ///< smem weight layer offsets (halves, relative to w)
   int total;
   bool wInSmem;
@@ -111,8 +112,8 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
   };
   const size_t T = p.tileSamples;
   p.xyz = take(T * 3 * 4);
-  p.tgt = take(T * 4);
-  p.g = take(T * 4);
+  p.targets = take(T * 4);
+  p.outputGrads = take(T * 4);
   p.enc = take(T * p.ldE * 2);
   if (training)
   {
@@ -135,7 +136,7 @@ inline SmemPlan makeSmemPlan(const MlpShape& s, int warps, bool training, bool w
     p.wOff[l] = static_cast<int>(wh);
     wh += static_cast<size_t>(s.width) * (s.inDim(l) + 8);
   }
-  p.w = wInSmem ? take(wh * 2) : 0;
+  p.weights = wInSmem ? take(wh * 2) : 0;
   p.total = static_cast<int>(o);
   return p;
 }
@@ -420,7 +421,7 @@ __device__ __forceinline__ void stageWeights(const MlpShape& s, const SmemPlan& 
     const int K = s.inDim(l);
     if (p.wInSmem)
     {
-      __half* dst = reinterpret_cast<__half*>(smem + p.w) + p.wOff[l];
+      __half* dst = reinterpret_cast<__half*>(smem + p.weights) + p.wOff[l];
       const __half* src = w16 + s.off[l];
       for (int i = threadIdx.x; i < s.width * K; i += blockDim.x)
         dst[(i / K) * (K + 8) + i % K] = src[i];

@@ -16,6 +16,57 @@ namespace gpu
 namespace
 {
 
+/// The lane's n queries packed into the warp's staging qs at its exclusive prefix sum `off` of the counts; returns
+/// the warp's total.
+__device__ __forceinline__ int packWarpQueries(const ray::V3 (&q)[ray::kMaxQueriesPerStep], int n, int lane, float* qs,
+  int& off)
+{
+  int incl = n;
+  for (int o = 1; o < 32; o <<= 1)
+  {
+    const int y = __shfl_up_sync(0xffffffffu, incl, o);
+    incl += lane >= o ? y : 0;
+  }
+  off = incl - n;
+  const int total = __shfl_sync(0xffffffffu, incl, 31);
+  for (int k = 0; k < n; ++k)
+  {
+    qs[3 * (off + k)] = q[k].x;
+    qs[3 * (off + k) + 1] = q[k].y;
+    qs[3 * (off + k) + 2] = q[k].z;
+  }
+  return total;
+}
+
+/// The network at the warp's `total` staged queries, 16 at a time (the one forward pass), values into vs.
+template <int W, int F, bool HalfAcc, typename Weights>
+__device__ __forceinline__ void evaluateWarpQueries(const InShaderArgs& a, const WarpNet& net,
+  const EncodeFrom<__half>& src, const float* qs, float* vs, __half* enc, int total, int lane)
+{
+  for (int t0 = 0; t0 < total; t0 += 16)
+  {
+    const int idx = t0 + (lane & 15);
+    float x[3] = { 0.0f, 0.0f, 0.0f };
+    if (idx < total)
+    {
+      x[0] = qs[3 * idx];
+      x[1] = qs[3 * idx + 1];
+      x[2] = qs[3 * idx + 2];
+    }
+    WarpOut<W> out;
+    warpForward<W, F, HalfAcc, Weights>(a.grid, a.shape, net, src, x, enc, a.ldE, lane, NoStage{}, out);
+    if ((lane & 3) == 0)
+    {
+      const int g = lane >> 2;
+      if (t0 + g < total)
+        vs[t0 + g] = out.lo;
+      if (t0 + g + 8 < total)
+        vs[t0 + g + 8] = out.hi;
+    }
+    __syncwarp(); // values written, and this tile's reads of enc done before the next tile encodes
+  }
+}
+
 template <int W, int F, bool HalfAcc, typename Weights>
 __global__ void __launch_bounds__(256, 1) inShaderKernel(const __grid_constant__ InShaderArgs a)
 {
@@ -38,7 +89,8 @@ __global__ void __launch_bounds__(256, 1) inShaderKernel(const __grid_constant__
   unsigned long long evaluated = 0, plain = 0;
   for (;;)
   {
-    // Lanes without a ray take the next ones (one atomic per warp).
+    // Lanes without a ray take the next ones (one atomic per warp). This step and the consume step below stay inline:
+    // as helpers (the ray, live and the counters by reference) they changed the kernels' SASS.
     const bool need = !live && !exhausted;
     const unsigned m = __ballot_sync(0xffffffffu, need);
     if (m)
@@ -67,46 +119,13 @@ __global__ void __launch_bounds__(256, 1) inShaderKernel(const __grid_constant__
     }
     if (__all_sync(0xffffffffu, !live && exhausted))
       break;
-
-    // The queries of every live lane, packed in the warp's staging (exclusive prefix sum of the counts).
+    // The queries of every live lane, packed in the warp's staging, evaluated together.
     ray::V3 q[ray::kMaxQueriesPerStep];
     const int n = live ? ray::emit(P, r, 1, q) : 0;
-    int incl = n;
-    for (int o = 1; o < 32; o <<= 1)
-    {
-      const int y = __shfl_up_sync(0xffffffffu, incl, o);
-      incl += lane >= o ? y : 0;
-    }
-    const int off = incl - n, total = __shfl_sync(0xffffffffu, incl, 31);
-    for (int k = 0; k < n; ++k)
-    {
-      qs[3 * (off + k)] = q[k].x;
-      qs[3 * (off + k) + 1] = q[k].y;
-      qs[3 * (off + k) + 2] = q[k].z;
-    }
+    int off;
+    const int total = packWarpQueries(q, n, lane, qs, off);
     __syncwarp();
-    for (int t0 = 0; t0 < total; t0 += 16)
-    {
-      const int idx = t0 + (lane & 15);
-      float x[3] = { 0.0f, 0.0f, 0.0f };
-      if (idx < total)
-      {
-        x[0] = qs[3 * idx];
-        x[1] = qs[3 * idx + 1];
-        x[2] = qs[3 * idx + 2];
-      }
-      WarpOut<W> out;
-      warpForward<W, F, HalfAcc, Weights>(a.grid, a.shape, net, src, x, enc, a.ldE, lane, NoStage{}, out);
-      if ((lane & 3) == 0)
-      {
-        const int g = lane >> 2;
-        if (t0 + g < total)
-          vs[t0 + g] = out.lo;
-        if (t0 + g + 8 < total)
-          vs[t0 + g + 8] = out.hi;
-      }
-      __syncwarp(); // values written, and this tile's reads of enc done before the next tile encodes
-    }
+    evaluateWarpQueries<W, F, HalfAcc, Weights>(a, net, src, qs, vs, enc, total, lane);
     if (live)
     {
       float v[ray::kMaxQueriesPerStep];

@@ -38,11 +38,11 @@ double since(std::chrono::steady_clock::time_point t)
 
 void GridTexture::release()
 {
-  if (Tex)
-    cudaDestroyTextureObject(Tex);
+  if (TextureObject)
+    cudaDestroyTextureObject(TextureObject);
   if (Array)
     cudaFreeArray(Array);
-  Tex = 0;
+  TextureObject = 0;
   Array = nullptr;
   Bytes = 0;
   Dims[0] = Dims[1] = Dims[2] = 0;
@@ -73,7 +73,7 @@ void GridTexture::assign(const float* device, int64_t nx, int64_t ny, int64_t nz
     td.addressMode[0] = td.addressMode[1] = td.addressMode[2] = cudaAddressModeClamp;
     td.readMode = cudaReadModeElementType;
     td.normalizedCoords = 0;
-    NV_CUDA(cudaCreateTextureObject(&Tex, &rd, &td, nullptr));
+    NV_CUDA(cudaCreateTextureObject(&TextureObject, &rd, &td, nullptr));
     Dims[0] = nx;
     Dims[1] = ny;
     Dims[2] = nz;

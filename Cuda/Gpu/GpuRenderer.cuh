@@ -26,13 +26,13 @@ public:
   GridTexture& operator=(const GridTexture&) = delete;
   /// (Re)create for nx * ny * nz floats and copy them from device memory.
   void assign(const float* device, int64_t nx, int64_t ny, int64_t nz, cudaStream_t stream);
-  cudaTextureObject_t texture() const { return Tex; }
+  cudaTextureObject_t texture() const { return TextureObject; }
   size_t bytes() const { return Bytes; }
   void release();
 
 private:
   cudaArray_t Array = nullptr;
-  cudaTextureObject_t Tex = 0;
+  cudaTextureObject_t TextureObject = 0;
   int64_t Dims[3] = { 0, 0, 0 };
   size_t Bytes = 0;
 };

@@ -15,10 +15,10 @@ struct RegPlan
 {
   int warps;
   int ldX0, ldA, ldDE;  ///< leading dimensions: X_0 (halves), X_l / dZ_l (halves), fused dEnc (floats)
-  int w[kMaxHidden];    ///< layer weights, offsets in halves
-  int x[kMaxHidden];    ///< staging of each layer's input X_l (T rows), halves
-  int dz[kMaxHidden];   ///< staging of each layer's output gradient dZ_l (T rows), halves
-  int wout, de, total;  ///< bytes: fp32 output row, fused-mode dEnc (16 rows per warp), block total
+  int weights[kMaxHidden];          ///< layer weights W_l, offsets in halves
+  int layerInputs[kMaxHidden];      ///< staging of each layer's input X_l (T rows), halves
+  int layerOutputGrads[kMaxHidden]; ///< staging of each layer's output gradient dZ_l (T rows), halves
+  int wout, encodingGrads, total;   ///< bytes: fp32 output row, fused-mode dEnc (16 rows per warp), block total
 };
 
 struct TrainArgs

@@ -19,21 +19,20 @@ namespace gpu
 
 constexpr int kRegTiles = 16; ///< weight-gradient tiles (16 x 8) per warp held in registers
 
-template <int W, int F, int Warps, bool Pre>
-__global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_constant__ TrainArgs a)
+/// The block's shared memory before the first tile: the weights (padded fp16, ld K + 8), the output row and the
+/// zeroed X_0 staging (its padding columns stay zero).
+template <int Warps>
+__device__ __forceinline__ void stageRegKernelInputs(const TrainArgs& a, unsigned char* smem)
 {
-  extern __shared__ __align__(128) unsigned char smem[];
   const RegPlan& p = a.reg;
   const MlpShape& s = a.shape;
   constexpr int T = 16 * Warps;
-  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   __half* sh = reinterpret_cast<__half*>(smem);
-  // Weights (padded fp16, ld K + 8), output row, zeroed encoding padding, this warp's weight-gradient tiles.
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
     const int K = s.inDim(l), kv = K / 8;
     const uint4* src = reinterpret_cast<const uint4*>(a.w16 + s.off[l]);
-    __half* dst = sh + p.w[l];
+    __half* dst = sh + p.weights[l];
     for (int i = threadIdx.x; i < s.width * kv; i += blockDim.x)
       *reinterpret_cast<uint4*>(dst + (i / kv) * (K + 8) + (i % kv) * 8) = src[i];
   }
@@ -41,104 +40,67 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
   for (int i = threadIdx.x; i < s.width; i += blockDim.x)
     swout[i] = a.wout[i];
   for (int i = threadIdx.x; i < T * p.ldX0; i += blockDim.x)
-    sh[p.x[0] + i] = __float2half(0.0f);
-  __syncthreads();
+    sh[p.layerInputs[0] + i] = __float2half(0.0f);
+}
 
-  // Weight-gradient tiles of this warp: row groups (layer, 16 outputs) w, w + Warps, ..., all column tiles;
-  // descriptor = layer | first output << 4 | first input << 12.
-  __shared__ int sdesc[Warps * kRegTiles];
+/// Weight-gradient tiles of this warp: row groups (layer, 16 outputs) warp, warp + Warps, ..., all column tiles,
+/// written to the warp's kRegTiles descriptors in sdesc (lane 0; descriptor = layer | first output << 4 | first
+/// input << 12). Returns the warp's tile count.
+template <int W, int Warps>
+__device__ __forceinline__ int assignWeightGradTiles(const MlpShape& s, int* sdesc, int warp, int lane)
+{
   int nTiles = 0;
+  const int groups = s.hiddenLayers * (W / 16);
+  for (int rg = warp; rg < groups; rg += Warps)
   {
-    const int groups = s.hiddenLayers * (W / 16);
-    for (int rg = warp; rg < groups; rg += Warps)
-    {
-      const int l = rg / (W / 16), m0 = (rg % (W / 16)) * 16, nt = s.inDim(l) / 8;
-      for (int j = 0; j < nt; ++j, ++nTiles)
-        if (lane == 0)
-          sdesc[warp * kRegTiles + nTiles] = l | (m0 << 4) | ((8 * j) << 12);
-    }
+    const int l = rg / (W / 16), m0 = (rg % (W / 16)) * 16, nt = s.inDim(l) / 8;
+    for (int j = 0; j < nt; ++j, ++nTiles)
+      if (lane == 0)
+        sdesc[warp * kRegTiles + nTiles] = l | (m0 << 4) | ((8 * j) << 12);
   }
-  __syncwarp();
-  const int* desc = sdesc + warp * kRegTiles;
-  float acc[kRegTiles][4];
-#pragma unroll
-  for (int q = 0; q < kRegTiles; ++q)
-    acc[q][0] = acc[q][1] = acc[q][2] = acc[q][3] = 0.0f;
-  float woutAcc[W / 8][2];
-#pragma unroll
-  for (int j = 0; j < W / 8; ++j)
-    woutAcc[j][0] = woutAcc[j][1] = 0.0f;
-  float lossAcc = 0.0f;
+  return nTiles;
+}
 
-  const float gradScale = lossGradScale(a.prev, a.l1);
-  if (blockIdx.x == 0 && threadIdx.x == 0)
-    a.counters->gradScale = gradScale;
-  const int q8 = lane >> 3, r8 = lane & 7;
-  for (int64_t it = blockIdx.x; it * T < a.n; it += gridDim.x)
+/// Phase 2 when every layer has W / 8 column tiles (paddedInputs == W): row group r of this warp owns tiles
+/// r * W / 8 + j (as the descriptors); acc += dZ_l^T X_l over the block's T samples. q8 = lane >> 3, r8 = lane & 7,
+/// computed once by the kernel (recomputed here, they changed the width-16 kernels' code).
+template <int W, int Warps>
+__device__ __forceinline__ void accumulateSquareWeightGrads(const RegPlan& p, const MlpShape& s, const __half* sh,
+  int warp, int q8, int r8, float (&acc)[kRegTiles][4])
+{
+  constexpr int T = 16 * Warps;
+#pragma unroll
+  for (int r = 0; r < kRegTiles / (W / 8); ++r)
   {
-    warpForwardBackward<W, F, Pre>(a, smem, it * T + warp * 16, warp * 16, lane, gradScale, woutAcc, lossAcc);
-    __syncthreads();
-    if (s.paddedInputs == W)
+    const int rg = warp + r * Warps;
+    if (rg < s.hiddenLayers * (W / 16))
     {
-      // Every layer has W / 8 column tiles: row group r of this warp owns tiles r * W / 8 + j (as the descriptors).
-#pragma unroll
-      for (int r = 0; r < kRegTiles / (W / 8); ++r)
-      {
-        const int rg = warp + r * Warps;
-        if (rg < s.hiddenLayers * (W / 16))
-        {
-          const int l = rg / (W / 16), m0 = (rg % (W / 16)) * 16;
-          const __half* dz = sh + p.dz[l] + m0 + (q8 & 1) * 8 + ((q8 >> 1) * 8 + r8) * p.ldA;
-          const __half* X = sh + p.x[l] + (q8 * 8 + r8) * p.ldA; // ldX0 == ldA here
-          for (int k0 = 0; k0 < T; k0 += 32)
-          {
-            uint32_t a0[4], a1[4];
-            ldsm4<true>(a0, dz + k0 * p.ldA);
-            ldsm4<true>(a1, dz + (k0 + 16) * p.ldA);
-#pragma unroll
-            for (int j = 0; j < W / 8; ++j)
-            {
-              uint32_t b[4];
-              ldsm4<true>(b, X + k0 * p.ldA + 8 * j);
-              mma16816(acc[r * (W / 8) + j], a0, b[0], b[1]);
-              mma16816(acc[r * (W / 8) + j], a1, b[2], b[3]);
-            }
-          }
-        }
-      }
-    }
-    else
-    {
+      const int l = rg / (W / 16), m0 = (rg % (W / 16)) * 16;
+      const __half* dz = sh + p.layerOutputGrads[l] + m0 + (q8 & 1) * 8 + ((q8 >> 1) * 8 + r8) * p.ldA;
+      const __half* X = sh + p.layerInputs[l] + (q8 * 8 + r8) * p.ldA; // ldX0 == ldA here
       for (int k0 = 0; k0 < T; k0 += 32)
       {
-        uint32_t a0[4], a1[4]; // dZ_l^T fragments, reloaded when the row group changes (tiles are row-group major)
-        int rgPrev = -1;
-  #pragma unroll
-        for (int q = 0; q < kRegTiles; ++q)
+        uint32_t a0[4], a1[4];
+        ldsm4<true>(a0, dz + k0 * p.ldA);
+        ldsm4<true>(a1, dz + (k0 + 16) * p.ldA);
+#pragma unroll
+        for (int j = 0; j < W / 8; ++j)
         {
-          if (q < nTiles)
-          {
-            const int d = desc[q], l = d & 15, m0 = (d >> 4) & 0xff, n0 = d >> 12, rg = d & 0xfff;
-            if (rg != rgPrev)
-            {
-              const __half* dz = sh + p.dz[l] + m0 + (q8 & 1) * 8;
-              ldsm4<true>(a0, dz + (k0 + (q8 >> 1) * 8 + r8) * p.ldA);
-              ldsm4<true>(a1, dz + (k0 + 16 + (q8 >> 1) * 8 + r8) * p.ldA);
-              rgPrev = rg;
-            }
-            const int ldx = l == 0 ? p.ldX0 : p.ldA;
-            uint32_t b[4];
-            ldsm4<true>(b, sh + p.x[l] + (k0 + q8 * 8 + r8) * ldx + n0);
-            mma16816(acc[q], a0, b[0], b[1]);
-            mma16816(acc[q], a1, b[2], b[3]);
-          }
+          uint32_t b[4];
+          ldsm4<true>(b, X + k0 * p.ldA + 8 * j);
+          mma16816(acc[r * (W / 8) + j], a0, b[0], b[1]);
+          mma16816(acc[r * (W / 8) + j], a1, b[2], b[3]);
         }
       }
     }
-    __syncthreads();
   }
+}
 
-  // Flush: weight gradients (padded layout), output row, loss.
+/// Flush of the hidden layers' weight gradients (padded layout): atomics, or fixed point in deterministic mode.
+__device__ __forceinline__ void flushWeightGradTiles(const TrainArgs& a, const int* desc, int nTiles, int lane,
+  const float (&acc)[kRegTiles][4])
+{
+  const MlpShape& s = a.shape;
   const int g = lane >> 2, t = lane & 3;
 #pragma unroll
   for (int q = 0; q < kRegTiles; ++q)
@@ -161,6 +123,82 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
       atomicAddPair(d + 8 * K, acc[q][2], acc[q][3]);
     }
   }
+}
+
+template <int W, int F, int Warps, bool Pre>
+__global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_constant__ TrainArgs a)
+{
+  extern __shared__ __align__(128) unsigned char smem[];
+  const RegPlan& p = a.reg;
+  const MlpShape& s = a.shape;
+  constexpr int T = 16 * Warps;
+  const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
+  const __half* sh = reinterpret_cast<const __half*>(smem);
+  stageRegKernelInputs<Warps>(a, smem);
+  __syncthreads();
+
+  __shared__ int sdesc[Warps * kRegTiles];
+  const int nTiles = assignWeightGradTiles<W, Warps>(s, sdesc, warp, lane);
+  __syncwarp();
+  const int* desc = sdesc + warp * kRegTiles;
+  float acc[kRegTiles][4];
+#pragma unroll
+  for (int q = 0; q < kRegTiles; ++q)
+    acc[q][0] = acc[q][1] = acc[q][2] = acc[q][3] = 0.0f;
+  float woutAcc[W / 8][2];
+#pragma unroll
+  for (int j = 0; j < W / 8; ++j)
+    woutAcc[j][0] = woutAcc[j][1] = 0.0f;
+  float lossAcc = 0.0f;
+
+  const float gradScale = lossGradScale(a.prev, a.l1);
+  if (blockIdx.x == 0 && threadIdx.x == 0)
+    a.counters->gradScale = gradScale;
+  const int q8 = lane >> 3, r8 = lane & 7;
+  for (int64_t it = blockIdx.x; it * T < a.n; it += gridDim.x)
+  {
+    warpForwardBackward<W, F, Pre>(a, smem, it * T + warp * 16, warp * 16, lane, gradScale, woutAcc, lossAcc);
+    __syncthreads();
+    if (s.paddedInputs == W)
+      accumulateSquareWeightGrads<W, Warps>(p, s, sh, warp, q8, r8, acc);
+    else
+    {
+      // Any shape: the warp's tiles by their descriptors. Inline here: as a helper (acc by reference) it changed the
+      // kernels' SASS, whether q8 / r8 were recomputed or passed.
+      for (int k0 = 0; k0 < T; k0 += 32)
+      {
+        uint32_t a0[4], a1[4]; // dZ_l^T fragments, reloaded when the row group changes (tiles are row-group major)
+        int rgPrev = -1;
+#pragma unroll
+        for (int q = 0; q < kRegTiles; ++q)
+        {
+          if (q < nTiles)
+          {
+            const int d = desc[q], l = d & 15, m0 = (d >> 4) & 0xff, n0 = d >> 12, rg = d & 0xfff;
+            if (rg != rgPrev)
+            {
+              const __half* dz = sh + p.layerOutputGrads[l] + m0 + (q8 & 1) * 8;
+              ldsm4<true>(a0, dz + (k0 + (q8 >> 1) * 8 + r8) * p.ldA);
+              ldsm4<true>(a1, dz + (k0 + 16 + (q8 >> 1) * 8 + r8) * p.ldA);
+              rgPrev = rg;
+            }
+            const int ldx = l == 0 ? p.ldX0 : p.ldA;
+            uint32_t b[4];
+            ldsm4<true>(b, sh + p.layerInputs[l] + (k0 + q8 * 8 + r8) * ldx + n0);
+            mma16816(acc[q], a0, b[0], b[1]);
+            mma16816(acc[q], a1, b[2], b[3]);
+          }
+        }
+      }
+    }
+    __syncthreads();
+  }
+
+  // Flush: weight gradients (padded layout), output row, loss.
+  flushWeightGradTiles(a, desc, nTiles, lane, acc);
+  // The output row's gradient: sums over the row groups, added by row group 0. Inline here: as a helper (woutAcc by
+  // reference, or scalar helpers for the sum and the add) it changed the kernels' SASS.
+  const int g = lane >> 2, t = lane & 3;
 #pragma unroll
   for (int j = 0; j < W / 8; ++j)
   {
@@ -212,23 +250,23 @@ inline RegPlan makeRegPlan(const MlpShape& s, int warps, bool fused)
   size_t h = 0; // halves
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.w[l] = static_cast<int>(h);
+    p.weights[l] = static_cast<int>(h);
     h += size_t(s.width) * (s.inDim(l) + 8);
   }
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.x[l] = static_cast<int>(h);
+    p.layerInputs[l] = static_cast<int>(h);
     h += T * (l == 0 ? p.ldX0 : p.ldA);
   }
   for (int l = 0; l < s.hiddenLayers; ++l)
   {
-    p.dz[l] = static_cast<int>(h);
+    p.layerOutputGrads[l] = static_cast<int>(h);
     h += T * p.ldA;
   }
   size_t o = roundUp128(h * 2);
   p.wout = static_cast<int>(o);
   o += roundUp128(size_t(s.width) * 4);
-  p.de = static_cast<int>(o);
+  p.encodingGrads = static_cast<int>(o);
   if (fused)
     o += T * p.ldDE * 4;
   p.total = static_cast<int>(o);

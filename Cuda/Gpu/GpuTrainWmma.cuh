@@ -21,8 +21,8 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
   const MlpShape& s = a.shape;
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31, T = p.tileSamples, warps = p.warps;
   float* sx = reinterpret_cast<float*>(smem + p.xyz);
-  float* stgt = reinterpret_cast<float*>(smem + p.tgt);
-  float* sg = reinterpret_cast<float*>(smem + p.g);
+  float* stgt = reinterpret_cast<float*>(smem + p.targets);
+  float* sg = reinterpret_cast<float*>(smem + p.outputGrads);
   __half* enc = reinterpret_cast<__half*>(smem + p.enc);
   __half* acts = reinterpret_cast<__half*>(smem + p.acts);
   float* dEnc = reinterpret_cast<float*>(smem + p.acts); // alias: written when the activations are dead
@@ -80,7 +80,7 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
     // Forward: each warp its 16 rows (the one forward pass); X_l and X_H staged for the backward pass.
     {
       const WarpNet net = p.wInSmem
-        ? WarpNet{ reinterpret_cast<const __half*>(smem + p.w), p.wOff, s.paddedInputs + 8, W + 8, sw }
+        ? WarpNet{ reinterpret_cast<const __half*>(smem + p.weights), p.wOff, s.paddedInputs + 8, W + 8, sw }
         : WarpNet{ a.w16, s.off, s.paddedInputs, W, sw };
       // X_l of layer l >= 1 is the output of layer l - 1: activation slot l - 1 (a.actOff[l] = (l - 1) * actStride).
       const StageActivations st{ acts + row0 * p.ldA, a.actOff, p.ldA,

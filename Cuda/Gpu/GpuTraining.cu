@@ -84,7 +84,7 @@ public:
     NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), ComputeStream.get()));
     packParams(Params.get(), Network, ComputeStream.get());
     ComputeStream.sync();
-    if (Reg.warps > 0)
+    if (RegKernelPlan.warps > 0)
       Network.table16.release(); // the register-resident kernel encodes from the fp32 parameters
 
     if (points.count > 0)
@@ -112,8 +112,9 @@ public:
     }
     if (Strategy == TrainingStrategy::GpuResident)
     {
-      Vol.allocate(static_cast<size_t>(volume.bytes()), "source volume");
-      NV_CUDA(cudaMemcpyAsync(Vol.get(), volume.data, Vol.bytes(), cudaMemcpyHostToDevice, ComputeStream.get()));
+      DeviceVolume.allocate(static_cast<size_t>(volume.bytes()), "source volume");
+      NV_CUDA(cudaMemcpyAsync(DeviceVolume.get(), volume.data, DeviceVolume.bytes(), cudaMemcpyHostToDevice,
+        ComputeStream.get()));
       if (config.importanceGrid > 0)
       {
         // Error-guided sampling (GpuImportance.cuh): sampleKernel writes the positions; the probes read the fp16
@@ -129,24 +130,24 @@ public:
     {
       Pool.reset(new ThreadPool(config.threads));
       for (int k = 0; k < 2; ++k)
-        HTargets[k].allocate(B);
+        HostTargets[k].allocate(B);
       if (Source)
       {
         for (int k = 0; k < 2; ++k)
-          HXyz[k].allocate(3 * B);
+          HostXyz[k].allocate(3 * B);
         Xyz.allocate(size_t(3 * B), "training batch positions");
       }
-      Next = std::async(std::launch::async, [this] { return prepare(1, 1); }); // step s uses buffer s % 2
+      NextBatch = std::async(std::launch::async, [this] { return prepare(1, 1); }); // step s uses buffer s % 2
     }
   }
 
   ~GpuTrainer() override
   {
-    if (Next.valid())
+    if (NextBatch.valid())
     {
       try
       {
-        Next.get();
+        NextBatch.get();
       }
       catch (...)
       {
@@ -187,12 +188,13 @@ public:
         else
         {
           const int k = static_cast<int>(s % 2);
-          HCounts[k] = static_cast<int>(Next.get());
-          NV_CUDA(cudaMemcpyAsync(&slot(s)->nValid, &HCounts[k], sizeof(int), cudaMemcpyHostToDevice, st));
-          NV_CUDA(cudaMemcpyAsync(Targets.get(), HTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
+          HostValidCounts[k] = static_cast<int>(NextBatch.get());
+          NV_CUDA(cudaMemcpyAsync(&slot(s)->nValid, &HostValidCounts[k], sizeof(int), cudaMemcpyHostToDevice, st));
+          NV_CUDA(cudaMemcpyAsync(Targets.get(), HostTargets[k].get(), B * sizeof(float), cudaMemcpyHostToDevice, st));
           if (Source)
-            NV_CUDA(cudaMemcpyAsync(Xyz.get(), HXyz[k].get(), 3 * B * sizeof(float), cudaMemcpyHostToDevice, st));
-          Next = std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
+            NV_CUDA(cudaMemcpyAsync(Xyz.get(), HostXyz[k].get(), 3 * B * sizeof(float), cudaMemcpyHostToDevice, st));
+          NextBatch =
+            std::async(std::launch::async, [this, s] { return prepare(s + 1, static_cast<int>((s + 1) % 2)); });
         }
         launchTrain(Points.count > 0 || Importance.enabled() || Source ? Xyz.get() : nullptr, B, s);
         launchAdam(s);
@@ -248,7 +250,7 @@ public:
   {
     return static_cast<int64_t>(Network.bytes() + Params.bytes() + TableGrad.bytes() + TableMoments.bytes() +
       MlpFirstMoment.bytes() + MlpSecondMoment.bytes() + GradPad.bytes() + Slots.bytes() + Targets.bytes() +
-      Vol.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + StepCounters.bytes() + EncG.bytes() +
+      DeviceVolume.bytes() + Xyz.bytes() + BankXyz.bytes() + BankValues.bytes() + StepCounters.bytes() + EncG.bytes() +
       DEncG.bytes() + FixedTableGrad.bytes() + FixedMlpGrad.bytes() + Importance.bytes());
   }
 
@@ -256,8 +258,8 @@ public:
     std::vector<float>& grad) override
   {
     NV_CHECK(n >= 1 && n <= Train.batchSize, "lossAndGradient: 1..batch size samples");
-    if (Next.valid())
-      Next.wait(); // host-sampled: the next batch's preparation does not touch the buffers used here
+    if (NextBatch.valid())
+      NextBatch.wait(); // host-sampled: the next batch's preparation does not touch the buffers used here
     cudaStream_t st = ComputeStream.get();
     ComputeStream.sync();
     DeviceBuffer<float> points;
@@ -306,7 +308,7 @@ private:
   int64_t prepare(int64_t s, int k)
   {
     const int64_t B = Train.batchSize;
-    float* out = HTargets[k].get();
+    float* out = HostTargets[k].get();
     std::vector<int64_t> counts(Pool->size(), 0);
     if (Source)
       Source->prepareStep(static_cast<uint64_t>(s)); // blocks swapped in before the batch is drawn
@@ -318,7 +320,8 @@ private:
       {
         const int64_t m = std::min(kChunk, e - c0);
         if (Source)
-          counts[w] += Source->fill(Train.seed, static_cast<uint64_t>(s), c0, m, HXyz[k].get() + 3 * c0, out + c0, ok);
+          counts[w] +=
+            Source->fill(Train.seed, static_cast<uint64_t>(s), c0, m, HostXyz[k].get() + 3 * c0, out + c0, ok);
         else
         {
           for (int64_t i = 0; i < m; ++i)
@@ -357,7 +360,7 @@ private:
     {
 #define NV_SAMPLE(E, T)                                                                            \
   case ScalarType::E:                                                                              \
-    sampleKernel<T><<<blocks, 256, 0, st>>>(reinterpret_cast<const T*>(Vol.get()), d[0], d[1], d[2],           \
+    sampleKernel<T><<<blocks, 256, 0, st>>>(reinterpret_cast<const T*>(DeviceVolume.get()), d[0], d[1], d[2], \
       range, Train.seed, static_cast<uint64_t>(s), B, Targets.get(), slot(s), draw);\
     break;
       NV_SAMPLE(Int8, int8_t)
@@ -380,7 +383,7 @@ private:
   {
     const int64_t B = Train.batchSize;
     cudaStream_t st = ComputeStream.get();
-    if (Reg.warps > 0)
+    if (RegKernelPlan.warps > 0)
       packParams(Params.get(), Network, st); // the fp16 table the forward kernel reads
     launchForward(Network, Xyz.get(), 0, 0, 0, 0, 0, B, Importance.out.get(), st);
     importanceMeasureKernel<<<gridFor(B), 256, 0, st>>>(Xyz.get(), Importance.out.get(), Targets.get(), B,
@@ -396,16 +399,16 @@ private:
   {
     const int limit = sharedMemoryLimit(Options);
     const int maxSmem = limit - 1024; // static shared memory of the kernel
-    Reg = makeRegPlan(Network.shape, kRegWarps, !two);
-    TrainKernel = Options.trainRegisterResident && Reg.warps > 0 && Reg.total <= maxSmem
+    RegKernelPlan = makeRegPlan(Network.shape, kRegWarps, !two);
+    TrainKernel = Options.trainRegisterResident && RegKernelPlan.warps > 0 && RegKernelPlan.total <= maxSmem
       ? pickReg(Network.shape.width, Network.grid.features, two)
       : nullptr;
     int perSm = 0;
     if (TrainKernel)
     {
       const void* fp = reinterpret_cast<const void*>(TrainKernel);
-      NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, Reg.total));
-      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, kRegWarps * 32, Reg.total));
+      NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, RegKernelPlan.total));
+      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, kRegWarps * 32, RegKernelPlan.total));
       if (perSm >= 1)
       {
         const int64_t iters = (B + 16 * kRegWarps - 1) / (16 * kRegWarps);
@@ -413,10 +416,10 @@ private:
         return;
       }
     }
-    Reg = RegPlan{};
+    RegKernelPlan = RegPlan{};
     TrainKernel = pickTrain(Network.shape.width, Network.grid.features, two);
-    Plan = choosePlan(Network.shape, true, reinterpret_cast<const void*>(TrainKernel), limit, &perSm);
-    const int64_t tiles = (B + Plan.tileSamples - 1) / Plan.tileSamples;
+    WmmaPlan = choosePlan(Network.shape, true, reinterpret_cast<const void*>(TrainKernel), limit, &perSm);
+    const int64_t tiles = (B + WmmaPlan.tileSamples - 1) / WmmaPlan.tileSamples;
     Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
     Slots.allocate(size_t(Blocks) * Network.shape.total, "per-block MLP gradients");
   }
@@ -431,10 +434,10 @@ private:
     TrainArgs a{};
     a.grid = Network.grid;
     a.shape = Network.shape;
-    a.plan = Plan;
+    a.plan = WmmaPlan;
     for (int l = 1; l < Network.shape.hiddenLayers; ++l)
-      a.actOff[l] = (l - 1) * Plan.tileSamples * Plan.ldA;
-    a.reg = Reg;
+      a.actOff[l] = (l - 1) * WmmaPlan.tileSamples * WmmaPlan.ldA;
+    a.reg = RegKernelPlan;
     a.table16 = Network.table16.get();
     a.table32 = Params.get();
     a.w16 = Network.w16.get();
@@ -456,24 +459,25 @@ private:
     a.encG = EncG.get();
     a.dEncG = DEncG.get();
     int blocks = Blocks, threads = 0, smem = 0;
-    if (Reg.warps > 0)
+    if (RegKernelPlan.warps > 0)
     {
-      blocks = static_cast<int>(std::min<int64_t>((n + 16 * Reg.warps - 1) / (16 * Reg.warps), Blocks));
-      threads = Reg.warps * 32;
-      smem = Reg.total;
+      const int64_t rows = 16 * RegKernelPlan.warps;
+      blocks = static_cast<int>(std::min<int64_t>((n + rows - 1) / rows, Blocks));
+      threads = RegKernelPlan.warps * 32;
+      smem = RegKernelPlan.total;
     }
     else
     {
-      const int64_t tiles = (n + Plan.tileSamples - 1) / Plan.tileSamples;
+      const int64_t tiles = (n + WmmaPlan.tileSamples - 1) / WmmaPlan.tileSamples;
       a.tiles = static_cast<int>(tiles);
       blocks = static_cast<int>(std::min<int64_t>(tiles, Blocks));
-      threads = Plan.warps * 32;
-      smem = Plan.total;
+      threads = WmmaPlan.warps * 32;
+      smem = WmmaPlan.total;
     }
     FwdArgs f{};
     f.grid = Network.grid;
     f.table16 = Network.table16.get();
-    f.table32 = Reg.warps > 0 ? Params.get() : nullptr;
+    f.table32 = RegKernelPlan.warps > 0 ? Params.get() : nullptr;
     f.xyz = xyz;
     f.random = xyz ? 0 : 1;
     f.seed = Train.seed;
@@ -531,18 +535,18 @@ private:
     const AdamArgs a = adamArgs(s);
     const int64_t n = static_cast<int64_t>(EncodingParamCount);
     MlpAdam q;
-    q.p = Params.get() + EncodingParamCount;
-    q.m = MlpFirstMoment.get();
-    q.v = MlpSecondMoment.get();
+    q.params = Params.get() + EncodingParamCount;
+    q.firstMoment = MlpFirstMoment.get();
+    q.secondMoment = MlpSecondMoment.get();
     q.gradPad = GradPad.get();
     q.w16 = Network.w16.get();
     q.wout = Network.wout.get();
-    q.s = Network.shape;
+    q.shape = Network.shape;
     q.count = static_cast<int64_t>(MlpParamCount);
     const int64_t work = std::max<int64_t>(n / 4, q.count);
     const int blocks = static_cast<int>(
       std::max<int64_t>(1, std::min<int64_t>((work + 255) / 256, int64_t(deviceInfo().sms) * 8)));
-    __half* p16 = Reg.warps > 0 ? nullptr : Network.table16.get(); // importance probes refresh their own copy
+    __half* p16 = RegKernelPlan.warps > 0 ? nullptr : Network.table16.get(); // importance probes refresh their own copy
     adamKernel<<<blocks, 256, 0, ComputeStream.get()>>>(Params.get(), TableGrad.get(), TableMoments.get(), p16, n, q, a,
       slot(s));
     NV_CUDA_LAUNCH();
@@ -576,19 +580,19 @@ private:
   DeviceBuffer<__half> TableGrad, EncG;
   DeviceBuffer<uint32_t> TableMoments;
   DeviceBuffer<Fixed> FixedTableGrad, FixedMlpGrad; ///< deterministic mode only (GpuFixedPoint.cuh)
-  DeviceBuffer<unsigned char> Vol;
+  DeviceBuffer<unsigned char> DeviceVolume;
   DeviceBuffer<Counters> StepCounters;
   PlateauSchedule Plateau{ Train.optimizer }; ///< loss-driven decay (OptimizerConfig::plateauWindow)
   GpuImportanceGrid Importance; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
   PinnedBuffer<Counters> HostStepCounters;
-  PinnedBuffer<float> HTargets[2];
-  PinnedBuffer<float> HXyz[2]; ///< out-of-core batches: the positions the source drew
+  PinnedBuffer<float> HostTargets[2];
+  PinnedBuffer<float> HostXyz[2]; ///< out-of-core batches: the positions the source drew
   BatchSource* Source = nullptr;
-  int HCounts[2] = { 0, 0 };
+  int HostValidCounts[2] = { 0, 0 };
   std::unique_ptr<ThreadPool> Pool;
-  std::future<int64_t> Next;
-  SmemPlan Plan{};
-  RegPlan Reg{};
+  std::future<int64_t> NextBatch;
+  SmemPlan WmmaPlan{};
+  RegPlan RegKernelPlan{};
   TrainFn TrainKernel = nullptr;
   int Blocks = 1;
   int64_t Steps = 0;

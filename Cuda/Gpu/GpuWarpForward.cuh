@@ -242,69 +242,38 @@ struct WarpOut
   uint32_t xh[W / 8][2];
 };
 
-/// The forward pass of one warp's 16 samples. `x`: this lane's point (sample lane & 15; EncodeFrom only);
-/// `enc`: the warp's 16 staging rows (ld ldE >= Dp + 8 halves; columns D..Dp-1 must hold zeros).
-template <int W, int F, bool HalfAcc, typename Weights, typename Src, typename Stage>
-__device__ __forceinline__ void warpForward(const GridLayout& grid, const MlpShape& s, const WarpNet& net,
-  const Src& src, const float x[3], __half* enc, int ldE, int lane, const Stage& stage, WarpOut<W>& out)
+/// 1. Encodings of the warp's 16 samples into enc: copied from the level-major pass's output (PreEncoded) ...
+template <int F>
+__device__ __forceinline__ void warpEncodings(const GridLayout& grid, const PreEncoded& src, const float x[3],
+  __half* enc, int ldE, int lane)
 {
-  // 1. Encodings of the 16 samples.
-  if constexpr (std::is_same<Src, PreEncoded>::value)
+  using V = typename HalfVec<F>::T;
+  const V* e = reinterpret_cast<const V*>(src.enc);
+  for (int it = lane; it < 16 * grid.levels; it += 32)
   {
-    using V = typename HalfVec<F>::T;
-    const V* e = reinterpret_cast<const V*>(src.enc);
-    for (int it = lane; it < 16 * grid.levels; it += 32)
-    {
-      const int rr = it & 15, l = it >> 4;
-      const int64_t gi = src.row + rr;
-      V v{};
-      if (gi < src.n)
-        v = __ldcs(e + l * src.n + gi); // streamed: read once
-      *reinterpret_cast<V*>(enc + rr * ldE + l * F) = v;
-    }
+    const int rr = it & 15, l = it >> 4;
+    const int64_t gi = src.row + rr;
+    V v{};
+    if (gi < src.n)
+      v = __ldcs(e + l * src.n + gi); // streamed: read once
+    *reinterpret_cast<V*>(enc + rr * ldE + l * F) = v;
   }
-  else
-  {
-    encodeWarp<F>(grid, src.table, x, enc, ldE, lane);
-  }
-  __syncwarp();
+}
 
-  // 2. Hidden layers; the C fragments of layer l become the A fragments of layer l + 1 (ReLU, fp16).
-  AccFrag<HalfAcc> C[W / 8];
-#pragma unroll
-  for (int j = 0; j < W / 8; ++j)
-    C[j].zero();
-  {
-    const __half* ap = enc + (lane & 15) * ldE + (lane >> 4) * 8;
-    for (int kc = 0; kc < s.paddedInputs / 16; ++kc)
-    {
-      uint32_t A[4];
-      ldsm4(A, ap + kc * 16);
-      mmaChunk<W, HalfAcc, Weights>(C, A, net.base + net.off[0], net.ld0, kc * 16, lane);
-    }
-  }
-  for (int l = 1; l < s.hiddenLayers; ++l)
-  {
-    uint32_t A[W / 16][4];
-#pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-    {
-      A[kc][0] = C[2 * kc].lo();
-      A[kc][1] = C[2 * kc].hi();
-      A[kc][2] = C[2 * kc + 1].lo();
-      A[kc][3] = C[2 * kc + 1].hi();
-      if constexpr (std::is_same<Stage, StageActivations>::value)
-        storeFrag(A[kc], stage.base + stage.off[l], stage.ld, kc, lane);
-    }
-#pragma unroll
-    for (int j = 0; j < W / 8; ++j)
-      C[j].zero();
-#pragma unroll
-    for (int kc = 0; kc < W / 16; ++kc)
-      mmaChunk<W, HalfAcc, Weights>(C, A[kc], net.base + net.off[l], net.ldh, kc * 16, lane);
-  }
+/// ... or gathered from the table at this lane's point x (EncodeFrom).
+template <int F, typename T>
+__device__ __forceinline__ void warpEncodings(const GridLayout& grid, const EncodeFrom<T>& src, const float x[3],
+  __half* enc, int ldE, int lane)
+{
+  encodeWarp<F>(grid, src.table, x, enc, ldE, lane);
+}
 
-  // 3. Output row in fp32 over the fp16 last activation X_H (rows g, g + 8; columns 8j + 2t, +1 on this lane).
+/// 3. Output row in fp32 over the fp16 last activation X_H (rows g, g + 8; columns 8j + 2t, +1 on this lane),
+/// reduced over the quad into out.lo / out.hi; with StageActivations, X_H into out.xh (and stage.xh when set).
+template <int W, bool HalfAcc, typename Stage>
+__device__ __forceinline__ void outputRowForward(const WarpNet& net, int lane, const Stage& stage,
+  const AccFrag<HalfAcc> (&C)[W / 8], WarpOut<W>& out)
+{
   const int t = lane & 3;
   float lo = 0.0f, hi = 0.0f;
   constexpr bool keep = std::is_same<Stage, StageActivations>::value;
@@ -341,6 +310,56 @@ __device__ __forceinline__ void warpForward(const GridLayout& grid, const MlpSha
   hi += __shfl_xor_sync(0xffffffffu, hi, 2);
   out.lo = lo;
   out.hi = hi;
+}
+
+/// The forward pass of one warp's 16 samples. `x`: this lane's point (sample lane & 15; EncodeFrom only);
+/// `enc`: the warp's 16 staging rows (ld ldE >= Dp + 8 halves; columns D..Dp-1 must hold zeros).
+template <int W, int F, bool HalfAcc, typename Weights, typename Src, typename Stage>
+__device__ __forceinline__ void warpForward(const GridLayout& grid, const MlpShape& s, const WarpNet& net,
+  const Src& src, const float x[3], __half* enc, int ldE, int lane, const Stage& stage, WarpOut<W>& out)
+{
+  // 1. Encodings of the 16 samples.
+  warpEncodings<F>(grid, src, x, enc, ldE, lane);
+  __syncwarp();
+
+  // 2. Hidden layers; the C fragments of layer l become the A fragments of layer l + 1 (ReLU, fp16). Inline here: as
+  // a helper (C by reference) it changed the PTX order of the accumulators and so the kernels' register allocation.
+  AccFrag<HalfAcc> C[W / 8];
+#pragma unroll
+  for (int j = 0; j < W / 8; ++j)
+    C[j].zero();
+  {
+    const __half* ap = enc + (lane & 15) * ldE + (lane >> 4) * 8;
+    for (int kc = 0; kc < s.paddedInputs / 16; ++kc)
+    {
+      uint32_t A[4];
+      ldsm4(A, ap + kc * 16);
+      mmaChunk<W, HalfAcc, Weights>(C, A, net.base + net.off[0], net.ld0, kc * 16, lane);
+    }
+  }
+  for (int l = 1; l < s.hiddenLayers; ++l)
+  {
+    uint32_t A[W / 16][4];
+#pragma unroll
+    for (int kc = 0; kc < W / 16; ++kc)
+    {
+      A[kc][0] = C[2 * kc].lo();
+      A[kc][1] = C[2 * kc].hi();
+      A[kc][2] = C[2 * kc + 1].lo();
+      A[kc][3] = C[2 * kc + 1].hi();
+      if constexpr (std::is_same<Stage, StageActivations>::value)
+        storeFrag(A[kc], stage.base + stage.off[l], stage.ld, kc, lane);
+    }
+#pragma unroll
+    for (int j = 0; j < W / 8; ++j)
+      C[j].zero();
+#pragma unroll
+    for (int kc = 0; kc < W / 16; ++kc)
+      mmaChunk<W, HalfAcc, Weights>(C, A[kc], net.base + net.off[l], net.ldh, kc * 16, lane);
+  }
+
+  // 3. Output row.
+  outputRowForward<W, HalfAcc>(net, lane, stage, C, out);
 }
 
 } // namespace gpu

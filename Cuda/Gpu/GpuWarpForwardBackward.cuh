@@ -112,7 +112,7 @@ __device__ __forceinline__ void outputLayerBackward(const RegPlan& p, const MlpS
     dA[j / 2][(j & 1) * 2] = halves2(d0.x, d0.y);
     dA[j / 2][(j & 1) * 2 + 1] = halves2(d1.x, d1.y);
   }
-  __half* dz = sh + p.dz[s.hiddenLayers - 1] + row0 * p.ldA;
+  __half* dz = sh + p.layerOutputGrads[s.hiddenLayers - 1] + row0 * p.ldA;
 #pragma unroll
   for (int kc = 0; kc < W / 16; ++kc)
     storeFrag(dA[kc], dz, p.ldA, kc, lane);
@@ -132,9 +132,9 @@ __device__ __forceinline__ void hiddenLayersBackward(const RegPlan& p, const Mlp
       D[j][0] = D[j][1] = D[j][2] = D[j][3] = 0.0f;
 #pragma unroll
     for (int kc = 0; kc < W / 16; ++kc)
-      mmaChunkT<W / 8>(D, dA[kc], sh + p.w[l], p.ldA, kc * 16, 0, W / 8, lane);
-    const __half* Xl = sh + p.x[l] + row0 * p.ldA;
-    __half* dz = sh + p.dz[l - 1] + row0 * p.ldA;
+      mmaChunkT<W / 8>(D, dA[kc], sh + p.weights[l], p.ldA, kc * 16, 0, W / 8, lane);
+    const __half* Xl = sh + p.layerInputs[l] + row0 * p.ldA;
+    __half* dz = sh + p.layerOutputGrads[l - 1] + row0 * p.ldA;
 #pragma unroll
     for (int j = 0; j < W / 8; ++j)
     {
@@ -194,10 +194,10 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
   const MlpShape& s = a.shape;
   __half* sh = reinterpret_cast<__half*>(smem);
   const float* swout = reinterpret_cast<const float*>(smem + p.wout);
-  __half* X0 = sh + p.x[0] + row0 * p.ldX0;
+  __half* X0 = sh + p.layerInputs[0] + row0 * p.ldX0;
 
-  const WarpNet net{ sh, p.w, p.ldX0, p.ldA, swout };
-  const StageActivations stage{ sh + row0 * p.ldA, p.x, p.ldA, nullptr, 0 };
+  const WarpNet net{ sh, p.weights, p.ldX0, p.ldA, swout };
+  const StageActivations stage{ sh + row0 * p.ldA, p.layerInputs, p.ldA, nullptr, 0 };
   // 1-3. Forward pass (encodings into X_0, X_l staged for the backward pass and the weight gradients), outputs.
   WarpOut<W> fo;
   if constexpr (Pre)
@@ -222,7 +222,7 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
   // 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time (inline here: as a helper it changed the fused kernels'
   // register counts), level-major to global memory (Pre) or to the warp's dEnc rows for the scatter.
   const int g = lane >> 2, t = lane & 3;
-  float* dEw = reinterpret_cast<float*>(smem + p.de) + row0 * p.ldDE; // fused mode only
+  float* dEw = reinterpret_cast<float*>(smem + p.encodingGrads) + row0 * p.ldDE; // fused mode only
   for (int n0 = 0; n0 < s.paddedInputs; n0 += 64)
   {
     const int nt = min(8, (s.paddedInputs - n0) / 8);
@@ -232,7 +232,7 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
       E[j][0] = E[j][1] = E[j][2] = E[j][3] = 0.0f;
 #pragma unroll
     for (int kc = 0; kc < W / 16; ++kc)
-      mmaChunkT<8>(E, dA[kc], sh + p.w[0], p.ldX0, kc * 16, n0, nt, lane);
+      mmaChunkT<8>(E, dA[kc], sh + p.weights[0], p.ldX0, kc * 16, n0, nt, lane);
 #pragma unroll
     for (int j = 0; j < 8; ++j)
     {
