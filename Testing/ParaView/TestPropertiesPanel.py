@@ -148,7 +148,7 @@ check(render_groups.get("Neural Volume") == ["RenderPath", "ShadingMode", "Strea
       and render_groups.get("Neural Volume Lighting") == ["FollowViewLight", "LightDirection", "MaxBounces"]
       and render_groups.get("Neural Volume Quality") == ["SampleDistance", "DecodeResolution",
                                                          "EmptySpaceSkipping", "InteractiveImageScale",
-                                                         "CudaGLInterop"],
+                                                         "MaximumInteractiveFrameRate", "CudaGLInterop"],
       "render settings grouped: %r" % render_groups)
 
 
@@ -179,7 +179,7 @@ FILTER_RANGES = {"VectorComponent": (0, 255), "TrainingSteps": (0, None), "TimeB
                  "OutputResolution": (0, None)}
 RENDER_RANGES = {"StreamingSamples": (1, 1024), "SamplesPerPixel": (1, 4096), "TargetSamples": (1, 1 << 20),
                  "MaxBounces": (0, 1024), "DecodeResolution": (0, 8192), "InteractiveImageScale": (0.05, 1.0),
-                 "SampleDistance": (0, None)}
+                 "MaximumInteractiveFrameRate": (0, 1000), "SampleDistance": (0, None)}
 for name, expected in FILTER_RANGES.items():
     check(range_of(nc_proto, name) == expected, "NeuralCompress.%s range %r == %r"
           % (name, range_of(nc_proto, name), expected))
