@@ -5,6 +5,7 @@
 //   nvTestBlockBuffer [case]
 #include "Core/Error.h"
 #include "OutOfCore/BlockBuffer.h"
+#include "TempFolder.h"
 #include "TestHarness.h"
 
 #include <chrono>
@@ -21,13 +22,7 @@ namespace
 {
 std::string tempDir()
 {
-  static std::string dir;
-  if (dir.empty())
-  {
-    char pattern[] = "/tmp/nvTestBlockBufferXXXXXX";
-    dir = mkdtemp(pattern);
-  }
-  return dir;
+  return nvtest::tempFolder();
 }
 
 double linear(double x, double y, double z)
@@ -178,9 +173,5 @@ NV_TEST(a_file_that_shrinks_under_the_readers_is_an_error)
 
 int main(int argc, char** argv)
 {
-  const int result = nvtest::runCases(argc, argv);
-  const std::string cleanup = "rm -rf '" + tempDir() + "'";
-  if (std::system(cleanup.c_str()) != 0)
-    std::printf("could not remove %s\n", tempDir().c_str());
-  return result;
+  return nvtest::runCasesInTempFolder(argc, argv);
 }

@@ -7,6 +7,7 @@
 #include "OutOfCore/BlockBufferSource.h"
 #include "OutOfCore/FileMeasure.h"
 #include "SessionHelpers.h"
+#include "TempFolder.h"
 #include "TestHarness.h"
 
 #include <cmath>
@@ -22,13 +23,7 @@ constexpr int kSide = 40;
 
 std::string tempDir()
 {
-  static std::string dir;
-  if (dir.empty())
-  {
-    char pattern[] = "/tmp/nvTestOutOfCoreXXXXXX";
-    dir = mkdtemp(pattern);
-  }
-  return dir;
+  return nvtest::tempFolder();
 }
 
 /// A smooth field with structure at a few scales, 40^3 float32, as memory and as a .nhdr file.
@@ -186,9 +181,5 @@ NV_TEST(a_stopped_pass_stops)
 
 int main(int argc, char** argv)
 {
-  const int result = nvtest::runCases(argc, argv);
-  const std::string cleanup = "rm -rf '" + tempDir() + "'";
-  if (std::system(cleanup.c_str()) != 0)
-    std::printf("could not remove %s\n", tempDir().c_str());
-  return result;
+  return nvtest::runCasesInTempFolder(argc, argv);
 }

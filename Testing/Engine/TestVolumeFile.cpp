@@ -5,6 +5,7 @@
 #include "Core/Error.h"
 #include "OutOfCore/VolumeFileLayout.h"
 #include "OutOfCore/VolumeFileReader.h"
+#include "TempFolder.h"
 #include "TestHarness.h"
 
 #include <cstdio>
@@ -21,13 +22,7 @@ using nv::FileScalarType;
 
 std::string tempDir()
 {
-  static std::string dir;
-  if (dir.empty())
-  {
-    char pattern[] = "/tmp/nvTestVolumeFileXXXXXX";
-    dir = mkdtemp(pattern);
-  }
-  return dir;
+  return nvtest::tempFolder();
 }
 
 std::string path(const std::string& name)
@@ -323,9 +318,5 @@ NV_TEST(a_file_that_shrinks_is_an_error_not_a_crash)
 
 int main(int argc, char** argv)
 {
-  const int result = nvtest::runCases(argc, argv);
-  const std::string cleanup = "rm -rf '" + tempDir() + "'";
-  if (std::system(cleanup.c_str()) != 0)
-    std::printf("could not remove %s\n", tempDir().c_str());
-  return result;
+  return nvtest::runCasesInTempFolder(argc, argv);
 }
