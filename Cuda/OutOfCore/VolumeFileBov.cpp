@@ -14,21 +14,21 @@ namespace
 {
 using namespace volumefiletext;
 
-FileScalarType bovType(const std::string& value, const std::string& where)
+ScalarType bovType(const std::string& value, const std::string& where)
 {
   const std::string t = lower(trim(value));
   if (t == "byte" || t == "uint8")
-    return FileScalarType::UInt8;
+    return ScalarType::UInt8;
   if (t == "short" || t == "int16")
-    return FileScalarType::Int16;
+    return ScalarType::Int16;
   if (t == "ushort" || t == "uint16")
-    return FileScalarType::UInt16;
+    return ScalarType::UInt16;
   if (t == "int" || t == "int32")
-    return FileScalarType::Int32;
+    return ScalarType::Int32;
   if (t == "float")
-    return FileScalarType::Float32;
+    return ScalarType::Float32;
   if (t == "double")
-    return FileScalarType::Float64;
+    return ScalarType::Float64;
   NV_THROW(where + "DATA_FORMAT '" + clip(value) + "' cannot be streamed (BYTE, SHORT, INT, FLOAT, DOUBLE can)");
 }
 

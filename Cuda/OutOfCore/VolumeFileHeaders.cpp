@@ -13,64 +13,26 @@
 namespace nv
 {
 
-int bytesPerSample(FileScalarType type)
-{
-  switch (type)
-  {
-    case FileScalarType::UInt8:
-      return 1;
-    case FileScalarType::Int16:
-    case FileScalarType::UInt16:
-      return 2;
-    case FileScalarType::Int32:
-    case FileScalarType::Float32:
-      return 4;
-    case FileScalarType::Float64:
-      return 8;
-  }
-  return 0;
-}
-
-const char* scalarTypeName(FileScalarType type)
-{
-  switch (type)
-  {
-    case FileScalarType::UInt8:
-      return "uint8";
-    case FileScalarType::Int16:
-      return "int16";
-    case FileScalarType::UInt16:
-      return "uint16";
-    case FileScalarType::Int32:
-      return "int32";
-    case FileScalarType::Float32:
-      return "float32";
-    case FileScalarType::Float64:
-      return "float64";
-  }
-  return "?";
-}
-
 namespace
 {
 using namespace volumefiletext;
 
-FileScalarType nrrdType(const std::string& value, const std::string& where)
+ScalarType nrrdType(const std::string& value, const std::string& where)
 {
   const std::string t = lower(trim(value));
   if (t == "uchar" || t == "unsigned char" || t == "uint8" || t == "uint8_t")
-    return FileScalarType::UInt8;
+    return ScalarType::UInt8;
   if (t == "short" || t == "short int" || t == "signed short" || t == "signed short int" || t == "int16" ||
     t == "int16_t")
-    return FileScalarType::Int16;
+    return ScalarType::Int16;
   if (t == "ushort" || t == "unsigned short" || t == "unsigned short int" || t == "uint16" || t == "uint16_t")
-    return FileScalarType::UInt16;
+    return ScalarType::UInt16;
   if (t == "int" || t == "signed int" || t == "int32" || t == "int32_t")
-    return FileScalarType::Int32;
+    return ScalarType::Int32;
   if (t == "float")
-    return FileScalarType::Float32;
+    return ScalarType::Float32;
   if (t == "double")
-    return FileScalarType::Float64;
+    return ScalarType::Float64;
   NV_THROW(where + "the sample type '" + clip(value) +
     "' cannot be streamed (uint8, int16, uint16, int32, float, double can)");
 }

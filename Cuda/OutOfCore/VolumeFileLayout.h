@@ -11,26 +11,13 @@
 //   nv::VolumeFileReader reader(layout);                                   // VolumeFileReader.h: reads bricks
 #pragma once
 
+#include "Core/Volume.h"
+
 #include <cstdint>
 #include <string>
 
 namespace nv
 {
-
-enum class FileScalarType
-{
-  UInt8,
-  Int16,
-  UInt16,
-  Int32,
-  Float32,
-  Float64
-};
-
-/// Bytes of one sample of `type`.
-int bytesPerSample(FileScalarType type);
-/// "uint8", "int16", ... (as the messages and the ParaView panel say it).
-const char* scalarTypeName(FileScalarType type);
 
 struct VolumeFileLayout
 {
@@ -38,7 +25,7 @@ struct VolumeFileLayout
   std::string dataPath;    ///< the file that holds the samples (the header's own file for .nrrd and .vti)
   int64_t dataOffset = 0;  ///< byte of the first sample in dataPath
   int64_t dims[3] = { 0, 0, 0 };
-  FileScalarType type = FileScalarType::Float32;
+  ScalarType type = ScalarType::Float32; ///< one of uint8, int16, uint16, int32, float32, float64
   bool bigEndian = false;
   double origin[3] = { 0.0, 0.0, 0.0 };
   double spacing[3] = { 1.0, 1.0, 1.0 };
@@ -46,7 +33,7 @@ struct VolumeFileLayout
   std::string format;      ///< "NRRD (detached header)", "NRRD", "BOV", "VTK XML image data"
 
   int64_t samples() const { return dims[0] * dims[1] * dims[2]; }
-  int64_t bytes() const { return samples() * bytesPerSample(type); }
+  int64_t bytes() const { return samples() * static_cast<int64_t>(scalarSize(type)); }
 };
 
 /// Reads the header of `path` (by its extension: .nhdr, .nrrd, .bov, .vti) and checks it: three positive sizes whose

@@ -3,62 +3,54 @@
 
 #include "Core/Error.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
 #include <string>
 #include <unistd.h>
-#include <utility>
 #include <vector>
 
 namespace nv
 {
 namespace
 {
-/// Sample `index` of a row of raw bytes as a value of the file's type and byte order.
-template <typename Stored>
-double sampleAt(const unsigned char* row, int64_t index, bool swap)
-{
-  unsigned char bytes[sizeof(Stored)];
-  std::memcpy(bytes, row + index * static_cast<int64_t>(sizeof(Stored)), sizeof(Stored));
-  if (swap)
-  {
-    for (size_t k = 0; k < sizeof(Stored) / 2; ++k)
-      std::swap(bytes[k], bytes[sizeof(Stored) - 1 - k]);
-  }
-  Stored value;
-  std::memcpy(&value, bytes, sizeof(Stored));
-  return static_cast<double>(value);
-}
-
-template <typename Out>
-void convertRow(const unsigned char* row, int64_t count, FileScalarType type, bool swap, Out* out)
+/// A row of `count` raw samples of type Stored (byte-swapped when `swap`) as Out values.
+template <typename Stored, typename Out>
+void convertRowAs(const unsigned char* row, int64_t count, bool swap, Out* out)
 {
   for (int64_t i = 0; i < count; ++i)
   {
-    double v = 0.0;
-    switch (type)
-    {
-      case FileScalarType::UInt8:
-        v = row[i];
-        break;
-      case FileScalarType::Int16:
-        v = sampleAt<int16_t>(row, i, swap);
-        break;
-      case FileScalarType::UInt16:
-        v = sampleAt<uint16_t>(row, i, swap);
-        break;
-      case FileScalarType::Int32:
-        v = sampleAt<int32_t>(row, i, swap);
-        break;
-      case FileScalarType::Float32:
-        v = sampleAt<float>(row, i, swap);
-        break;
-      case FileScalarType::Float64:
-        v = sampleAt<double>(row, i, swap);
-        break;
-    }
-    out[i] = static_cast<Out>(v);
+    unsigned char bytes[sizeof(Stored)];
+    std::memcpy(bytes, row + i * static_cast<int64_t>(sizeof(Stored)), sizeof(Stored));
+    if (swap)
+      std::reverse(bytes, bytes + sizeof(Stored));
+    Stored value;
+    std::memcpy(&value, bytes, sizeof(Stored));
+    out[i] = static_cast<Out>(value);
+  }
+}
+
+/// The file's type chosen once per row (the readers' hot loop converts without a branch per sample).
+template <typename Out>
+void convertRow(const unsigned char* row, int64_t count, ScalarType type, bool swap, Out* out)
+{
+  switch (type)
+  {
+    case ScalarType::UInt8:
+      return convertRowAs<uint8_t>(row, count, swap, out);
+    case ScalarType::Int16:
+      return convertRowAs<int16_t>(row, count, swap, out);
+    case ScalarType::UInt16:
+      return convertRowAs<uint16_t>(row, count, swap, out);
+    case ScalarType::Int32:
+      return convertRowAs<int32_t>(row, count, swap, out);
+    case ScalarType::Float32:
+      return convertRowAs<float>(row, count, swap, out);
+    case ScalarType::Float64:
+      return convertRowAs<double>(row, count, swap, out);
+    default:
+      NV_THROW(std::string("a volume file of ") + scalarTypeName(type) + " samples cannot be read");
   }
 }
 
@@ -113,7 +105,7 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
   for (int axis = 0; axis < 3; ++axis)
     NV_CHECK(origin[axis] >= 0 && size[axis] >= 1 && origin[axis] + size[axis] <= this->Layout.dims[axis],
       "the box must lie inside the volume");
-  const int bytes = bytesPerSample(this->Layout.type);
+  const int64_t bytes = static_cast<int64_t>(scalarSize(this->Layout.type));
   const bool swap = bytes > 1 && this->Layout.bigEndian != hostIsBigEndian();
   std::vector<unsigned char> row(static_cast<size_t>(size[0] * bytes));
   const int64_t nx = this->Layout.dims[0], ny = this->Layout.dims[1];

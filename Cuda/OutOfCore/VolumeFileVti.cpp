@@ -37,20 +37,20 @@ std::string tagAt(const std::string& text, const std::string& name, size_t from,
   return end == std::string::npos ? std::string() : text.substr(position, end - position + 1);
 }
 
-FileScalarType vtiType(const std::string& value, const std::string& where)
+ScalarType vtiType(const std::string& value, const std::string& where)
 {
   if (value == "UInt8")
-    return FileScalarType::UInt8;
+    return ScalarType::UInt8;
   if (value == "Int16")
-    return FileScalarType::Int16;
+    return ScalarType::Int16;
   if (value == "UInt16")
-    return FileScalarType::UInt16;
+    return ScalarType::UInt16;
   if (value == "Int32")
-    return FileScalarType::Int32;
+    return ScalarType::Int32;
   if (value == "Float32")
-    return FileScalarType::Float32;
+    return ScalarType::Float32;
   if (value == "Float64")
-    return FileScalarType::Float64;
+    return ScalarType::Float64;
   NV_THROW(where + "the array's type '" + clip(value) +
     "' cannot be streamed (UInt8, Int16, UInt16, Int32, Float32, Float64 can)");
 }
@@ -170,7 +170,7 @@ VolumeFileLayout readVtiLayout(const std::string& path, const std::string& array
       return layout; // finishLayout names the bad extent
     samples *= layout.dims[axis];
   }
-  const int64_t expected = samples * bytesPerSample(layout.type);
+  const int64_t expected = samples * static_cast<int64_t>(scalarSize(layout.type));
   if (count != static_cast<uint64_t>(expected))
     NV_THROW(where + "the array's block holds " + std::to_string(count) + " bytes but its extent needs " +
       std::to_string(expected));

@@ -18,7 +18,7 @@
 
 namespace
 {
-using nv::FileScalarType;
+using nv::ScalarType;
 
 std::string tempDir()
 {
@@ -43,24 +43,25 @@ double fieldValue(int64_t x, int64_t y, int64_t z)
 }
 
 /// The field's samples as `type` in the given byte order.
-std::string samples(const int64_t dims[3], FileScalarType type, bool bigEndian)
+std::string samples(const int64_t dims[3], ScalarType type, bool bigEndian)
 {
   std::string bytes;
-  const int size = nv::bytesPerSample(type);
+  const int size = static_cast<int>(nv::scalarSize(type));
   for (int64_t z = 0; z < dims[2]; ++z)
     for (int64_t y = 0; y < dims[1]; ++y)
       for (int64_t x = 0; x < dims[0]; ++x)
       {
-        const double v = fieldValue(x, y, z) + (type == FileScalarType::UInt8 || type == FileScalarType::UInt16 ? 50.0 : 0.0);
+        const double v = fieldValue(x, y, z) + (type == ScalarType::UInt8 || type == ScalarType::UInt16 ? 50.0 : 0.0);
         unsigned char b[8] = {};
         switch (type)
         {
-          case FileScalarType::UInt8: { const uint8_t s = static_cast<uint8_t>(v); std::memcpy(b, &s, 1); break; }
-          case FileScalarType::Int16: { const int16_t s = static_cast<int16_t>(v); std::memcpy(b, &s, 2); break; }
-          case FileScalarType::UInt16: { const uint16_t s = static_cast<uint16_t>(v); std::memcpy(b, &s, 2); break; }
-          case FileScalarType::Int32: { const int32_t s = static_cast<int32_t>(v); std::memcpy(b, &s, 4); break; }
-          case FileScalarType::Float32: { const float s = static_cast<float>(v) + 0.25f; std::memcpy(b, &s, 4); break; }
-          case FileScalarType::Float64: { const double s = v + 0.125; std::memcpy(b, &s, 8); break; }
+          case ScalarType::UInt8: { const uint8_t s = static_cast<uint8_t>(v); std::memcpy(b, &s, 1); break; }
+          case ScalarType::Int16: { const int16_t s = static_cast<int16_t>(v); std::memcpy(b, &s, 2); break; }
+          case ScalarType::UInt16: { const uint16_t s = static_cast<uint16_t>(v); std::memcpy(b, &s, 2); break; }
+          case ScalarType::Int32: { const int32_t s = static_cast<int32_t>(v); std::memcpy(b, &s, 4); break; }
+          case ScalarType::Float32: { const float s = static_cast<float>(v) + 0.25f; std::memcpy(b, &s, 4); break; }
+          case ScalarType::Float64: { const double s = v + 0.125; std::memcpy(b, &s, 8); break; }
+          default: break;
         }
         if (bigEndian)
           for (int k = 0; k < size / 2; ++k)
@@ -70,12 +71,12 @@ std::string samples(const int64_t dims[3], FileScalarType type, bool bigEndian)
   return bytes;
 }
 
-double expected(FileScalarType type, int64_t x, int64_t y, int64_t z)
+double expected(ScalarType type, int64_t x, int64_t y, int64_t z)
 {
   const double v = fieldValue(x, y, z);
-  if (type == FileScalarType::UInt8 || type == FileScalarType::UInt16)
+  if (type == ScalarType::UInt8 || type == ScalarType::UInt16)
     return v + 50.0;
-  return v + (type == FileScalarType::Float32 ? 0.25 : type == FileScalarType::Float64 ? 0.125 : 0.0);
+  return v + (type == ScalarType::Float32 ? 0.25 : type == ScalarType::Float64 ? 0.125 : 0.0);
 }
 
 /// Reads the whole volume and a box inside it and compares both with the field; the number of wrong samples.
@@ -139,8 +140,8 @@ std::string nhdr(const std::string& type, const std::string& endian, const std::
 NV_TEST(nhdr_every_type_and_byte_order)
 {
   const char* names[] = { "uchar", "short", "ushort", "int", "float", "double" };
-  const FileScalarType types[] = { FileScalarType::UInt8, FileScalarType::Int16, FileScalarType::UInt16,
-    FileScalarType::Int32, FileScalarType::Float32, FileScalarType::Float64 };
+  const ScalarType types[] = { ScalarType::UInt8, ScalarType::Int16, ScalarType::UInt16,
+    ScalarType::Int32, ScalarType::Float32, ScalarType::Float64 };
   for (int k = 0; k < 6; ++k)
     for (int big = 0; big < 2; ++big)
     {
@@ -158,7 +159,7 @@ NV_TEST(nhdr_every_type_and_byte_order)
 
 NV_TEST(nhdr_byte_skip_and_space_directions)
 {
-  writeFile("skip.raw", std::string(7, 'x') + samples(kDims, FileScalarType::Int16, true));
+  writeFile("skip.raw", std::string(7, 'x') + samples(kDims, ScalarType::Int16, true));
   writeFile("skip.nhdr", "NRRD0005\ntype: int16\ndimension: 3\nsizes: 5 4 3\nencoding: raw\nendian: big\n"
                          "space: left-posterior-superior\nspace directions: (0,0.5,0) (0.25,0,0) (0,0,2)\n"
                          "space origin: (1,-2,3.5)\nbyte skip: 7\ndata file: skip.raw\n");
@@ -167,7 +168,7 @@ NV_TEST(nhdr_byte_skip_and_space_directions)
     layout.origin[2] == 3.5);
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
   // "byte skip: -1": the samples are the file's last bytes.
-  writeFile("end.raw", std::string(13, 'x') + samples(kDims, FileScalarType::Int16, false));
+  writeFile("end.raw", std::string(13, 'x') + samples(kDims, ScalarType::Int16, false));
   writeFile("end.nhdr", nhdr("short", "little", "end.raw", "byte skip: -1\n"));
   layout = nv::readVolumeFileLayout(path("end.nhdr"));
   EXPECT_TRUE(layout.dataOffset == 13);
@@ -177,7 +178,7 @@ NV_TEST(nhdr_byte_skip_and_space_directions)
 NV_TEST(nrrd_attached_samples_follow_the_header)
 {
   const std::string header = "NRRD0004\ntype: float\ndimension: 3\nsizes: 5 4 3\nencoding: raw\nendian: little\n\n";
-  writeFile("attached.nrrd", header + samples(kDims, FileScalarType::Float32, false));
+  writeFile("attached.nrrd", header + samples(kDims, ScalarType::Float32, false));
   const nv::VolumeFileLayout layout = nv::readVolumeFileLayout(path("attached.nrrd"));
   EXPECT_TRUE(layout.dataPath == path("attached.nrrd") && layout.dataOffset == static_cast<int64_t>(header.size()));
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
@@ -185,14 +186,14 @@ NV_TEST(nrrd_attached_samples_follow_the_header)
 
 NV_TEST(bov_nodal_and_zonal)
 {
-  writeFile("b.dat", std::string(16, '\0') + samples(kDims, FileScalarType::Float64, true));
+  writeFile("b.dat", std::string(16, '\0') + samples(kDims, ScalarType::Float64, true));
   writeFile("b.bov", "# a brick\nTIME: 0\nDATA_FILE: b.dat\nDATA_SIZE: 5 4 3\nDATA_FORMAT: DOUBLE\nVARIABLE: density\n"
                      "DATA_ENDIAN: BIG\nBRICK_ORIGIN: 1 2 3\nBRICK_SIZE: 4 6 4\nBYTE_OFFSET: 16\nDATA_COMPONENTS: 1\n");
   nv::VolumeFileLayout layout = nv::readVolumeFileLayout(path("b.bov"));
   EXPECT_TRUE(layout.arrayName == "density" && layout.dataOffset == 16 && layout.bigEndian);
   EXPECT_TRUE(layout.spacing[0] == 1.0 && layout.spacing[1] == 2.0 && layout.spacing[2] == 2.0 && layout.origin[0] == 1.0);
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
-  writeFile("z.dat", samples(kDims, FileScalarType::UInt8, false));
+  writeFile("z.dat", samples(kDims, ScalarType::UInt8, false));
   writeFile("z.bov", "DATA_FILE: z.dat\nDATA_SIZE: 5 4 3\nDATA_FORMAT: BYTE\nCENTERING: zonal\nBRICK_SIZE: 5 8 6\n");
   layout = nv::readVolumeFileLayout(path("z.bov"));
   EXPECT_TRUE(layout.spacing[0] == 1.0 && layout.spacing[1] == 2.0 && layout.origin[0] == 0.5 && layout.origin[2] == 1.0);
@@ -202,9 +203,9 @@ NV_TEST(bov_nodal_and_zonal)
 namespace
 {
 /// A .vti with two appended raw point arrays ("other", then "f" of `type`), the second the active scalars.
-std::string vti(const std::string& type, FileScalarType stored, bool bigEndian, bool header64)
+std::string vti(const std::string& type, ScalarType stored, bool bigEndian, bool header64)
 {
-  const std::string other = samples(kDims, FileScalarType::Int32, bigEndian);
+  const std::string other = samples(kDims, ScalarType::Int32, bigEndian);
   const std::string field = samples(kDims, stored, bigEndian);
   auto count = [&](const std::string& block) {
     std::string bytes;
@@ -227,24 +228,24 @@ std::string vti(const std::string& type, FileScalarType stored, bool bigEndian, 
 
 NV_TEST(vti_appended_raw_arrays)
 {
-  writeFile("a.vti", vti("Float32", FileScalarType::Float32, false, true));
+  writeFile("a.vti", vti("Float32", ScalarType::Float32, false, true));
   nv::VolumeFileLayout layout = nv::readVolumeFileLayout(path("a.vti"));
-  EXPECT_TRUE(layout.arrayName == "f" && layout.type == FileScalarType::Float32 && !layout.bigEndian);
+  EXPECT_TRUE(layout.arrayName == "f" && layout.type == ScalarType::Float32 && !layout.bigEndian);
   EXPECT_TRUE(layout.dims[0] == 5 && layout.dims[1] == 4 && layout.dims[2] == 3 && layout.origin[0] == 1.0 &&
     layout.origin[2] == 1.0 && layout.spacing[0] == 0.5);
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
   layout = nv::readVolumeFileLayout(path("a.vti"), "other");
-  EXPECT_TRUE(layout.arrayName == "other" && layout.type == FileScalarType::Int32);
+  EXPECT_TRUE(layout.arrayName == "other" && layout.type == ScalarType::Int32);
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
-  writeFile("b.vti", vti("UInt16", FileScalarType::UInt16, true, false));
+  writeFile("b.vti", vti("UInt16", ScalarType::UInt16, true, false));
   layout = nv::readVolumeFileLayout(path("b.vti"));
-  EXPECT_TRUE(layout.type == FileScalarType::UInt16 && layout.bigEndian);
+  EXPECT_TRUE(layout.type == ScalarType::UInt16 && layout.bigEndian);
   EXPECT_NEAR_REL(wrongSamples(layout), 0.0, 0.0, 0.0);
 }
 
 NV_TEST(bad_headers_and_short_files_are_refused_clearly)
 {
-  const std::string data = samples(kDims, FileScalarType::Int16, false);
+  const std::string data = samples(kDims, ScalarType::Int16, false);
   writeFile("short.raw", data.substr(0, data.size() - 1));
   writeFile("short.nhdr", nhdr("short", "little", "short.raw"));
   expectRefusal("short.nhdr", "promises 60 int16 samples (120 bytes from byte 0) but");
@@ -271,25 +272,25 @@ NV_TEST(bad_headers_and_short_files_are_refused_clearly)
   expectRefusal("nodata.bov", "missing: DATA_FILE");
   writeFile("vec.bov", "DATA_FILE: full.raw\nDATA_SIZE: 5 4 3\nDATA_FORMAT: SHORT\nDATA_COMPONENTS: 3\n");
   expectRefusal("vec.bov", "one component per sample");
-  std::string compressed = vti("Float32", FileScalarType::Float32, false, true);
+  std::string compressed = vti("Float32", ScalarType::Float32, false, true);
   compressed.replace(compressed.find("header_type"), 0, "compressor=\"vtkZLibDataCompressor\" ");
   writeFile("zlib.vti", compressed);
   expectRefusal("zlib.vti", "compressed (vtkZLibDataCompressor)");
-  std::string base64 = vti("Float32", FileScalarType::Float32, false, true);
+  std::string base64 = vti("Float32", ScalarType::Float32, false, true);
   base64.replace(base64.find("encoding=\"raw\""), 14, "encoding=\"base64\"");
   writeFile("b64.vti", base64);
   expectRefusal("b64.vti", "not raw (base64)");
-  std::string inlineArray = vti("Float32", FileScalarType::Float32, false, true);
+  std::string inlineArray = vti("Float32", ScalarType::Float32, false, true);
   inlineArray.replace(inlineArray.rfind("format=\"appended\""), 17, "format=\"ascii\"");
   writeFile("ascii.vti", inlineArray);
   expectRefusal("ascii.vti", "stored inside the XML (ascii)");
-  std::string rotated = vti("Float32", FileScalarType::Float32, false, true);
+  std::string rotated = vti("Float32", ScalarType::Float32, false, true);
   rotated.replace(rotated.find("Spacing="), 0, "Direction=\"0 1 0 1 0 0 0 0 1\" ");
   writeFile("rotated.vti", rotated);
   expectRefusal("rotated.vti", "the image is rotated (Direction 0 1 0 1 0 0 0 0 1)");
-  writeFile("named.vti", vti("Float32", FileScalarType::Float32, false, true));
+  writeFile("named.vti", vti("Float32", ScalarType::Float32, false, true));
   expectRefusal("named.vti", "no point array named 'nothing'", "nothing");
-  std::string cut = vti("Float32", FileScalarType::Float32, false, true);
+  std::string cut = vti("Float32", ScalarType::Float32, false, true);
   writeFile("cut.vti", cut.substr(0, cut.size() - 40));
   expectRefusal("cut.vti", "the file is truncated");
   writeFile("x.mhd", "ObjectType = Image\n");
@@ -298,7 +299,7 @@ NV_TEST(bad_headers_and_short_files_are_refused_clearly)
 
 NV_TEST(a_file_that_shrinks_is_an_error_not_a_crash)
 {
-  writeFile("shrink.raw", samples(kDims, FileScalarType::Int16, false));
+  writeFile("shrink.raw", samples(kDims, ScalarType::Int16, false));
   writeFile("shrink.nhdr", nhdr("short", "little", "shrink.raw"));
   const nv::VolumeFileLayout layout = nv::readVolumeFileLayout(path("shrink.nhdr"));
   nv::VolumeFileReader reader(layout);
