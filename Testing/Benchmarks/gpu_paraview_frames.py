@@ -102,59 +102,70 @@ def frames(source, array, nc, size):
     return out
 
 
-def training_share(source, array, size, seconds=3.0, frame_rate=60.0):
-    """Steps per second of the same training alone and while a view of `size` turns (interactive renders asked for
-    as fast as the loop goes, paced by the representation to `frame_rate` a second, 0: not paced)."""
-    def run(with_view):
-        nc = NeuralCompress(Input=source, SelectInputScalars=["POINTS", array], Device=DEVICE, TrainInBackground=1,
-                            TrainingSteps=10 ** 7, TimeBudget=0, PSNRInterval=0, Log2TableSize=19)
+def refresh(nc):
+    """The live network's refresh, as the GUI's live-source timer does it."""
+    nc.SMProxy.GetClientSideObject().Modified()
+    nc.SMProxy.MarkModified(nc.SMProxy)
+
+
+def training_rate(source, array, size, seconds, frame_rate=None):
+    """Steps per second of a background training alone (frame_rate None) or while a view of `size` turns
+    (interactive renders asked for as fast as the loop goes, paced by the representation to `frame_rate` a second,
+    0: not paced), and the renders per second."""
+    nc = NeuralCompress(Input=source, SelectInputScalars=["POINTS", array], Device=DEVICE, TrainInBackground=1,
+                        TrainingSteps=10 ** 7, TimeBudget=0, PSNRInterval=0, Log2TableSize=19)
+    nc.UpdatePipeline()
+    waited = time.perf_counter()
+    while time.perf_counter() - waited < 120.0:  # a large field is prepared first (no steps yet)
+        nc.SMProxy.UpdatePropertyInformation()
+        if nc.GetPropertyValue("TotalStepsTrained") > 0:
+            break
+        time.sleep(0.05)
+        refresh(nc)  # the job starts once an execution finds its field prepared
         nc.UpdatePipeline()
-        waited = time.perf_counter()
-        while time.perf_counter() - waited < 120.0:  # a large field is prepared first (no steps yet)
-            nc.SMProxy.UpdatePropertyInformation()
-            if nc.GetPropertyValue("TotalStepsTrained") > 0:
-                break
+    view = None
+    if frame_rate is not None:
+        view = CreateRenderView()
+        view.ViewSize = list(size)
+        view.OrientationAxesVisibility = 0
+        d = Show(nc, view)
+        ColorBy(d, ("POINTS", array))
+        d.SetRepresentationType("Neural Volume")
+        d.SetScalarBarVisibility(view, False)
+        d.MaximumInteractiveFrameRate = frame_rate
+        view.ResetCamera()
+    nc.SMProxy.UpdatePropertyInformation()
+    steps0, t0, renders = nc.GetPropertyValue("TotalStepsTrained"), time.perf_counter(), 0
+    while time.perf_counter() - t0 < seconds:
+        if view is None:
             time.sleep(0.05)
-            nc.SMProxy.GetClientSideObject().Modified()  # as the GUI's live-source timer: the job starts once
-            nc.SMProxy.MarkModified(nc.SMProxy)          # an execution finds its field prepared
-            nc.UpdatePipeline()
-        renders = 0
-        view = None
-        if with_view:
-            view = CreateRenderView()
-            view.ViewSize = list(size)
-            view.OrientationAxesVisibility = 0
-            d = Show(nc, view)
-            ColorBy(d, ("POINTS", array))
-            d.SetRepresentationType("Neural Volume")
-            d.SetScalarBarVisibility(view, False)
-            d.MaximumInteractiveFrameRate = frame_rate
-            view.ResetCamera()
-        nc.SMProxy.UpdatePropertyInformation()
-        steps0, t0 = nc.GetPropertyValue("TotalStepsTrained"), time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            if view is not None:
-                view.GetActiveCamera().Azimuth(2.0)
-                nc.SMProxy.GetClientSideObject().Modified()  # the live network's refresh, as the GUI's timer
-                nc.SMProxy.MarkModified(nc.SMProxy)
-                view.SMProxy.InteractiveRender()
-                renders += 1
-            else:
-                time.sleep(0.05)
-        nc.SMProxy.UpdatePropertyInformation()
-        steps = nc.GetPropertyValue("TotalStepsTrained") - steps0
-        elapsed = time.perf_counter() - t0
-        nc.StopTraining()
-        nc.WaitForTraining()
-        if view is not None:
-            Delete(view)
-        Delete(nc)
-        return steps / elapsed, renders / elapsed
-    alone, _ = run(False)
-    beside, fps = run(True)
-    return {"steps_per_s_alone": round(alone, 1), "steps_per_s_beside_view": round(beside, 1),
-            "share": round(beside / alone, 3) if alone > 0 else None, "interactive_fps": round(fps, 1),
-            "frame_rate_limit": frame_rate}
+            continue
+        view.GetActiveCamera().Azimuth(2.0)
+        refresh(nc)
+        view.SMProxy.InteractiveRender()
+        renders += 1
+    nc.SMProxy.UpdatePropertyInformation()
+    steps = nc.GetPropertyValue("TotalStepsTrained") - steps0
+    elapsed = time.perf_counter() - t0
+    nc.StopTraining()
+    nc.WaitForTraining()
+    if view is not None:
+        Delete(view)
+    Delete(nc)
+    return steps / elapsed, renders / elapsed
+
+
+def training_share(source, array, size, seconds):
+    """The training's rate alone, then beside a turning view with interactive renders paced at 60 a second and not
+    paced: {limit: figures}."""
+    alone, _ = training_rate(source, array, size, seconds)
+    shares = {}
+    for limit in (60.0, 0.0):
+        beside, fps = training_rate(source, array, size, seconds, limit)
+        shares[limit] = {"steps_per_s_alone": round(alone, 1), "steps_per_s_beside_view": round(beside, 1),
+                         "share": round(beside / alone, 3) if alone > 0 else None, "interactive_fps": round(fps, 1),
+                         "frame_rate_limit": limit}
+    return shares
 
 
 def main():
@@ -188,9 +199,9 @@ def main():
     for size in SIZES:
         result["%dx%d" % size] = frames(source, array, nc, size)
         print("RESULT " + json.dumps({"size": size, **result["%dx%d" % size]}), flush=True)
-    for limit in (60.0, 0.0):
-        key = "training_share" if limit else "training_share_unpaced"
-        result[key] = training_share(source, array, SIZES[-1], 1.0 if a.small else 3.0, limit)
+    shares = training_share(source, array, SIZES[-1], 1.0 if a.small else 3.0)
+    result["training_share"], result["training_share_unpaced"] = shares[60.0], shares[0.0]
+    for key in ("training_share", "training_share_unpaced"):
         print("RESULT " + json.dumps(result[key]), flush=True)
     with open(a.out, "w") as f:
         json.dump(result, f, indent=1)
