@@ -229,6 +229,12 @@ bool vtkNeuralVolumeMapper::UpdateSession(vtkImageData* image)
 void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 {
   vtkInternals& in = *this->Internals;
+  const bool interactive =
+    ren && ren->GetRenderWindow() && ren->GetRenderWindow()->GetDesiredUpdateRate() > 1.0 && !ren->GetSelector();
+  if (interactive)
+  {
+    this->PaceInteractiveFrame(); // before the frame's clock: LastFrameTimings is the frame's work, not the wait
+  }
   const auto frameStart = std::chrono::steady_clock::now();
   std::fill(in.Timings, in.Timings + FrameTimingCount, 0.0);
   // Hardware selection passes draw ids, not colours: the volume takes no part in them.
@@ -247,11 +253,6 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
   }
   try
   {
-    const bool interactive = ren->GetRenderWindow()->GetDesiredUpdateRate() > 1.0;
-    if (interactive)
-    {
-      this->PaceInteractiveFrame();
-    }
     int vw = 0, vh = 0, vx = 0, vy = 0;
     ren->GetTiledSizeAndOrigin(&vw, &vh, &vx, &vy);
     if (vw < 1 || vh < 1)
