@@ -95,8 +95,12 @@ struct RenderRequest
                                   ///< its peak (path tracing; 0.1..90: a sharp sun .. the lit hemisphere)
   double anisotropy = 0.0;        ///< Henyey-Greenstein g of the phase function (path tracing), in (-1, 1)
   int maxBounces = 4;             ///< scattering events per path (path tracing)
-  int samplesPerPixel = 1;        ///< paths per pixel per render (path tracing)
+  int samplesPerPixel = 1;        ///< paths per pixel per render (path tracing; an accumulation continues when it
+                                  ///< changes)
   bool accumulate = true;         ///< path tracing: average with the previous renders while the request is unchanged
+  bool denoise = false;           ///< path tracing: the image handed out is the accumulation denoised, guided by the
+                                  ///< ray-marched picture of the same request (Core/Denoise.h; the accumulation
+                                  ///< itself stays unfiltered; not in the image key)
   int streamingSamples = 0;       ///< K of Sample Streaming: samples a ray advances per wavefront; 0 = default
   bool emptySpaceSkipping = true; ///< macrocells x opacity: skip empty space (ray marching), local majorants (tracking)
   double terminationOpacity = 0.99; ///< early ray termination (>= 1: off)
@@ -121,6 +125,10 @@ struct RenderStats
                                 ///< exit, no skipping); ray-marching modes only
   int64_t wavefronts = 0;       ///< Sample Streaming: batches inferred
   int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
+  int64_t accumulatedPaths = 0; ///< path tracing: paths per pixel averaged into this image
+  bool denoised = false;        ///< path tracing: the image is the denoised accumulation (request.denoise)
+  double guideMilliseconds = 0.0;   ///< request.denoise: rendering the guide (once per picture; 0 when cached)
+  double denoiseMilliseconds = 0.0; ///< request.denoise: filtering the image
   bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
   bool cancelled = false;       ///< request.control->cancel stopped the render: rgba is empty, nothing was cached or
                                 ///< accumulated (render again to get the picture)

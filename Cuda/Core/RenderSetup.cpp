@@ -261,7 +261,8 @@ uint64_t renderKey(const RenderRequest& q)
   h.add(q.sunAngle);
   h.add(q.anisotropy);
   h.add(q.maxBounces);
-  h.add(q.samplesPerPixel);
+  if (!q.accumulate) // an accumulation continues with any number of paths per render
+    h.add(q.samplesPerPixel);
   h.add(q.streamingSamples);
   h.add(q.emptySpaceSkipping);
   h.add(q.terminationOpacity);

@@ -109,8 +109,7 @@ void CpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   }
   catch (const std::bad_alloc&)
   {
-    Accum.clear();
-    AccumFrames = 0;
+    resetAccumulation();
     NV_THROW("out of memory rendering a " + std::to_string(q.width) + " x " + std::to_string(q.height) + " image (" +
       renderPathName(q.path) + ", " + shadingModeName(q.shading) + ")");
   }
@@ -129,6 +128,7 @@ struct CpuRenderer::Frame
   uint64_t key = 0;           ///< the picture's key: the setup's, the network version, the lattice
   size_t values = 0;          ///< floats of the image (width * height * 4)
   int spp = 1;
+  bool denoise = false;       ///< path tracing with request.denoise: the image handed out is filtered
   std::vector<float> local;   ///< the image of a render that does not accumulate
   float* target = nullptr;    ///< where the trace adds its paths: `local` or the accumulation
   TraceCounters counters;
@@ -191,10 +191,52 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
     return;
   }
 
-  // 3. Where the paths go; 4. trace; 5. the image.
+  // 3. The denoiser's guide (path tracing, once per picture); 4. where the paths go; 5. trace; 6. the image.
+  f.denoise = f.pathTrace && q.denoise;
+  if (f.denoise && !prepareGuide(model, version, q, f))
+  {
+    setCancelled(out, q.path);
+    return;
+  }
   chooseTarget(q, f);
   trace(model, version, q, f);
-  finishImage(f, out);
+  finishImage(q, f, out);
+}
+
+void CpuRenderer::resetAccumulation()
+{
+  Accum.clear();
+  Moments.clear();
+  AccumFrames = 0;
+  AccumPaths = 0;
+}
+
+bool CpuRenderer::prepareGuide(const Model& model, uint64_t version, const RenderRequest& q, Frame& f)
+{
+  if (GuideKey == f.key && Guide.size() == f.values)
+    return true;
+  const Clock::time_point t0 = Clock::now();
+  // The emission-absorption picture of the same request and field: noise-free, the denoiser's colour and alpha.
+  RenderRequest gq = q;
+  gq.shading = ShadingMode::RayMarch;
+  gq.blend = BlendMode::Composite;
+  gq.samplesPerPixel = 1;
+  gq.accumulate = false;
+  gq.denoise = false;
+  Frame g{ makeRenderSetup(gq, model.source) };
+  g.grid = f.grid;
+  g.lattice = f.lattice;
+  g.values = f.values;
+  bindField(gq, g);
+  chooseTarget(gq, g);
+  trace(model, version, gq, g);
+  bindField(q, f); // the path tracer's majorants again (the same unless the tables differ)
+  if (g.counters.cancelled)
+    return false;
+  Guide.swap(g.local);
+  GuideKey = f.key;
+  f.stats.guideMilliseconds = millis(t0, Clock::now());
+  return true;
 }
 
 bool CpuRenderer::prepareField(const Model& model, uint64_t version, const RenderRequest& q, Frame& f)
@@ -202,7 +244,6 @@ bool CpuRenderer::prepareField(const Model& model, uint64_t version, const Rende
   // The grid itself for Decode (exact ranges), a lattice of the network otherwise (ranges widened by network probes
   // inside each cell).
   RenderSetup& setup = f.setup;
-  ray::Params& P = setup.params;
   if (q.path == RenderPath::Decode)
   {
     if (q.grid)
@@ -234,30 +275,39 @@ bool CpuRenderer::prepareField(const Model& model, uint64_t version, const Rende
     else
       Cells.updateRanges(Pool, setup.cells, lattice.values.data(), lattice.dims, lattice.id, kNetworkRangeMargin);
   }
+  bindField(q, f);
+  return true;
+}
+
+void CpuRenderer::bindField(const RenderRequest& q, Frame& f)
+{
+  ray::Params& P = f.setup.params;
   if (P.occupancy)
     Cells.setEmptyCells(P.occupancy, P.background);
-  Cells.updateMajorants(Pool, setup.table.data(), P.tfSize, P.tfScale, P.tfShift, setup.tableKey);
-  P.tf = setup.table.data();
+  Cells.updateMajorants(Pool, f.setup.table.data(), P.tfSize, P.tfScale, P.tfShift, f.setup.tableKey);
+  P.tf = f.setup.table.data();
   P.majorant = Cells.majorants();
   P.maxMajorant = Cells.maxMajorant();
   P.depth = q.depth;
-  return true;
 }
 
 void CpuRenderer::chooseTarget(const RenderRequest& q, Frame& f)
 {
   // Path tracing continues the accumulation while nothing changed; every path has its own frame index.
-  int frame = 0;
+  int64_t frame = 0;
   f.spp = f.pathTrace ? q.samplesPerPixel : 1;
   if (f.pathTrace)
   {
     if (!(q.accumulate && f.key == AccumKey && Accum.size() == f.values && AccumFrames > 0))
     {
       Accum.assign(f.values, 0.0f);
+      Moments.assign(f.values / 4, 0.0f);
       AccumFrames = 0;
+      AccumPaths = 0;
       AccumKey = f.key;
     }
-    frame = AccumFrames;
+    frame = AccumPaths;
+    FrameStart = Accum; // the frame's own sums are the difference (the denoiser's moments)
     f.target = Accum.data();
   }
   else
@@ -266,7 +316,7 @@ void CpuRenderer::chooseTarget(const RenderRequest& q, Frame& f)
     f.target = f.local.data();
   }
   // path s of this render: P.frame + s
-  f.setup.params.frame = static_cast<uint32_t>(frame) * static_cast<uint32_t>(f.spp);
+  f.setup.params.frame = static_cast<uint32_t>(frame);
 }
 
 void CpuRenderer::trace(const Model& model, uint64_t version, const RenderRequest& q, Frame& f)
@@ -301,15 +351,14 @@ void CpuRenderer::trace(const Model& model, uint64_t version, const RenderReques
   catch (...)
   {
     // A partial frame would corrupt the accumulation: start over next time.
-    Accum.clear();
-    AccumFrames = 0;
+    resetAccumulation();
     throw;
   }
   f.stats.rays = static_cast<int64_t>(q.width) * q.height * f.spp;
   f.stats.samplesEvaluated = f.counters.evaluated;
 }
 
-void CpuRenderer::finishImage(Frame& f, RenderResult& out)
+void CpuRenderer::finishImage(const RenderRequest& q, Frame& f, RenderResult& out)
 {
   RenderStats& st = f.stats;
   const TraceCounters& c = f.counters;
@@ -317,10 +366,7 @@ void CpuRenderer::finishImage(Frame& f, RenderResult& out)
   {
     // Stopped by the caller: nothing is cached, a partial path-tracing frame is not averaged in.
     if (f.pathTrace)
-    {
-      Accum.clear();
-      AccumFrames = 0;
-    }
+      resetAccumulation();
     st.cancelled = true;
     st.wavefronts = c.wavefronts;
     st.renderMilliseconds = millis(f.fieldReady, Clock::now());
@@ -332,14 +378,7 @@ void CpuRenderer::finishImage(Frame& f, RenderResult& out)
   st.samplesPlain = f.pathTrace ? 0 : c.plain;
   st.wavefronts = c.wavefronts;
   if (f.pathTrace)
-  {
-    ++AccumFrames;
-    st.accumulatedFrames = AccumFrames;
-    const float inv = 1.0f / (static_cast<float>(AccumFrames) * static_cast<float>(f.spp));
-    out.rgba.resize(f.values);
-    for (size_t i = 0; i < f.values; ++i)
-      out.rgba[i] = Accum[i] * inv;
-  }
+    resolveAccumulation(q, f, out);
   else
   {
     out.rgba.swap(f.local);
@@ -353,6 +392,38 @@ void CpuRenderer::finishImage(Frame& f, RenderResult& out)
     ImageKey = f.key;
     ImageStats = st;
   }
+}
+
+void CpuRenderer::resolveAccumulation(const RenderRequest& q, Frame& f, RenderResult& out)
+{
+  RenderStats& st = f.stats;
+  const int64_t pixels = static_cast<int64_t>(f.values / 4);
+  const float framePaths = static_cast<float>(f.spp);
+  Pool.parallelFor(pixels, [&](int64_t b, int64_t e, int) {
+    for (int64_t i = b; i < e; ++i)
+      denoise::addFrameMoment(&FrameStart[4 * i], &Accum[4 * i], framePaths, Moments[i]);
+  });
+  ++AccumFrames;
+  AccumPaths += f.spp;
+  st.accumulatedFrames = AccumFrames;
+  st.accumulatedPaths = AccumPaths;
+  const float inv = 1.0f / static_cast<float>(AccumPaths);
+  out.rgba.resize(f.values);
+  for (size_t i = 0; i < f.values; ++i)
+    out.rgba[i] = Accum[i] * inv;
+  if (!f.denoise)
+    return;
+  const Clock::time_point t0 = Clock::now();
+  DenoiseParams p;
+  p.width = q.width;
+  p.height = q.height;
+  p.frames = AccumFrames;
+  p.paths = static_cast<float>(AccumPaths);
+  Denoised.resize(f.values);
+  Denoiser.denoise(Pool, p, out.rgba.data(), Guide.data(), Moments.data(), Denoised.data());
+  out.rgba.swap(Denoised);
+  st.denoised = true;
+  st.denoiseMilliseconds = millis(t0, Clock::now());
 }
 
 } // namespace nv

@@ -10,6 +10,7 @@
 
 #include "Core/Model.h"
 #include "Core/Render.h"
+#include "CpuDenoiser.h"
 #include "CpuGridDecoder.h"
 #include "CpuHalfNetwork.h"
 #include "CpuMacrocells.h"
@@ -77,12 +78,20 @@ private:
   /// The field (Decode: the grid; network paths: the lattice) and its macrocells, ranges and majorants; the ray
   /// parameters' pointers. False when the request's control cancelled the lattice's decode.
   bool prepareField(const Model& model, uint64_t version, const RenderRequest& request, Frame& frame);
+  /// The ray parameters' pointers to the field's tables (transfer function, majorants, occupancy, depth).
+  void bindField(const RenderRequest& request, Frame& frame);
+  /// request.denoise: the ray-marched picture of the frame's request into Guide unless it has it (keyed on the
+  /// picture's key). False when the request's control cancelled it.
+  bool prepareGuide(const Model& model, uint64_t version, const RenderRequest& request, Frame& frame);
   /// Where the paths go: the path-tracing accumulation (continued or restarted), else a fresh image; params.frame.
   void chooseTarget(const RenderRequest& request, Frame& frame);
   /// The rays traced by the request's path (a failure restarts the accumulation).
   void trace(const Model& model, uint64_t version, const RenderRequest& request, Frame& frame);
   /// The result: no image when cancelled, else the averaged accumulation or the image (kept when deterministic).
-  void finishImage(Frame& frame, RenderResult& result);
+  void finishImage(const RenderRequest& request, Frame& frame, RenderResult& result);
+  /// Path tracing: the frame's moments, the averaged accumulation, denoised with request.denoise.
+  void resolveAccumulation(const RenderRequest& request, Frame& frame, RenderResult& result);
+  void resetAccumulation();
 
   ThreadPool& Pool;
   CpuRendererOptions Options;
@@ -100,10 +109,17 @@ private:
   std::shared_ptr<const DecodedGrid> Lattice; ///< network paths
   CpuHalfTable HalfTable;                     ///< In-Shader: the fp16 hash table
 
-  // Path-tracing accumulation.
-  std::vector<float> Accum;
+  // Path-tracing accumulation: the paths' sums, the second moments of the frames' luminance (the denoiser's
+  // variance), the sums before the frame in flight.
+  std::vector<float> Accum, Moments, FrameStart;
   uint64_t AccumKey = 0;
   int AccumFrames = 0;
+  int64_t AccumPaths = 0;
+
+  // The denoiser and its guide (the ray-marched picture of the accumulation's key).
+  CpuDenoiser Denoiser;
+  std::vector<float> Guide, Denoised;
+  uint64_t GuideKey = 0;
 
   // The last deterministic image.
   std::vector<float> Image;

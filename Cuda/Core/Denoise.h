@@ -1,0 +1,205 @@
+// NeuralVolume engine: the edge-aware denoiser of the accumulated path-tracing image (issue 24), per-pixel math
+// shared by the CPU loop (Cpu/CpuDenoiser.cpp) and the CUDA kernels (Gpu/GpuDenoiser.cu).
+//
+// The guide is a noise-free picture of the same scene: the emission-absorption ray-marched image of the same
+// request (premultiplied colour = the transfer function's colour x opacity, and alpha). The path-traced image is
+// that colour times the light the volume receives, so the denoiser
+//   1. demodulates: illumination = path-traced / guide, per channel (alpha too: the path tracer's coverage over the
+//      marched opacity), with a variance of its luminance per pixel -- the variance of the accumulated mean, from the
+//      frames' second moments (RenderRequest accumulation: every render adds a frame) or, with a single frame, the
+//      spatial variance of the 3 x 3 neighbourhood (SVGF's fallback);
+//   2. filters the illumination with `iterations` passes of the edge-avoiding a-trous wavelet (Dammertz et al. 2010,
+//      the 5 x 5 B3-spline kernel, step 1, 2, 4, ...), whose weights stop at edges of the guide's colour and alpha and
+//      at illumination differences large against the noise (SVGF, Schied et al. 2017: |l_p - l_q| / (sigma_l x the
+//      standard deviation of the noise)); the variance is filtered along (weights squared), so the filter weakens as
+//      samples accumulate and the noise falls;
+//   3. remodulates: illumination x guide.
+// Pixels the guide leaves empty (alpha <= floor) keep the path-traced value; a non-finite input pixel stays
+// non-finite in the output (never smoothed away) and is left out of its neighbours' sums.
+#pragma once
+
+#include "HostDevice.h"
+
+#include <cmath>
+#include <cstdint>
+
+namespace nv
+{
+
+struct DenoiseParams
+{
+  int width = 0;
+  int height = 0;
+  int frames = 1;              ///< renders accumulated (each added one frame of moments)
+  float paths = 1.0f;          ///< paths per pixel accumulated in all
+  int iterations = 5;          ///< a-trous passes (footprint 4 x 2^iterations + 1 pixels)
+  float sigmaGuide = 0.05f;    ///< guide colour / alpha distance at which a tap's weight falls to 1/e
+  float sigmaLuminance = 4.0f; ///< illumination difference, in standard deviations of the noise, at 1/e
+  float albedoFloor = 1e-3f;   ///< guide values below this divide by it; guide alpha below it: an empty pixel
+};
+
+namespace denoise
+{
+
+NV_HD float luminance(float r, float g, float b)
+{
+  return 0.2126f * r + 0.7152f * g + 0.0722f * b;
+}
+
+NV_HD bool finiteValue(float v)
+{
+#if defined(__CUDA_ARCH__)
+  return isfinite(v);
+#else
+  return std::isfinite(v);
+#endif
+}
+
+NV_HD bool finite4(const float* v)
+{
+  return finiteValue(v[0]) && finiteValue(v[1]) && finiteValue(v[2]) && finiteValue(v[3]);
+}
+
+/// After a frame of `framePaths` paths: the accumulation's sums went from `before` to `after` (rgba of one pixel);
+/// moments += framePaths x luminance(frame mean)^2.
+NV_HD void addFrameMoment(const float* before, const float* after, float framePaths, float& moment)
+{
+  const float inv = 1.0f / framePaths;
+  const float l = luminance((after[0] - before[0]) * inv, (after[1] - before[1]) * inv, (after[2] - before[2]) * inv);
+  moment += framePaths * l * l;
+}
+
+/// The guide's value that the channel divides by.
+NV_HD float guideDivisor(const DenoiseParams& p, float guide)
+{
+  return guide > p.albedoFloor ? guide : p.albedoFloor;
+}
+
+/// Step 1, one pixel: illumination (4) and the variance of its luminance. `moment`: the pixel's accumulated second
+/// moment (used with frames >= 2; else the variance is left at -1 for spatialVariance). A pixel that does not take
+/// part (empty guide, non-finite input) gets a NaN illumination.
+NV_HD void demodulate(const DenoiseParams& p, const float* noisy, const float* guide, float moment, float* illum,
+  float& variance)
+{
+  if (!(guide[3] > p.albedoFloor) || !finite4(noisy))
+  {
+    illum[0] = illum[1] = illum[2] = illum[3] = NAN;
+    variance = 0.0f;
+    return;
+  }
+  for (int c = 0; c < 4; ++c)
+    illum[c] = noisy[c] / guideDivisor(p, guide[c]);
+  variance = -1.0f;
+  if (p.frames >= 2)
+  {
+    // sigma^2 of one path = (sum n_i m_i^2 - N mu^2) / (F - 1); the mean of N paths has sigma^2 / N.
+    const float mu = luminance(noisy[0], noisy[1], noisy[2]);
+    const float pathVar = fmaxf(0.0f, moment - p.paths * mu * mu) / float(p.frames - 1);
+    const float gl = luminance(guideDivisor(p, guide[0]), guideDivisor(p, guide[1]), guideDivisor(p, guide[2]));
+    variance = pathVar / p.paths / (gl * gl);
+    if (!finiteValue(variance))
+      variance = 0.0f;
+  }
+}
+
+/// Step 1b (a single frame), one pixel: the variance of the illumination's luminance over its 3 x 3 neighbourhood.
+NV_HD float spatialVariance(const DenoiseParams& p, int x, int y, const float* illum)
+{
+  float sum = 0.0f, sum2 = 0.0f, n = 0.0f;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+    {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qy < 0 || qx >= p.width || qy >= p.height)
+        continue;
+      const float* q = illum + 4 * (int64_t(qy) * p.width + qx);
+      if (!finiteValue(q[0]))
+        continue;
+      const float l = luminance(q[0], q[1], q[2]);
+      sum += l;
+      sum2 += l * l;
+      n += 1.0f;
+    }
+  return n > 1.0f ? fmaxf(0.0f, (sum2 - sum * sum / n) / (n - 1.0f)) : 0.0f;
+}
+
+/// The variance at (x, y) blurred by the 3 x 3 binomial kernel (the edge-stopping function's noise level).
+NV_HD float blurredVariance(const DenoiseParams& p, int x, int y, const float* variance)
+{
+  const float k[2] = { 0.25f, 0.125f };
+  float sum = 0.0f, wsum = 0.0f;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+    {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qy < 0 || qx >= p.width || qy >= p.height)
+        continue;
+      const float w = (dx == 0 ? 2.0f * k[0] : k[1]) * (dy == 0 ? 2.0f * k[0] : k[1]);
+      sum += w * variance[int64_t(qy) * p.width + qx];
+      wsum += w;
+    }
+  return sum / wsum;
+}
+
+/// Step 2, one pixel of one a-trous pass of step `step`: the filtered illumination and variance of (x, y).
+NV_HD void atrousPixel(const DenoiseParams& p, int x, int y, int step, const float* illum, const float* variance,
+  const float* guide, float* illumOut, float* varianceOut)
+{
+  const int64_t pixel = int64_t(y) * p.width + x;
+  const float* ip = illum + 4 * pixel;
+  if (!finiteValue(ip[0]))
+  {
+    for (int c = 0; c < 4; ++c)
+      illumOut[4 * pixel + c] = ip[c];
+    varianceOut[pixel] = variance[pixel];
+    return;
+  }
+  const float kernel[3] = { 0.375f, 0.25f, 0.0625f };
+  const float* gp = guide + 4 * pixel;
+  const float lp = luminance(ip[0], ip[1], ip[2]);
+  const float noise = p.sigmaLuminance * sqrtf(blurredVariance(p, x, y, variance)) + 1e-6f;
+  const float invGuide = 1.0f / (p.sigmaGuide * p.sigmaGuide);
+  float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
+  float wsum = 0.0f, vsum = 0.0f;
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx)
+    {
+      const int qx = x + dx * step, qy = y + dy * step;
+      if (qx < 0 || qy < 0 || qx >= p.width || qy >= p.height)
+        continue;
+      const int64_t q = int64_t(qy) * p.width + qx;
+      const float* iq = illum + 4 * q;
+      if (!finiteValue(iq[0]))
+        continue;
+      const float* gq = guide + 4 * q;
+      float dg = 0.0f;
+      for (int c = 0; c < 4; ++c)
+        dg += (gp[c] - gq[c]) * (gp[c] - gq[c]);
+      const float dl = fabsf(lp - luminance(iq[0], iq[1], iq[2]));
+      const float w = kernel[dx < 0 ? -dx : dx] * kernel[dy < 0 ? -dy : dy] * expf(-dg * invGuide - dl / noise);
+      for (int c = 0; c < 4; ++c)
+        sum[c] += w * iq[c];
+      wsum += w;
+      vsum += w * w * variance[q];
+    }
+  // The centre tap has weight kernel[0]^2 > 0: wsum > 0.
+  for (int c = 0; c < 4; ++c)
+    illumOut[4 * pixel + c] = sum[c] / wsum;
+  varianceOut[pixel] = vsum / (wsum * wsum);
+}
+
+/// Step 3, one pixel: the denoised value (illumination x guide); the path-traced value where the pixel took no part.
+NV_HD void remodulate(const DenoiseParams& p, const float* noisy, const float* guide, const float* illum, float* out)
+{
+  if (!(guide[3] > p.albedoFloor) || !finite4(noisy) || !finiteValue(illum[0]))
+  {
+    for (int c = 0; c < 4; ++c)
+      out[c] = noisy[c];
+    return;
+  }
+  for (int c = 0; c < 4; ++c)
+    out[c] = illum[c] * guideDivisor(p, guide[c]);
+}
+
+} // namespace denoise
+} // namespace nv

@@ -1,0 +1,63 @@
+#include "CpuDenoiser.h"
+
+#include "Core/Error.h"
+#include "ThreadPool.h"
+
+namespace nv
+{
+
+namespace
+{
+/// fn(x, y, pixel) for every pixel, rows split over the pool.
+template <typename Fn>
+void forEachPixel(ThreadPool& pool, const DenoiseParams& p, const Fn& fn)
+{
+  pool.parallelFor(p.height, [&](int64_t begin, int64_t end, int) {
+    for (int64_t y = begin; y < end; ++y)
+      for (int x = 0; x < p.width; ++x)
+        fn(x, static_cast<int>(y), y * p.width + x);
+  });
+}
+} // namespace
+
+void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float* noisy, const float* guide,
+  const float* moments, float* out)
+{
+  NV_CHECK(p.width > 0 && p.height > 0, "denoise: the image is empty");
+  NV_CHECK(p.iterations >= 0 && p.iterations <= 10, "denoise: 0..10 a-trous iterations");
+  NV_CHECK(p.frames < 2 || moments, "denoise: an accumulation of several frames needs its moments");
+  const size_t pixels = static_cast<size_t>(p.width) * static_cast<size_t>(p.height);
+  for (int b = 0; b < 2; ++b)
+  {
+    Illum[b].resize(4 * pixels);
+    Variance[b].resize(pixels);
+  }
+  float* illum = Illum[0].data();
+  float* variance = Variance[0].data();
+  forEachPixel(pool, p, [&](int, int, int64_t i) {
+    denoise::demodulate(p, noisy + 4 * i, guide + 4 * i, moments ? moments[i] : 0.0f, illum + 4 * i, variance[i]);
+  });
+  if (p.frames < 2)
+    forEachPixel(pool, p, [&](int x, int y, int64_t i) {
+      if (variance[i] < 0.0f)
+        variance[i] = denoise::spatialVariance(p, x, y, illum);
+    });
+  int cur = 0;
+  for (int it = 0; it < p.iterations; ++it)
+  {
+    const float* inI = Illum[cur].data();
+    const float* inV = Variance[cur].data();
+    float* outI = Illum[cur ^ 1].data();
+    float* outV = Variance[cur ^ 1].data();
+    forEachPixel(pool, p, [&](int x, int y, int64_t) {
+      denoise::atrousPixel(p, x, y, 1 << it, inI, inV, guide, outI, outV);
+    });
+    cur ^= 1;
+  }
+  const float* result = Illum[cur].data();
+  forEachPixel(pool, p, [&](int, int, int64_t i) {
+    denoise::remodulate(p, noisy + 4 * i, guide + 4 * i, result + 4 * i, out + 4 * i);
+  });
+}
+
+} // namespace nv
