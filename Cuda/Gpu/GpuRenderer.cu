@@ -108,7 +108,9 @@ int64_t GpuRenderer::deviceMemoryBytes() const
   size_t b = Tf.bytes() + Majorant.bytes() + Lattice.bytes() + GridLinear.bytes() + Depth.bytes() + Range.bytes() +
     Grid.bytes() + Image.bytes() + Accum.bytes() + Rays.bytes() + Counts.bytes() + Offsets.bytes() + Points.bytes() +
     Slots.bytes() +
-    Values.bytes() + ScanTemp.bytes() + Active[0].bytes() + Active[1].bytes();
+    Values.bytes() + ScanTemp.bytes() + Active[0].bytes() + Active[1].bytes() + FrameStart.bytes() + Guide.bytes() +
+    Moments.bytes();
+  b += static_cast<size_t>(Denoiser.deviceMemoryBytes());
   return static_cast<int64_t>(b);
 }
 
@@ -383,6 +385,51 @@ void GpuRenderer::traceSamples(const RenderRequest& q, const RenderSetup& s, ray
   }
 }
 
+void GpuRenderer::prepareGuide(const Model& model, uint64_t version, const RenderRequest& q, uint64_t accumKey,
+  RenderStats& st)
+{
+  if (GuideKey == accumKey && Guide.size() == size_t(Pixels))
+    return;
+  const auto t0 = std::chrono::steady_clock::now();
+  // The emission-absorption picture of the same request: noise-free, the denoiser's colour and alpha.
+  RenderRequest gq = q;
+  gq.shading = ShadingMode::RayMarch;
+  gq.blend = BlendMode::Composite;
+  gq.samplesPerPixel = 1;
+  gq.accumulate = false;
+  gq.denoise = false;
+  const RenderSetup gs = makeRenderSetup(gq, model.source);
+  ray::Params GP = gs.params;
+  prepareScene(model, version, gq, gs, GP);
+  RenderStats ignored;
+  traceSamples(gq, gs, GP, 1, nullptr, ignored);
+  if (Guide.size() != size_t(Pixels))
+    Guide.allocate(size_t(Pixels), "denoiser guide");
+  NV_CUDA(cudaMemcpyAsync(Guide.get(), Image.get(), Guide.bytes(), cudaMemcpyDeviceToDevice, RenderStream));
+  NV_CUDA(cudaStreamSynchronize(RenderStream));
+  GuideKey = accumKey;
+  ImageKey = 0; // Image no longer holds the cached ray-marched picture
+  st.guideMilliseconds = since(t0);
+}
+
+void GpuRenderer::resolveAccumulation(const RenderRequest& q, int spp, RenderStats& st)
+{
+  Denoiser.addFrameMoments(FrameStart.get(), Accum.get(), Pixels, float(spp), Moments.get(), RenderStream);
+  ++Frames;
+  Paths += spp;
+  resolveKernel<<<gridFor(Pixels), 256, 0, RenderStream>>>(Accum.get(), Pixels, 1.0f / float(Paths), Image.get());
+  NV_CUDA_LAUNCH();
+  if (!q.denoise)
+    return;
+  DenoiseParams p;
+  p.width = q.width;
+  p.height = q.height;
+  p.frames = Frames;
+  p.paths = float(Paths);
+  Denoiser.denoise(p, Image.get(), Guide.get(), Moments.get(), Image.get(), RenderStream);
+  st.denoised = true;
+}
+
 void GpuRenderer::renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
   uint64_t imageKey, RenderStats& st)
 {
@@ -399,22 +446,33 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
     AccumKey = 0;
     ImageKey = 0;
   }
+  const uint64_t key = mixKey(imageKey, 0x5A17ull);
+  if (pt && q.denoise)
+    prepareGuide(model, version, q, key, st);
   // Decoding and macrocell work is timed to its end; a frame that only turns the camera waits for nothing here.
   if (prepareScene(model, version, q, s, P))
     NV_CUDA(cudaStreamSynchronize(RenderStream));
-  st.decodeMilliseconds = since(t0);
+  st.decodeMilliseconds = since(t0) - st.guideMilliseconds;
 
   float4* accum = nullptr;
   if (pt)
   {
-    const uint64_t key = mixKey(imageKey, 0x5A17ull);
+    if (FrameStart.size() != size_t(pixels))
+    {
+      FrameStart.allocate(size_t(pixels), "accumulation frame start");
+      Moments.allocate(size_t(pixels), "accumulation moments");
+      AccumKey = 0;
+    }
     if (!q.accumulate || key != AccumKey)
     {
       NV_CUDA(cudaMemsetAsync(Accum.get(), 0, Accum.bytes(), RenderStream));
+      NV_CUDA(cudaMemsetAsync(Moments.get(), 0, Moments.bytes(), RenderStream));
       Frames = 0;
+      Paths = 0;
       AccumKey = key;
     }
-    P.frame = static_cast<uint32_t>(Frames * spp);
+    NV_CUDA(cudaMemcpyAsync(FrameStart.get(), Accum.get(), Accum.bytes(), cudaMemcpyDeviceToDevice, RenderStream));
+    P.frame = static_cast<uint32_t>(Paths);
     accum = Accum.get();
   }
   RenderCounters* c = Counters.get();
@@ -423,10 +481,8 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   traceSamples(q, s, P, spp, accum, st);
   if (pt)
   {
-    ++Frames;
-    resolveKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(Accum.get(), pixels, 1.0f / float(Frames * spp),
-      Image.get());
-    NV_CUDA_LAUNCH();
+    NV_CUDA(cudaEventRecord(Traced.get(), RenderStream));
+    resolveAccumulation(q, spp, st);
   }
   NV_CUDA(cudaEventRecord(End.get(), RenderStream));
   NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
@@ -434,9 +490,16 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   float ms = 0.0f;
   NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
   st.renderMilliseconds = ms;
+  if (st.denoised)
+  {
+    float denoiseMs = 0.0f;
+    NV_CUDA(cudaEventElapsedTime(&denoiseMs, Traced.get(), End.get()));
+    st.denoiseMilliseconds = denoiseMs;
+  }
   st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
   st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
   st.accumulatedFrames = pt ? Frames : 0;
+  st.accumulatedPaths = pt ? Paths : 0;
 }
 
 void GpuRenderer::render(const Model& model, uint64_t version, const RenderRequest& q, RenderResult& result,
@@ -465,6 +528,8 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
       ImageKey = imageKey;
       ImageStats = st;
     }
+    else
+      ImageKey = 0; // Image holds the path-traced picture now
   }
 
   if (where == Memory::Device)

@@ -6,6 +6,7 @@
 
 #include "Core/Render.h"
 #include "Core/RenderSetup.h"
+#include "GpuDenoiser.cuh"
 #include "GpuInternal.cuh"
 #include "GpuRenderCommon.cuh"
 
@@ -70,6 +71,10 @@ private:
   bool prepareScene(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
     ray::Params& P);
   bool uploadMasks(const Model& model, uint64_t version, ray::Params& P);
+  /// request.denoise: the ray-marched picture of the request into Guide unless it has the one of `accumKey`.
+  void prepareGuide(const Model& model, uint64_t version, const RenderRequest& q, uint64_t accumKey, RenderStats& st);
+  /// Path tracing after the frame's paths: its moments, the average into Image, denoised with request.denoise.
+  void resolveAccumulation(const RenderRequest& q, int spp, RenderStats& st);
   void traceSamples(const RenderRequest& q, const RenderSetup& s, ray::Params& P, int spp, float4* accum,
     RenderStats& st);
   // Each returns whether it had work to do (its inputs changed).
@@ -101,6 +106,13 @@ private:
   int64_t Pixels = 0;
   uint64_t AccumKey = 0;     ///< request key + version + path of the accumulated image
   int Frames = 0;
+  int64_t Paths = 0;         ///< paths per pixel in Accum
+  // The denoiser: the accumulation's sums before the frame in flight and its second moments, the guide (the
+  // ray-marched picture of GuideKey's accumulation).
+  GpuDenoiser Denoiser;
+  DeviceBuffer<float4> FrameStart, Guide;
+  DeviceBuffer<float> Moments;
+  uint64_t GuideKey = 0;
   uint64_t ImageKey = 0;     ///< ray marching: key of the image in Image (0: none)
   RenderStats ImageStats;
   DeviceBuffer<RenderCounters> Counters;
@@ -111,7 +123,7 @@ private:
   DeviceBuffer<float> Slots, Points, Values;
   DeviceBuffer<unsigned char> ScanTemp;
   PinnedBuffer<uint32_t> HostScalars;
-  Event Begin, End;
+  Event Begin, End, Traced; ///< Traced: the frame's paths done (the denoiser's time runs from it to End)
 };
 
 } // namespace gpu

@@ -1,0 +1,116 @@
+#include "GpuDenoiser.cuh"
+
+#include "Core/Error.h"
+#include "GpuInternal.cuh"
+
+namespace nv
+{
+namespace gpu
+{
+
+namespace
+{
+const float* floats(const float4* p)
+{
+  return reinterpret_cast<const float*>(p);
+}
+
+float* floats(float4* p)
+{
+  return reinterpret_cast<float*>(p);
+}
+
+__global__ void frameMomentKernel(const float4* __restrict__ before, const float4* __restrict__ after, int64_t n,
+  float framePaths, float* __restrict__ moments)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+  {
+    const float4 b = before[i], a = after[i];
+    const float bv[4] = { b.x, b.y, b.z, b.w }, av[4] = { a.x, a.y, a.z, a.w };
+    denoise::addFrameMoment(bv, av, framePaths, moments[i]);
+  }
+}
+
+__global__ void demodulateKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ guide,
+  const float* __restrict__ moments, float* __restrict__ illum, float* __restrict__ variance)
+{
+  const int64_t n = int64_t(p.width) * p.height;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    denoise::demodulate(p, noisy + 4 * i, guide + 4 * i, moments ? moments[i] : 0.0f, illum + 4 * i, variance[i]);
+}
+
+__global__ void spatialVarianceKernel(DenoiseParams p, const float* __restrict__ illum, float* __restrict__ variance)
+{
+  const int64_t n = int64_t(p.width) * p.height;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    if (variance[i] < 0.0f)
+      variance[i] = denoise::spatialVariance(p, int(i % p.width), int(i / p.width), illum);
+}
+
+__global__ void atrousKernel(DenoiseParams p, int step, const float* __restrict__ illum,
+  const float* __restrict__ variance, const float* __restrict__ guide, float* __restrict__ illumOut,
+  float* __restrict__ varianceOut)
+{
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < p.width && y < p.height)
+    denoise::atrousPixel(p, x, y, step, illum, variance, guide, illumOut, varianceOut);
+}
+
+__global__ void remodulateKernel(DenoiseParams p, const float* noisy, const float* __restrict__ guide,
+  const float* __restrict__ illum, float* out)
+{
+  const int64_t n = int64_t(p.width) * p.height;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    denoise::remodulate(p, noisy + 4 * i, guide + 4 * i, illum + 4 * i, out + 4 * i);
+}
+} // namespace
+
+void GpuDenoiser::addFrameMoments(const float4* before, const float4* after, int64_t pixels, float framePaths,
+  float* moments, cudaStream_t stream)
+{
+  frameMomentKernel<<<gridFor(pixels), 256, 0, stream>>>(before, after, pixels, framePaths, moments);
+  NV_CUDA_LAUNCH();
+}
+
+void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const float4* guide, const float* moments,
+  float4* out, cudaStream_t stream)
+{
+  NV_CHECK(p.width > 0 && p.height > 0, "denoise: the image is empty");
+  NV_CHECK(p.iterations >= 0 && p.iterations <= 10, "denoise: 0..10 a-trous iterations");
+  NV_CHECK(p.frames < 2 || moments, "denoise: an accumulation of several frames needs its moments");
+  const int64_t pixels = int64_t(p.width) * p.height;
+  for (int b = 0; b < 2; ++b)
+    if (Illum[b].size() < size_t(pixels))
+    {
+      Illum[b].allocate(size_t(pixels), "denoiser illumination");
+      Variance[b].allocate(size_t(pixels), "denoiser variance");
+    }
+  demodulateKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), floats(guide), p.frames >= 2 ? moments :
+    nullptr, floats(Illum[0].get()), Variance[0].get());
+  NV_CUDA_LAUNCH();
+  if (p.frames < 2)
+  {
+    spatialVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(Illum[0].get()), Variance[0].get());
+    NV_CUDA_LAUNCH();
+  }
+  const dim3 block(16, 16), grid((p.width + 15) / 16, (p.height + 15) / 16);
+  int cur = 0;
+  for (int it = 0; it < p.iterations; ++it)
+  {
+    atrousKernel<<<grid, block, 0, stream>>>(p, 1 << it, floats(Illum[cur].get()), Variance[cur].get(),
+      floats(guide), floats(Illum[cur ^ 1].get()), Variance[cur ^ 1].get());
+    NV_CUDA_LAUNCH();
+    cur ^= 1;
+  }
+  remodulateKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), floats(guide), floats(Illum[cur].get()),
+    floats(out));
+  NV_CUDA_LAUNCH();
+}
+
+int64_t GpuDenoiser::deviceMemoryBytes() const
+{
+  return static_cast<int64_t>(Illum[0].bytes() + Illum[1].bytes() + Variance[0].bytes() + Variance[1].bytes());
+}
+
+} // namespace gpu
+} // namespace nv
