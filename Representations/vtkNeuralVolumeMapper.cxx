@@ -68,6 +68,10 @@ int vtkNeuralVolumeMapper::GetLastAccumulatedFrames() const
 {
   return this->Internals->Stats.accumulatedFrames;
 }
+int vtkNeuralVolumeMapper::GetLastAccumulatedPaths() const
+{
+  return static_cast<int>(this->Internals->Stats.accumulatedPaths);
+}
 void vtkNeuralVolumeMapper::GetLastImageSize(int size[2]) const
 {
   size[0] = this->Internals->Size[0];
@@ -363,7 +367,7 @@ void vtkNeuralVolumeMapper::RenderBlocking(
   in.ImageLevels = 1;
   in.ImageFinal = true;
   in.Progress = 1.0;
-  auto accumulated = [&]() { return static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel; };
+  auto accumulated = [&]() { return in.Stats.accumulatedPaths; };
   const bool same = in.HaveImage && key == in.Key;
   // A new picture; or the same one whose refined decode grid may be ready (else the engine returns the same image);
   // or one more path-tracing frame into the average.
@@ -398,10 +402,14 @@ void vtkNeuralVolumeMapper::RenderOnce(vtkRenderer* ren, const nv::RenderRequest
 
 void vtkNeuralVolumeMapper::FinishStillPicture(vtkRenderer* ren, const nv::RenderRequest& q, uint64_t key)
 {
-  // A still render returns the final picture: wait for the refined grid, accumulate to the target.
+  // A still render returns the final picture: wait for the refined grid, accumulate to the target. Each path-tracing
+  // render traces as many paths per pixel as the accumulation holds already (1, 1, 2, 4, ... up to the target: 7
+  // engine calls for 64 paths instead of 64; the accumulation continues across paths per render, and the denoiser's
+  // variance sees every render as a frame).
   vtkInternals& in = *this->Internals;
   const bool pathTracing = static_cast<int>(q.shading) >= PATH_TRACING;
   const auto waitStart = std::chrono::steady_clock::now();
+  nv::RenderRequest next = q;
   for (int guard = 0; guard < (1 << 24); ++guard)
   {
     if (in.Stats.decodePending)
@@ -420,12 +428,17 @@ void vtkNeuralVolumeMapper::FinishStillPicture(vtkRenderer* ren, const nv::Rende
       }
       std::this_thread::sleep_for(kDecodePoll);
     }
-    else if (!pathTracing ||
-      static_cast<int64_t>(in.Stats.accumulatedFrames) * q.samplesPerPixel >= this->TargetSamples)
+    else if (!pathTracing || in.Stats.accumulatedPaths >= this->TargetSamples)
     {
       break;
     }
-    this->RenderOnce(ren, q, key);
+    else
+    {
+      const int64_t remaining = this->TargetSamples - in.Stats.accumulatedPaths;
+      const int64_t paths = std::max<int64_t>(q.samplesPerPixel, in.Stats.accumulatedPaths);
+      next.samplesPerPixel = static_cast<int>(std::min<int64_t>({ remaining, paths, 4096 }));
+    }
+    this->RenderOnce(ren, next, key);
   }
 }
 
@@ -535,6 +548,7 @@ void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "SamplesPerPixel: " << this->SamplesPerPixel << "\n"
      << indent << "MaxBounces: " << this->MaxBounces << "\n"
      << indent << "TargetSamples: " << this->TargetSamples << "\n"
+     << indent << "Denoise: " << this->Denoise << "\n"
      << indent << "FollowViewLight: " << this->FollowViewLight << "\n"
      << indent << "LightDirection: " << this->LightDirection[0] << " " << this->LightDirection[1] << " "
      << this->LightDirection[2] << "\n"

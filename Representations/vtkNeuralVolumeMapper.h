@@ -123,6 +123,14 @@ public:
   ///@}
 
   ///@{
+  /// Path tracing: hand out the accumulation denoised (nv::RenderRequest::denoise: an edge-avoiding filter guided by
+  /// the ray-marched picture of the same view; the accumulation itself stays unfiltered). On by default.
+  vtkSetMacro(Denoise, bool);
+  vtkGetMacro(Denoise, bool);
+  vtkBooleanMacro(Denoise, bool);
+  ///@}
+
+  ///@{
   /// The light: the view's key light (FollowViewLight on, the default) or LightDirection (world
   /// space, towards the light).
   vtkSetMacro(FollowViewLight, bool);
@@ -200,6 +208,7 @@ public:
   double GetLastSamplesPlain() const;
   double GetLastWavefronts() const;
   int GetLastAccumulatedFrames() const;
+  int GetLastAccumulatedPaths() const; ///< paths per pixel in the last path-traced image (frames x their paths)
   void GetLastImageSize(int size[2]) const;
   bool GetLastDecodePending() const;
   double GetLastRenderMilliseconds() const;
@@ -255,6 +264,7 @@ protected:
   int SamplesPerPixel = 1;
   int MaxBounces = 4;
   int TargetSamples = 64;
+  bool Denoise = true;
   bool FollowViewLight = true;
   double LightDirection[3] = { 0.0, 0.0, 1.0 };
   bool EmptySpaceSkipping = true;

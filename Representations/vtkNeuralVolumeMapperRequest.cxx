@@ -122,6 +122,7 @@ void vtkNeuralVolumeMapper::RequestShading(
   q.maxBounces = this->MaxBounces;
   q.samplesPerPixel = interactive ? 1 : this->SamplesPerPixel;
   q.accumulate = true;
+  q.denoise = this->Denoise;
   q.streamingSamples = this->StreamingSamples;
   q.emptySpaceSkipping = this->EmptySpaceSkipping;
 }

@@ -64,6 +64,10 @@ void vtkNeuralVolumeRepresentation::SetTargetSamples(int spp)
 {
   this->NeuralMapper->SetTargetSamples(spp);
 }
+void vtkNeuralVolumeRepresentation::SetDenoise(int denoise)
+{
+  this->NeuralMapper->SetDenoise(denoise != 0);
+}
 void vtkNeuralVolumeRepresentation::SetFollowViewLight(int follow)
 {
   this->NeuralMapper->SetFollowViewLight(follow != 0);
@@ -118,6 +122,10 @@ double vtkNeuralVolumeRepresentation::GetLastWavefronts()
 int vtkNeuralVolumeRepresentation::GetLastAccumulatedFrames()
 {
   return this->NeuralMapper->GetLastAccumulatedFrames();
+}
+int vtkNeuralVolumeRepresentation::GetLastAccumulatedPaths()
+{
+  return this->NeuralMapper->GetLastAccumulatedPaths();
 }
 int* vtkNeuralVolumeRepresentation::GetLastImageSize()
 {

@@ -38,6 +38,7 @@ public:
   void SetSamplesPerPixel(int spp);
   void SetMaxBounces(int bounces);
   void SetTargetSamples(int spp);
+  void SetDenoise(int denoise);
   void SetFollowViewLight(int follow);
   void SetLightDirection(double x, double y, double z);
   void SetEmptySpaceSkipping(int skip);
@@ -55,6 +56,7 @@ public:
   double GetLastSamplesPlain();
   double GetLastWavefronts();
   int GetLastAccumulatedFrames();
+  int GetLastAccumulatedPaths();
   int* GetLastImageSize() VTK_SIZEHINT(2);
   double GetLastRenderMilliseconds();
   double* GetLastFrameTimings() VTK_SIZEHINT(8);

@@ -13,7 +13,14 @@
 //      at illumination differences large against the noise (SVGF, Schied et al. 2017: |l_p - l_q| / (sigma_l x the
 //      standard deviation of the noise)); the variance is filtered along (weights squared), so the filter weakens as
 //      samples accumulate and the noise falls;
-//   3. remodulates: illumination x guide.
+//   3. corrects the filter's bias: it adds back the local (3 x 3) mean of raw - filtered illumination, shrunk by
+//      max(0, 1 - rawBlend x variance / (9 x mean difference^2)) (positive-part James-Stein): with few paths the mean
+//      difference is noise and little is added, with many the noise is small and what is left is the filter's bias
+//      (a blurred shadow edge, a gradient's curvature), which goes back in -- denoising then does not increase the
+//      error at high paths per pixel (measured: Testing/Benchmarks/results/pt_convergence_2026-11-27.md);
+//      remodulates: illumination x guide.
+// Defaults chosen by measuring (the same file): the guide term is weak (sigmaGuide 1: demodulation does most of the
+// guide's work on smooth volumes), the luminance term SVGF's 4 standard deviations, 5 passes (129-pixel footprint).
 // Pixels the guide leaves empty (alpha <= floor) keep the path-traced value; a non-finite input pixel stays
 // non-finite in the output (never smoothed away) and is left out of its neighbours' sums.
 #pragma once
@@ -33,8 +40,9 @@ struct DenoiseParams
   int frames = 1;              ///< renders accumulated (each added one frame of moments)
   float paths = 1.0f;          ///< paths per pixel accumulated in all
   int iterations = 5;          ///< a-trous passes (footprint 4 x 2^iterations + 1 pixels)
-  float sigmaGuide = 0.05f;    ///< guide colour / alpha distance at which a tap's weight falls to 1/e
+  float sigmaGuide = 1.0f;     ///< guide colour / alpha distance at which a tap's weight falls to 1/e
   float sigmaLuminance = 4.0f; ///< illumination difference, in standard deviations of the noise, at 1/e
+  float rawBlend = 2.0f;       ///< the bias correction's shrinkage (step 3); <= 0: no correction
   float albedoFloor = 1e-3f;   ///< guide values below this divide by it; guide alpha below it: an empty pixel
 };
 
@@ -126,7 +134,7 @@ NV_HD float spatialVariance(const DenoiseParams& p, int x, int y, const float* i
 /// The variance at (x, y) blurred by the 3 x 3 binomial kernel (the edge-stopping function's noise level).
 NV_HD float blurredVariance(const DenoiseParams& p, int x, int y, const float* variance)
 {
-  const float k[2] = { 0.25f, 0.125f };
+  const float k[2] = { 0.5f, 0.25f }; // [1 2 1] / 4 per axis
   float sum = 0.0f, wsum = 0.0f;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx)
@@ -134,7 +142,7 @@ NV_HD float blurredVariance(const DenoiseParams& p, int x, int y, const float* v
       const int qx = x + dx, qy = y + dy;
       if (qx < 0 || qy < 0 || qx >= p.width || qy >= p.height)
         continue;
-      const float w = (dx == 0 ? 2.0f * k[0] : k[1]) * (dy == 0 ? 2.0f * k[0] : k[1]);
+      const float w = k[dx == 0 ? 0 : 1] * k[dy == 0 ? 0 : 1];
       sum += w * variance[int64_t(qy) * p.width + qx];
       wsum += w;
     }
@@ -188,17 +196,50 @@ NV_HD void atrousPixel(const DenoiseParams& p, int x, int y, int step, const flo
   varianceOut[pixel] = vsum / (wsum * wsum);
 }
 
-/// Step 3, one pixel: the denoised value (illumination x guide); the path-traced value where the pixel took no part.
-NV_HD void remodulate(const DenoiseParams& p, const float* noisy, const float* guide, const float* illum, float* out)
+/// Step 3, one pixel: the denoised value -- the filtered illumination plus the part of the local (3 x 3) mean
+/// difference raw - filtered that the noise does not explain, x the guide; the path-traced value where the pixel took
+/// no part. `noisy`, `guide`, `illum` (filtered) and `rawVariance` (the demodulated variance before filtering) are
+/// whole images; `out` may not be `noisy` (neighbours are read).
+NV_HD void remodulate(const DenoiseParams& p, int x, int y, const float* noisy, const float* guide, const float* illum,
+  const float* rawVariance, float* out)
 {
-  if (!(guide[3] > p.albedoFloor) || !finite4(noisy) || !finiteValue(illum[0]))
+  const int64_t pixel = int64_t(y) * p.width + x;
+  const float* n = noisy + 4 * pixel;
+  const float* g = guide + 4 * pixel;
+  const float* f = illum + 4 * pixel;
+  float* o = out + 4 * pixel;
+  if (!(g[3] > p.albedoFloor) || !finite4(n) || !finiteValue(f[0]))
   {
     for (int c = 0; c < 4; ++c)
-      out[c] = noisy[c];
+      o[c] = n[c];
     return;
   }
+  // The mean difference over the valid 3 x 3 neighbourhood: the filter's bias there plus noise of variance / count.
+  float diff[4] = { 0.0f, 0.0f, 0.0f, 0.0f }, count = 0.0f;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+    {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qy < 0 || qx >= p.width || qy >= p.height)
+        continue;
+      const int64_t q = int64_t(qy) * p.width + qx;
+      const float* nq = noisy + 4 * q;
+      const float* gq = guide + 4 * q;
+      const float* fq = illum + 4 * q;
+      if (!(gq[3] > p.albedoFloor) || !finite4(nq) || !finiteValue(fq[0]))
+        continue;
+      for (int c = 0; c < 4; ++c)
+        diff[c] += nq[c] / guideDivisor(p, gq[c]) - fq[c];
+      count += 1.0f;
+    }
   for (int c = 0; c < 4; ++c)
-    out[c] = illum[c] * guideDivisor(p, guide[c]);
+    diff[c] /= count; // count >= 1: the pixel itself
+  const float d = luminance(diff[0], diff[1], diff[2]);
+  float weight = 0.0f;
+  if (p.rawBlend > 0.0f && d * d > 0.0f)
+    weight = fmaxf(0.0f, 1.0f - p.rawBlend * blurredVariance(p, x, y, rawVariance) / (count * d * d));
+  for (int c = 0; c < 4; ++c)
+    o[c] = (f[c] + weight * diff[c]) * guideDivisor(p, g[c]);
 }
 
 } // namespace denoise

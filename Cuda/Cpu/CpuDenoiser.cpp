@@ -26,6 +26,7 @@ void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float*
   NV_CHECK(p.width > 0 && p.height > 0, "denoise: the image is empty");
   NV_CHECK(p.iterations >= 0 && p.iterations <= 10, "denoise: 0..10 a-trous iterations");
   NV_CHECK(p.frames < 2 || moments, "denoise: an accumulation of several frames needs its moments");
+  NV_CHECK(out != noisy && out != guide, "denoise: the output may not alias the inputs");
   const size_t pixels = static_cast<size_t>(p.width) * static_cast<size_t>(p.height);
   for (int b = 0; b < 2; ++b)
   {
@@ -42,6 +43,7 @@ void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float*
       if (variance[i] < 0.0f)
         variance[i] = denoise::spatialVariance(p, x, y, illum);
     });
+  RawVariance.assign(Variance[0].begin(), Variance[0].end());
   int cur = 0;
   for (int it = 0; it < p.iterations; ++it)
   {
@@ -55,8 +57,9 @@ void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float*
     cur ^= 1;
   }
   const float* result = Illum[cur].data();
-  forEachPixel(pool, p, [&](int, int, int64_t i) {
-    denoise::remodulate(p, noisy + 4 * i, guide + 4 * i, result + 4 * i, out + 4 * i);
+  const float* rawVariance = RawVariance.data();
+  forEachPixel(pool, p, [&](int x, int y, int64_t) {
+    denoise::remodulate(p, x, y, noisy, guide, result, rawVariance, out);
   });
 }
 

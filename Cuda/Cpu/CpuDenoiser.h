@@ -22,6 +22,7 @@ public:
 private:
   std::vector<float> Illum[2];
   std::vector<float> Variance[2];
+  std::vector<float> RawVariance; ///< the demodulated variance before filtering (the shrinkage towards the raw)
 };
 
 } // namespace nv

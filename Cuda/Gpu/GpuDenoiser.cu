@@ -57,11 +57,11 @@ __global__ void atrousKernel(DenoiseParams p, int step, const float* __restrict_
 }
 
 __global__ void remodulateKernel(DenoiseParams p, const float* noisy, const float* __restrict__ guide,
-  const float* __restrict__ illum, float* out)
+  const float* __restrict__ illum, const float* __restrict__ rawVariance, float* out)
 {
-  const int64_t n = int64_t(p.width) * p.height;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-    denoise::remodulate(p, noisy + 4 * i, guide + 4 * i, illum + 4 * i, out + 4 * i);
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < p.width && y < p.height)
+    denoise::remodulate(p, x, y, noisy, guide, illum, rawVariance, out);
 }
 } // namespace
 
@@ -85,6 +85,16 @@ void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const flo
       Illum[b].allocate(size_t(pixels), "denoiser illumination");
       Variance[b].allocate(size_t(pixels), "denoiser variance");
     }
+  if (RawVariance.size() < size_t(pixels))
+    RawVariance.allocate(size_t(pixels), "denoiser raw variance");
+  if (out == noisy)
+  {
+    if (NoisyCopy.size() < size_t(pixels))
+      NoisyCopy.allocate(size_t(pixels), "denoiser input copy");
+    NV_CUDA(cudaMemcpyAsync(NoisyCopy.get(), noisy, size_t(pixels) * sizeof(float4), cudaMemcpyDeviceToDevice,
+      stream));
+    noisy = NoisyCopy.get();
+  }
   demodulateKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), floats(guide), p.frames >= 2 ? moments :
     nullptr, floats(Illum[0].get()), Variance[0].get());
   NV_CUDA_LAUNCH();
@@ -93,6 +103,8 @@ void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const flo
     spatialVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(Illum[0].get()), Variance[0].get());
     NV_CUDA_LAUNCH();
   }
+  NV_CUDA(cudaMemcpyAsync(RawVariance.get(), Variance[0].get(), size_t(pixels) * sizeof(float),
+    cudaMemcpyDeviceToDevice, stream));
   const dim3 block(16, 16), grid((p.width + 15) / 16, (p.height + 15) / 16);
   int cur = 0;
   for (int it = 0; it < p.iterations; ++it)
@@ -102,14 +114,15 @@ void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const flo
     NV_CUDA_LAUNCH();
     cur ^= 1;
   }
-  remodulateKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), floats(guide), floats(Illum[cur].get()),
-    floats(out));
+  remodulateKernel<<<grid, block, 0, stream>>>(p, floats(noisy), floats(guide), floats(Illum[cur].get()),
+    RawVariance.get(), floats(out));
   NV_CUDA_LAUNCH();
 }
 
 int64_t GpuDenoiser::deviceMemoryBytes() const
 {
-  return static_cast<int64_t>(Illum[0].bytes() + Illum[1].bytes() + Variance[0].bytes() + Variance[1].bytes());
+  return static_cast<int64_t>(Illum[0].bytes() + Illum[1].bytes() + Variance[0].bytes() + Variance[1].bytes() +
+    RawVariance.bytes() + NoisyCopy.bytes());
 }
 
 } // namespace gpu

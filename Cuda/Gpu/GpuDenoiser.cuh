@@ -17,7 +17,7 @@ class GpuDenoiser
 public:
   /// out (device, width x height) = the denoised `noisy` image guided by `guide` (the ray-marched picture of the same
   /// scene), all in device memory, enqueued on `stream`; `moments` (device, per pixel) is read with params.frames >= 2.
-  /// `out` may be `noisy` itself. The work buffers are kept for the next call.
+  /// `out` may be `noisy` itself (it is copied first). The work buffers are kept for the next call.
   void denoise(const DenoiseParams& params, const float4* noisy, const float4* guide, const float* moments,
     float4* out, cudaStream_t stream);
 
@@ -30,6 +30,8 @@ public:
 private:
   DeviceBuffer<float4> Illum[2];
   DeviceBuffer<float> Variance[2];
+  DeviceBuffer<float4> NoisyCopy;  ///< `noisy` when the output overwrites it (remodulation reads neighbours)
+  DeviceBuffer<float> RawVariance; ///< the demodulated variance before filtering (the shrinkage towards the raw)
 };
 
 } // namespace gpu

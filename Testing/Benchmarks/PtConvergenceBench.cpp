@@ -3,11 +3,13 @@
 // Decode path of an explicit grid. Raw and denoised accumulations of 1 path per render (the interactive
 // accumulation: the denoiser's variance from the frames' moments), and single renders of N paths (one frame: the
 // spatial variance). Prints markdown tables (Testing/Benchmarks/results/pt_convergence_2026-11-27.md).
-//   nvBenchPtConvergence [--size 64] [--reference 4096] [--stent path.nhdr] [--ppm folder]
+//   nvBenchPtConvergence [--size 64] [--reference 4096] [--stent path.nhdr] [--ppm folder] [--cache folder]
+// (--cache: the reference pictures are kept there as raw floats and read back by the next run.)
 #include "Nhdr.h"
 #include "RenderFixtures.h"
 
 #include <chrono>
+#include <fstream>
 #include <cstdio>
 #include <cstring>
 
@@ -17,7 +19,7 @@ using namespace nvtest;
 namespace
 {
 constexpr int kBlobGrid = 48;
-const int kSpp[] = { 1, 2, 4, 8, 16, 32, 64 };
+const int kSpp[] = { 1, 2, 4, 8, 16, 32, 64, 256 };
 constexpr double kConvergedDb = 35.0;
 
 struct Scene
@@ -56,6 +58,29 @@ std::vector<float> renderPaths(ThreadPool& pool, const Scene& s, RenderRequest q
   return res.rgba;
 }
 
+/// The reference picture, read from `cache` when it has it (else rendered and written there).
+std::vector<float> referencePicture(ThreadPool& pool, const Scene& s, const RenderRequest& q, int paths,
+  const std::string& cache, double& renderSeconds)
+{
+  const std::string file = cache.empty() ? std::string() : cache + "/" + s.name + "_" + std::to_string(int(q.shading)) +
+      "_" + std::to_string(q.width) + "_" + std::to_string(paths) + "_seed" + std::to_string(q.seed) + ".f32";
+  std::vector<float> img(size_t(q.width) * q.height * 4);
+  renderSeconds = 0.0;
+  if (!file.empty())
+  {
+    std::ifstream in(file, std::ios::binary);
+    if (in.read(reinterpret_cast<char*>(img.data()), std::streamsize(img.size() * sizeof(float))))
+      return img;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  img = renderPaths(pool, s, q, paths, 256);
+  renderSeconds = seconds(t0);
+  if (!file.empty())
+    std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(img.data()),
+      std::streamsize(img.size() * sizeof(float)));
+  return img;
+}
+
 void writeImage(const std::string& folder, const std::string& name, const std::vector<float>& rgba, int size)
 {
   if (!folder.empty())
@@ -64,15 +89,17 @@ void writeImage(const std::string& folder, const std::string& name, const std::v
 
 /// One scene and mode: the PSNR table (accumulated 1 path per render, raw and denoised; one render of N paths
 /// denoised) and the denoiser's times.
-void measure(ThreadPool& pool, const Scene& s, ShadingMode mode, int size, int referencePaths, const std::string& ppm)
+void measure(ThreadPool& pool, const Scene& s, ShadingMode mode, int size, int referencePaths, const std::string& ppm,
+  const std::string& cache)
 {
   RenderRequest q = sceneRequest(s, mode, size);
-  auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> reference = renderPaths(pool, s, q, referencePaths, 256);
-  const double refSeconds = seconds(t0);
+  double refSeconds = 0.0;
+  RenderRequest qRef = q;
+  qRef.seed = 12345; // independent paths (the measured accumulations' paths would be a subset of the reference's)
+  const std::vector<float> reference = referencePicture(pool, s, qRef, referencePaths, cache, refSeconds);
   const std::string tag = s.name + "_" + (mode == ShadingMode::PathTrace ? "pt" : "nee");
   writeImage(ppm, tag + "_reference", reference, size);
-  std::printf("\n### %s, %s, %d x %d (reference: %d paths per pixel, %.1f s)\n\n", s.name.c_str(),
+  std::printf("\n### %s, %s, %d x %d (reference: %d paths per pixel, %.1f s; 0: cached)\n\n", s.name.c_str(),
     shadingModeName(mode), size, size, referencePaths, refSeconds);
   std::printf("| paths/pixel | raw dB | denoised dB (1 path per render) | denoised dB (one render) | pass ms | "
               "denoise ms | guide ms |\n|---|---|---|---|---|---|---|\n");
@@ -163,7 +190,8 @@ void timeDenoiser(ThreadPool& pool, const Scene& s)
 int main(int argc, char** argv)
 {
   int size = 64, referencePaths = 4096;
-  std::string stent, ppm;
+  std::string stent, ppm, cache;
+  bool timing = true;
   for (int i = 1; i + 1 < argc; i += 2)
   {
     if (!std::strcmp(argv[i], "--size"))
@@ -174,21 +202,26 @@ int main(int argc, char** argv)
       stent = argv[i + 1];
     else if (!std::strcmp(argv[i], "--ppm"))
       ppm = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--cache"))
+      cache = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--timing"))
+      timing = std::atoi(argv[i + 1]) != 0;
   }
   ThreadPool pool(2);
   std::printf("converged: PSNR >= %.0f dB against the reference\n", kConvergedDb);
   Scene blob;
   makeBlobScene(blob);
   for (ShadingMode mode : { ShadingMode::PathTrace, ShadingMode::PathTraceNee })
-    measure(pool, blob, mode, size, referencePaths, ppm);
+    measure(pool, blob, mode, size, referencePaths, ppm, cache);
   if (!stent.empty())
   {
     const nvbench::RawVolume raw = nvbench::loadNhdr(stent);
     Scene st;
     makeStentScene(raw, st);
     for (ShadingMode mode : { ShadingMode::PathTrace, ShadingMode::PathTraceNee })
-      measure(pool, st, mode, size, referencePaths, ppm);
+      measure(pool, st, mode, size, referencePaths, ppm, cache);
   }
-  timeDenoiser(pool, blob);
+  if (timing)
+    timeDenoiser(pool, blob);
   return 0;
 }

@@ -2,6 +2,7 @@
 #include "GpuTestHooks.h"
 
 #include "Core/Model.h"
+#include "Gpu/GpuDenoiser.cuh"
 #include "Gpu/GpuEngine.h"
 #include "Gpu/GpuInternal.cuh"
 
@@ -133,6 +134,22 @@ double medianWallMs(int reps, Fn&& fn)
 void copyToHost(const float* device, size_t n, float* host)
 {
   NV_CUDA(cudaMemcpy(host, device, n * sizeof(float), cudaMemcpyDeviceToHost));
+}
+
+void testDenoise(const DenoiseParams& params, const float* noisy, const float* guide, const float* moments,
+  float* out)
+{
+  const size_t pixels = size_t(params.width) * size_t(params.height);
+  DeviceBuffer<float4> dNoisy(pixels, "noisy"), dGuide(pixels, "guide"), dOut(pixels, "denoised");
+  DeviceBuffer<float> dMoments(pixels, "moments");
+  NV_CUDA(cudaMemcpy(dNoisy.get(), noisy, dNoisy.bytes(), cudaMemcpyHostToDevice));
+  NV_CUDA(cudaMemcpy(dGuide.get(), guide, dGuide.bytes(), cudaMemcpyHostToDevice));
+  if (moments)
+    NV_CUDA(cudaMemcpy(dMoments.get(), moments, dMoments.bytes(), cudaMemcpyHostToDevice));
+  GpuDenoiser denoiser;
+  denoiser.denoise(params, dNoisy.get(), dGuide.get(), moments ? dMoments.get() : nullptr, dOut.get(), nullptr);
+  NV_CUDA(cudaDeviceSynchronize());
+  NV_CUDA(cudaMemcpy(out, dOut.get(), dOut.bytes(), cudaMemcpyDeviceToHost));
 }
 
 double benchSessionInfer(NetworkSession& session, int64_t n, int reps)

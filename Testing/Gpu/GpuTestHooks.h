@@ -2,6 +2,7 @@
 // built into the test and benchmark executables only (Testing/Gpu/GpuTestHooks.cu), never into the engine.
 #pragma once
 
+#include "Core/Denoise.h"
 #include "Core/Engine.h"
 #include "Core/NetworkSession.h"
 
@@ -42,6 +43,11 @@ double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64
 
 /// Copy n floats of device memory to the host (tests of device-memory outputs).
 void copyToHost(const float* device, size_t n, float* host);
+
+/// The CUDA path-tracing denoiser (GpuDenoiser) on host images: uploads, denoises, downloads into out
+/// (width x height x 4); moments may be null with params.frames < 2.
+void testDenoise(const DenoiseParams& params, const float* noisy, const float* guide, const float* moments,
+  float* out);
 
 } // namespace gpu
 } // namespace nv

@@ -63,7 +63,7 @@ def render(path, mode):
     Render(view)
     png = nvtest.shot(view, os.path.join(out_dir, "paths_%s_%s.png" % (tag(path), tag(mode))), SIZE)
     stats = {name: info(display, name) for name in ("LastRenderPath", "LastSamplesEvaluated", "LastSamplesPlain",
-                                                    "LastWavefronts", "LastAccumulatedFrames", "WorkPending")}
+                                                    "LastWavefronts", "LastAccumulatedPaths", "WorkPending")}
     return png, stats
 
 
@@ -83,8 +83,8 @@ for mode in MODES:
         else:
             check(stats["LastWavefronts"] == 0, "%s: no wavefronts outside Sample Streaming" % label)
         if mode.startswith("Path Tracing"):
-            check(stats["LastAccumulatedFrames"] >= TARGET_SAMPLES,
-                  "%s: accumulated %d frames of the %d asked" % (label, stats["LastAccumulatedFrames"],
+            check(stats["LastAccumulatedPaths"] >= TARGET_SAMPLES,
+                  "%s: accumulated %d paths of the %d asked" % (label, stats["LastAccumulatedPaths"],
                                                                   TARGET_SAMPLES))
         else:
             check(stats["LastSamplesPlain"] > 0, "%s: plain-marcher samples reported" % label)
@@ -134,8 +134,8 @@ Render(view)
 check(info(display, "EngineRenderCount") == renders, "a converged path-traced view is not rendered again")
 display.TargetSamples = 2 * TARGET_SAMPLES
 Render(view)
-check(info(display, "LastAccumulatedFrames") >= 2 * TARGET_SAMPLES, "a higher target accumulates further (%d)"
-      % info(display, "LastAccumulatedFrames"))
+check(info(display, "LastAccumulatedPaths") >= 2 * TARGET_SAMPLES, "a higher target accumulates further (%d)"
+      % info(display, "LastAccumulatedPaths"))
 display.TargetSamples = TARGET_SAMPLES
 
 # --- Sample Streaming: K reaches the engine ------------------------------------------------------------
