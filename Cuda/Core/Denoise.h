@@ -21,12 +21,17 @@
 //      remodulates: illumination x guide.
 // Defaults chosen by measuring (the same file): the guide term is weak (sigmaGuide 1: demodulation does most of the
 // guide's work on smooth volumes), the luminance term SVGF's 4 standard deviations, 5 passes (129-pixel footprint).
+//   4. fades to the raw accumulation as the accumulation converges by itself: the mean over the image of every pixel's
+//      variance of its mean (from the moments) estimates the raw picture's squared error, hence its PSNR; between
+//      fadeStartDb and fadeEndDb the image goes linearly from denoised to raw (the filter's residual bias on fine
+//      structure, e.g. a CT at one pixel per vessel wall, is then never worse than the converged raw picture).
 // Pixels the guide leaves empty (alpha <= floor) keep the path-traced value; a non-finite input pixel stays
 // non-finite in the output (never smoothed away) and is left out of its neighbours' sums.
 #pragma once
 
 #include "HostDevice.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -42,7 +47,11 @@ struct DenoiseParams
   int iterations = 5;          ///< a-trous passes (footprint 4 x 2^iterations + 1 pixels)
   float sigmaGuide = 1.0f;     ///< guide colour / alpha distance at which a tap's weight falls to 1/e
   float sigmaLuminance = 4.0f; ///< illumination difference, in standard deviations of the noise, at 1/e
-  float rawBlend = 2.0f;       ///< the bias correction's shrinkage (step 3); <= 0: no correction
+  float rawBlend = 2.0f;       ///< the bias correction's shrinkage of the local mean (step 3); <= 0: none
+  float pixelBlend = 8.0f;     ///< ... of a pixel's own difference (finer than 3 x 3); <= 0: none
+  float fadeStartDb = 35.0f;   ///< step 4: the raw accumulation's estimated PSNR at which the filter starts to fade
+  float fadeEndDb = 45.0f;     ///< ... and at which the image is the raw accumulation
+  float rawFade = 0.0f;        ///< step 4's weight of the raw image for this call (set by the backends, fade())
   float albedoFloor = 1e-3f;   ///< guide values below this divide by it; guide alpha below it: an empty pixel
 };
 
@@ -75,6 +84,25 @@ NV_HD void addFrameMoment(const float* before, const float* after, float framePa
   const float inv = 1.0f / framePaths;
   const float l = luminance((after[0] - before[0]) * inv, (after[1] - before[1]) * inv, (after[2] - before[2]) * inv);
   moment += framePaths * l * l;
+}
+
+/// Step 4's estimate, one pixel: the variance of the accumulated mean's luminance (image units; 0 with one frame or a
+/// non-finite value).
+NV_HD float rawVarianceOfMean(const DenoiseParams& p, const float* noisy, float moment)
+{
+  if (p.frames < 2 || !finite4(noisy) || !finiteValue(moment))
+    return 0.0f;
+  const float mu = luminance(noisy[0], noisy[1], noisy[2]);
+  return fmaxf(0.0f, moment - p.paths * mu * mu) / float(p.frames - 1) / p.paths;
+}
+
+/// Step 4's weight of the raw image from the mean of rawVarianceOfMean over the image's pixels (values in [0, 1]).
+inline float fade(const DenoiseParams& p, double meanVariance)
+{
+  if (p.frames < 2 || !(meanVariance > 0.0) || !(p.fadeEndDb > p.fadeStartDb))
+    return p.frames >= 2 && meanVariance == 0.0 ? 1.0f : 0.0f;
+  const double db = -10.0 * std::log10(meanVariance);
+  return static_cast<float>(std::min(1.0, std::max(0.0, (db - p.fadeStartDb) / (p.fadeEndDb - p.fadeStartDb))));
 }
 
 /// The guide's value that the channel divides by.
@@ -232,14 +260,26 @@ NV_HD void remodulate(const DenoiseParams& p, int x, int y, const float* noisy, 
         diff[c] += nq[c] / guideDivisor(p, gq[c]) - fq[c];
       count += 1.0f;
     }
+  float own[4];
   for (int c = 0; c < 4; ++c)
+  {
     diff[c] /= count; // count >= 1: the pixel itself
-  const float d = luminance(diff[0], diff[1], diff[2]);
-  float weight = 0.0f;
+    own[c] = n[c] / guideDivisor(p, g[c]) - f[c] - diff[c];
+  }
+  // Shrunk by the noise: the local mean by its variance / count, the pixel's own rest (detail finer than 3 x 3) by a
+  // stricter factor (pixelBlend: a pure-noise pixel rarely passes it).
+  const float variance = blurredVariance(p, x, y, rawVariance);
+  const float d = luminance(diff[0], diff[1], diff[2]), r = luminance(own[0], own[1], own[2]);
+  float meanWeight = 0.0f, pixelWeight = 0.0f;
   if (p.rawBlend > 0.0f && d * d > 0.0f)
-    weight = fmaxf(0.0f, 1.0f - p.rawBlend * blurredVariance(p, x, y, rawVariance) / (count * d * d));
+    meanWeight = fmaxf(0.0f, 1.0f - p.rawBlend * variance / (count * d * d));
+  if (p.pixelBlend > 0.0f && r * r > 0.0f)
+    pixelWeight = fmaxf(0.0f, 1.0f - p.pixelBlend * variance / (r * r));
   for (int c = 0; c < 4; ++c)
-    o[c] = (f[c] + weight * diff[c]) * guideDivisor(p, g[c]);
+  {
+    const float denoised = (f[c] + meanWeight * diff[c] + pixelWeight * own[c]) * guideDivisor(p, g[c]);
+    o[c] = denoised + p.rawFade * (n[c] - denoised);
+  }
 }
 
 } // namespace denoise

@@ -261,8 +261,7 @@ uint64_t renderKey(const RenderRequest& q)
   h.add(q.sunAngle);
   h.add(q.anisotropy);
   h.add(q.maxBounces);
-  if (!q.accumulate) // an accumulation continues with any number of paths per render
-    h.add(q.samplesPerPixel);
+  // (Not samplesPerPixel: an accumulation continues with any number of paths per render.)
   h.add(q.streamingSamples);
   h.add(q.emptySpaceSkipping);
   h.add(q.terminationOpacity);

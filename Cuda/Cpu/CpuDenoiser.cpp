@@ -20,9 +20,10 @@ void forEachPixel(ThreadPool& pool, const DenoiseParams& p, const Fn& fn)
 }
 } // namespace
 
-void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float* noisy, const float* guide,
+void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& params, const float* noisy, const float* guide,
   const float* moments, float* out)
 {
+  DenoiseParams p = params;
   NV_CHECK(p.width > 0 && p.height > 0, "denoise: the image is empty");
   NV_CHECK(p.iterations >= 0 && p.iterations <= 10, "denoise: 0..10 a-trous iterations");
   NV_CHECK(p.frames < 2 || moments, "denoise: an accumulation of several frames needs its moments");
@@ -56,6 +57,18 @@ void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& p, const float*
     });
     cur ^= 1;
   }
+  // Step 4: the raw accumulation's estimated error (a sum per worker, then over the workers).
+  std::vector<double> sums(static_cast<size_t>(pool.size()), 0.0);
+  pool.parallelFor(int64_t(pixels), [&](int64_t begin, int64_t end, int worker) {
+    double sum = 0.0;
+    for (int64_t i = begin; i < end; ++i)
+      sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments ? moments[i] : 0.0f);
+    sums[static_cast<size_t>(worker)] += sum;
+  });
+  double total = 0.0;
+  for (double s : sums)
+    total += s;
+  p.rawFade = denoise::fade(p, total / double(pixels));
   const float* result = Illum[cur].data();
   const float* rawVariance = RawVariance.data();
   forEachPixel(pool, p, [&](int x, int y, int64_t) {

@@ -180,7 +180,7 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   f.key = combine(combine(f.setup.key, version), f.lattice->id);
   f.values = static_cast<size_t>(q.width) * static_cast<size_t>(q.height) * 4;
   f.deterministic = !f.pathTrace || !q.accumulate;
-  if (f.deterministic && f.key == ImageKey && Image.size() == f.values)
+  if (f.deterministic && deterministicKey(q, f) == ImageKey && Image.size() == f.values)
   {
     out.rgba = Image;
     out.deviceRgba = nullptr;
@@ -201,6 +201,12 @@ void CpuRenderer::renderImpl(const Model& model, uint64_t version, const RenderR
   chooseTarget(q, f);
   trace(model, version, q, f);
   finishImage(q, f, out);
+}
+
+uint64_t CpuRenderer::deterministicKey(const RenderRequest& q, const Frame& f)
+{
+  // A path-traced image that does not accumulate depends on its paths per pixel too (not in the picture's key).
+  return f.pathTrace ? combine(f.key, static_cast<uint64_t>(q.samplesPerPixel)) : f.key;
 }
 
 void CpuRenderer::resetAccumulation()
@@ -389,7 +395,7 @@ void CpuRenderer::finishImage(const RenderRequest& q, Frame& f, RenderResult& ou
   if (f.deterministic)
   {
     Image = out.rgba;
-    ImageKey = f.key;
+    ImageKey = deterministicKey(q, f);
     ImageStats = st;
   }
 }

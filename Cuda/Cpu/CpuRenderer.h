@@ -92,6 +92,8 @@ private:
   /// Path tracing: the frame's moments, the averaged accumulation, denoised with request.denoise.
   void resolveAccumulation(const RenderRequest& request, Frame& frame, RenderResult& result);
   void resetAccumulation();
+  /// The key of the kept deterministic image (the picture's key; with the paths per pixel for path tracing).
+  static uint64_t deterministicKey(const RenderRequest& request, const Frame& frame);
 
   ThreadPool& Pool;
   CpuRendererOptions Options;

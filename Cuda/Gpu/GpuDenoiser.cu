@@ -31,6 +31,19 @@ __global__ void frameMomentKernel(const float4* __restrict__ before, const float
   }
 }
 
+__global__ void rawVarianceKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ moments,
+  float* __restrict__ total)
+{
+  const int64_t n = int64_t(p.width) * p.height;
+  float sum = 0.0f;
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments[i]);
+  for (int offset = 16; offset > 0; offset /= 2)
+    sum += __shfl_down_sync(0xffffffffu, sum, offset);
+  if ((threadIdx.x & 31) == 0)
+    atomicAdd(total, sum);
+}
+
 __global__ void demodulateKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ guide,
   const float* __restrict__ moments, float* __restrict__ illum, float* __restrict__ variance)
 {
@@ -72,9 +85,10 @@ void GpuDenoiser::addFrameMoments(const float4* before, const float4* after, int
   NV_CUDA_LAUNCH();
 }
 
-void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const float4* guide, const float* moments,
+void GpuDenoiser::denoise(const DenoiseParams& params, const float4* noisy, const float4* guide, const float* moments,
   float4* out, cudaStream_t stream)
 {
+  DenoiseParams p = params;
   NV_CHECK(p.width > 0 && p.height > 0, "denoise: the image is empty");
   NV_CHECK(p.iterations >= 0 && p.iterations <= 10, "denoise: 0..10 a-trous iterations");
   NV_CHECK(p.frames < 2 || moments, "denoise: an accumulation of several frames needs its moments");
@@ -105,6 +119,22 @@ void GpuDenoiser::denoise(const DenoiseParams& p, const float4* noisy, const flo
   }
   NV_CUDA(cudaMemcpyAsync(RawVariance.get(), Variance[0].get(), size_t(pixels) * sizeof(float),
     cudaMemcpyDeviceToDevice, stream));
+  // Step 4's estimate: the mean variance of the raw mean, summed on the GPU, the fade weight on the host.
+  p.rawFade = 0.0f;
+  if (p.frames >= 2)
+  {
+    if (!Total.get())
+    {
+      Total.allocate(1, "denoiser sum");
+      HostTotal.allocate(1);
+    }
+    NV_CUDA(cudaMemsetAsync(Total.get(), 0, sizeof(float), stream));
+    rawVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), moments, Total.get());
+    NV_CUDA_LAUNCH();
+    NV_CUDA(cudaMemcpyAsync(HostTotal.get(), Total.get(), sizeof(float), cudaMemcpyDeviceToHost, stream));
+    NV_CUDA(cudaStreamSynchronize(stream));
+    p.rawFade = denoise::fade(p, double(HostTotal.get()[0]) / double(pixels));
+  }
   const dim3 block(16, 16), grid((p.width + 15) / 16, (p.height + 15) / 16);
   int cur = 0;
   for (int it = 0; it < p.iterations; ++it)

@@ -126,6 +126,22 @@ void measure(ThreadPool& pool, const Scene& s, ShadingMode mode, int size, int r
     const std::vector<float> single = renderPaths(pool, s, once, spp, spp);
     std::printf("| %d | %.2f | %.2f | %.2f | %.1f | %.2f | %.1f |\n", spp, psnr(rr.rgba, reference),
       psnr(rd.rgba, reference), psnr(single, reference), passMs, denoiseMs, guideMs);
+    if (spp == kSpp[sizeof(kSpp) / sizeof(kSpp[0]) - 1])
+    {
+      std::printf("\nAt %d paths, PSNR per channel r g b a, raw / denoised:", spp);
+      for (int c = 0; c < 4; ++c)
+      {
+        std::vector<float> a, b, d;
+        for (size_t i = c; i < reference.size(); i += 4)
+        {
+          a.push_back(reference[i]);
+          b.push_back(rr.rgba[i]);
+          d.push_back(rd.rgba[i]);
+        }
+        std::printf(" %.1f / %.1f", psnr(b, a), psnr(d, a));
+      }
+      std::printf("\n");
+    }
     if (spp == 8 || spp == 64)
     {
       writeImage(ppm, tag + "_raw" + std::to_string(spp), rr.rgba, size);

@@ -177,7 +177,24 @@ inline std::vector<double> referenceDenoise(const DenoiseInput& in)
     var.swap(nextVar);
   }
   // The bias correction: the local (valid 3 x 3) mean of raw - filtered, shrunk by max(0, 1 - rawBlend x blurred raw
-  // variance / (count x its luminance^2)).
+  // variance / (count x its luminance^2)), and the pixel's own rest, shrunk by max(0, 1 - pixelBlend x variance /
+  // its luminance^2).
+  // Step 4: fade to the raw image by the raw accumulation's estimated PSNR (mean variance of the mean's luminance).
+  double fadeWeight = 0.0;
+  if (p.frames >= 2)
+  {
+    double sum = 0.0;
+    for (size_t i = 0; i < n; ++i)
+    {
+      const float* q = &in.noisy[4 * i];
+      if (!(std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) && std::isfinite(q[3])))
+        continue;
+      const double qd[3] = { q[0], q[1], q[2] }, mu = lum(qd);
+      sum += std::max(0.0, in.moments[i] - double(p.paths) * mu * mu) / (p.frames - 1) / p.paths;
+    }
+    const double db = -10.0 * std::log10(sum / double(n));
+    fadeWeight = std::min(1.0, std::max(0.0, (db - p.fadeStartDb) / (p.fadeEndDb - p.fadeStartDb)));
+  }
   std::vector<double> out(4 * n);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
@@ -201,13 +218,21 @@ inline std::vector<double> referenceDenoise(const DenoiseInput& in)
             diff[c] += rawIllum[4 * j + c] - illum[4 * j + c];
           count += 1;
         }
+      double own[4];
       for (int c = 0; c < 4; ++c)
+      {
         diff[c] /= count;
-      const double d = lum(diff);
-      const double weight =
-        p.rawBlend > 0 && d != 0 ? std::max(0.0, 1.0 - p.rawBlend * blurred(rawVar, x, y) / (count * d * d)) : 0.0;
+        own[c] = rawIllum[4 * i + c] - illum[4 * i + c] - diff[c];
+      }
+      const double v = blurred(rawVar, x, y), d = lum(diff), r = lum(own);
+      const double meanWeight = p.rawBlend > 0 && d != 0 ? std::max(0.0, 1.0 - p.rawBlend * v / (count * d * d)) : 0.0;
+      const double pixelWeight = p.pixelBlend > 0 && r != 0 ? std::max(0.0, 1.0 - p.pixelBlend * v / (r * r)) : 0.0;
       for (int c = 0; c < 4; ++c)
-        out[4 * i + c] = (illum[4 * i + c] + weight * diff[c]) * divisor(in.guide[4 * i + c]);
+      {
+        const double denoised =
+          (illum[4 * i + c] + meanWeight * diff[c] + pixelWeight * own[c]) * divisor(in.guide[4 * i + c]);
+        out[4 * i + c] = denoised + fadeWeight * (in.noisy[4 * i + c] - denoised);
+      }
     }
   return out;
 }

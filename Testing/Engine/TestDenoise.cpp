@@ -161,7 +161,7 @@ NV_TEST(a_nan_is_never_smoothed_away)
 
 NV_TEST(cpu_denoiser_equals_the_double_precision_reference)
 {
-  for (int frames : { 1, 8 }) // one frame: the spatial variance; several: the moments
+  for (int frames : { 1, 8, 40 }) // one frame: the spatial variance; several: the moments; 40: step 4 fades
   {
     const DenoiseInput in = syntheticDenoiseInput(53, 41, frames, 7);
     std::vector<float> out(in.noisy.size());

@@ -340,7 +340,7 @@ NV_TEST(gpu_denoiser_matches_cpu)
   // The same input through the CUDA kernels and the CPU loop (one shared per-pixel math, Core/Denoise.h): equal
   // within 1e-3 (the CUDA build's fast exp and square root), and both within 1e-3 of the double-precision version.
   const double tolerance = 1e-3;
-  for (int frames : { 1, 8 })
+  for (int frames : { 1, 8, 40 })
   {
     const DenoiseInput in = syntheticDenoiseInput(97, 61, frames, 11);
     std::vector<float> cpu(in.noisy.size()), gpu(in.noisy.size());

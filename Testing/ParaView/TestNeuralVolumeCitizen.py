@@ -126,8 +126,8 @@ for name in ("Shade", "BlendMode", "ScalarOpacityUnitDistance", "Specular", "Spe
 check(("ShadingMode", "3", False) in decorators(proxy.GetProperty("VolumeAnisotropy").GetHints()),
       "Volume Anisotropy is shown for path tracing")
 for name in ("RenderPath", "ShadingMode", "SampleDistance", "StreamingSamples", "SamplesPerPixel", "MaxBounces",
-             "TargetSamples", "FollowViewLight", "LightDirection", "EmptySpaceSkipping", "DecodeResolution",
-             "InteractiveImageScale"):
+             "TargetSamples", "Denoise", "FollowViewLight", "LightDirection", "EmptySpaceSkipping",
+             "DecodeResolution", "InteractiveImageScale"):
     prop = proxy.GetProperty(name)
     check(prop is not None and prop.GetDocumentation() is not None, "%s is a documented property" % name)
 import re  # noqa: E402

@@ -144,7 +144,7 @@ for i in range(image_repr.GetNumberOfPropertyGroups()):
               and decorator.GetAttribute("value") == "Neural Volume",
               "group %s is shown for the Neural Volume representation only" % g.GetXMLLabel())
 check(render_groups.get("Neural Volume") == ["RenderPath", "ShadingMode", "StreamingSamples", "SamplesPerPixel",
-                                              "TargetSamples"]
+                                              "TargetSamples", "Denoise"]
       and render_groups.get("Neural Volume Lighting") == ["FollowViewLight", "LightDirection", "MaxBounces"]
       and render_groups.get("Neural Volume Quality") == ["SampleDistance", "DecodeResolution",
                                                          "EmptySpaceSkipping", "InteractiveImageScale",
