@@ -222,6 +222,8 @@ void validate(const RenderRequest& q)
     !std::isfinite(q.diffuse) || !std::isfinite(q.specular) || !std::isfinite(q.specularPower) ||
     !std::isfinite(q.sunAngle) || !std::isfinite(q.terminationOpacity) || !std::isfinite(q.anisotropy))
     os << "lighting parameters must be finite; ";
+  if (!(q.liveRefreshMilliseconds >= 0.0) || !std::isfinite(q.liveRefreshMilliseconds))
+    os << "the live refresh interval must be >= 0 ms (is " << q.liveRefreshMilliseconds << "); ";
   if (q.grid && (!q.grid->data || q.grid->count() < 1))
     os << "the reference grid is empty; ";
   double inv[16];

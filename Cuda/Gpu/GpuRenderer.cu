@@ -116,9 +116,12 @@ bool GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
 {
   const int64_t nx = s.gridDims[0], ny = s.gridDims[1], nz = s.gridDims[2];
   const void* source = q.grid ? q.grid->data : nullptr;
-  if (Grid.texture() && GridVersion == version && GridSource == source && GridDims[0] == nx && GridDims[1] == ny &&
-    GridDims[2] == nz)
+  if (Grid.texture() && GridSource == source && GridDims[0] == nx && GridDims[1] == ny && GridDims[2] == nz &&
+    (source || fieldStillServes(GridVersion, GridTime, version, q)))
+  {
+    OlderField |= GridVersion != version && !source;
     return false;
+  }
   const int64_t n = nx * ny * nz;
   if (GridLinear.size() < size_t(n))
     GridLinear.allocate(size_t(n), "decoded grid");
@@ -145,6 +148,7 @@ bool GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
   GridDims[2] = nz;
   GridVersion = version;
   GridSource = source;
+  GridTime = std::chrono::steady_clock::now();
   return true;
 }
 
@@ -172,6 +176,13 @@ bool GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     k.dims[a] = L[a] * 100000 + s.cells.dims[a]; // the cell layout is part of the key
   if (k == Ranges)
     return false;
+  RangeKey older = k;
+  older.version = Ranges.version;
+  if (k.kind == 2 && older == Ranges && fieldStillServes(Ranges.version, RangesTime, version, q))
+  {
+    OlderField = true; // a live network's ranges, kept for a while (RenderRequest::liveRefreshMilliseconds)
+    return false;
+  }
   const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
   if (Range.size() < size_t(cells))
     Range.allocate(size_t(cells), "macrocell ranges");
@@ -190,6 +201,7 @@ bool GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     background, Range.get());
   NV_CUDA_LAUNCH();
   Ranges = k;
+  RangesTime = std::chrono::steady_clock::now();
   ++RangeStamp;
   return true;
 }
@@ -324,6 +336,7 @@ bool GpuRenderer::prepareScene(const Model& model, uint64_t version, const Rende
   ray::Params& P)
 {
   bool work = false;
+  OlderField = false;
   if (q.path == RenderPath::Decode)
     work |= prepareGrid(model, version, q, s);
   work |= uploadMasks(model, version, P);
@@ -383,8 +396,21 @@ void GpuRenderer::traceSamples(const RenderRequest& q, const RenderSetup& s, ray
   }
 }
 
+void GpuRenderer::collectGpuFigures()
+{
+  if (!FiguresPending)
+    return;
+  NV_CUDA(cudaEventSynchronize(CountersCopied.get()));
+  float ms = 0.0f;
+  NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
+  LastGpuFigures.renderMilliseconds = ms;
+  LastGpuFigures.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
+  LastGpuFigures.samplesPlain = FiguresPathTrace ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  FiguresPending = false;
+}
+
 void GpuRenderer::renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
-  uint64_t imageKey, RenderStats& st)
+  uint64_t imageKey, RenderStats& st, bool deferred)
 {
   ray::Params P = s.params;
   const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
@@ -403,6 +429,7 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   if (prepareScene(model, version, q, s, P))
     NV_CUDA(cudaStreamSynchronize(RenderStream));
   st.decodeMilliseconds = since(t0);
+  st.olderField = OlderField;
 
   float4* accum = nullptr;
   if (pt)
@@ -418,6 +445,7 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
     accum = Accum.get();
   }
   RenderCounters* c = Counters.get();
+  collectGpuFigures(); // a deferred render's figures (done by now, in the usual case), before the counters reset
   NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), RenderStream));
   NV_CUDA(cudaEventRecord(Begin.get(), RenderStream));
   traceSamples(q, s, P, spp, accum, st);
@@ -430,12 +458,16 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   }
   NV_CUDA(cudaEventRecord(End.get(), RenderStream));
   NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
-  NV_CUDA(cudaStreamSynchronize(RenderStream));
-  float ms = 0.0f;
-  NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
-  st.renderMilliseconds = ms;
-  st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
-  st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  NV_CUDA(cudaEventRecord(CountersCopied.get(), RenderStream));
+  FiguresPending = true;
+  FiguresPathTrace = pt;
+  // A deferred render returns now (its figures come with the next render); any other waits for its GPU work.
+  st.gpuFiguresOfPreviousRender = deferred;
+  if (!deferred)
+    collectGpuFigures();
+  st.renderMilliseconds = LastGpuFigures.renderMilliseconds;
+  st.samplesEvaluated = LastGpuFigures.samplesEvaluated;
+  st.samplesPlain = LastGpuFigures.samplesPlain;
   st.accumulatedFrames = pt ? Frames : 0;
 }
 
@@ -459,10 +491,11 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   }
   else
   {
-    renderImage(model, version, q, s, imageKey, st);
+    renderImage(model, version, q, s, imageKey, st, where == Memory::Device && q.deferDeviceSync);
     if (!pt)
     {
-      ImageKey = imageKey;
+      // A picture of an older field is not the version's picture: Image holds nothing to reuse then.
+      ImageKey = st.olderField ? 0 : imageKey;
       ImageStats = st;
     }
   }
@@ -471,6 +504,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   {
     result.rgba.clear();
     result.deviceRgba = reinterpret_cast<const float*>(Image.get());
+    result.deviceReady = st.gpuFiguresOfPreviousRender ? static_cast<const void*>(End.get()) : nullptr;
   }
   else
   {
@@ -481,6 +515,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     NV_CUDA(cudaStreamSynchronize(RenderStream));
     st.hostCopyMilliseconds = since(copyStart);
     result.deviceRgba = nullptr;
+    result.deviceReady = nullptr;
   }
   result.stats = st;
 }

@@ -40,8 +40,9 @@ double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz,
 double benchSessionInfer(NetworkSession& session, int64_t n, int reps);
 double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps);
 
-/// Copy n floats of device memory to the host (tests of device-memory outputs).
-void copyToHost(const float* device, size_t n, float* host);
+/// Copy n floats of device memory to the host (tests of device-memory outputs); `ready` (RenderResult::deviceReady):
+/// after that event.
+void copyToHost(const float* device, size_t n, float* host, const void* ready = nullptr);
 
 } // namespace gpu
 } // namespace nv
