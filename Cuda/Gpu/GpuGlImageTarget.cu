@@ -95,6 +95,7 @@ public:
   {
     const size_t row = static_cast<size_t>(Width) * kPixelBytes;
     rgba.resize(static_cast<size_t>(Width) * static_cast<size_t>(Height) * 4);
+    NV_CUDA(cudaStreamSynchronize(CopyStream->get())); // a deferred write() first
     Mapped mapped(Resource);
     NV_CUDA(cudaMemcpy2DFromArray(rgba.data(), row, mapped.array, 0, 0, row, static_cast<size_t>(Height),
       cudaMemcpyDeviceToHost));
