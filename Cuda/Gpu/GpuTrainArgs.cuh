@@ -40,7 +40,7 @@ struct TrainArgs
   const float* xyz; ///< null: randomPoint(seed, step, i)
   uint64_t seed, step;
   const float* targets; ///< NaN = invalid sample
-  int64_t n;
+  int64_t sampleCount;
   int tiles;
   int l1;
   Counters* counters;     ///< this step's

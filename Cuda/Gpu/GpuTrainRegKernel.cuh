@@ -181,7 +181,7 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
 
   const float gradScale = publishGradScale(a);
   const int q8 = lane >> 3, r8 = lane & 7;
-  for (int64_t it = blockIdx.x; it * T < a.n; it += gridDim.x)
+  for (int64_t it = blockIdx.x; it * T < a.sampleCount; it += gridDim.x)
   {
     warpForwardBackward<W, F, Pre>(a, smem, it * T + warp * 16, warp * 16, lane, gradScale, woutAcc, lossAcc);
     __syncthreads();

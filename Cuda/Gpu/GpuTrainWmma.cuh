@@ -74,7 +74,7 @@ __device__ __forceinline__ void wmmaWarpForward(const TrainArgs& a, const unsign
   WarpOut<W> fo;
   if constexpr (TwoPass)
   {
-    const PreEncoded src{ a.encG, base + row0, a.n };
+    const PreEncoded src{ a.encG, base + row0, a.sampleCount };
     if (p.wInSmem)
       warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, rows, p.ldE, lane, st, fo);
     else
@@ -162,7 +162,7 @@ __device__ __forceinline__ void wmmaEncodingGradients(const TrainArgs& a, const 
       const int t = it % T, l = it / T;
       if (t < valid)
       {
-        float* d = a.dEncG + (l * a.n + base + t) * F;
+        float* d = a.dEncG + (l * a.sampleCount + base + t) * F;
 #pragma unroll
         for (int f = 0; f < F; ++f)
           d[f] = dEnc[t * p.ldDE + l * F + f];
@@ -226,7 +226,7 @@ __global__ void __launch_bounds__(256) trainWmmaKernel(const __grid_constant__ T
   for (int tile = blockIdx.x; tile < a.tiles; tile += gridDim.x)
   {
     const int64_t base = int64_t(tile) * T;
-    const int valid = static_cast<int>(min(int64_t(T), a.n - base));
+    const int valid = static_cast<int>(min(int64_t(T), a.sampleCount - base));
     loadTileSamples<TwoPass>(a, base, valid, T, sx, stgt);
     __syncthreads();
     wmmaWarpForward<W, F, TwoPass>(a, smem, sw, sx, enc, acts, actStride, base, row0, lane, sg);

@@ -45,7 +45,7 @@ __device__ __forceinline__ float2 maskPositive(float x, float y, uint32_t mask)
 __device__ __forceinline__ void trainPoint(const TrainArgs& a, int64_t gi, float x[3])
 {
   x[0] = x[1] = x[2] = 0.0f;
-  if (gi >= a.n)
+  if (gi >= a.sampleCount)
     return;
   if (a.xyz)
   {
@@ -70,7 +70,7 @@ __device__ __forceinline__ void warpLossGradient(const TrainArgs& a, int64_t bas
   for (int k = 0; k < 2; ++k)
   {
     const int64_t gi = base + g + 8 * k;
-    if (gi < a.n)
+    if (gi < a.sampleCount)
     {
       const float tg = a.targets[gi];
       if (!isnan(tg))
@@ -158,7 +158,7 @@ __device__ __forceinline__ void scatterEncodingGradient(const TrainArgs& a, cons
   const RegPlan& p = a.reg;
   const int r16 = lane & 15;
   const int64_t gi = base + r16;
-  if (gi >= a.n)
+  if (gi >= a.sampleCount)
     return;
   float x[3];
   trainPoint(a, gi, x);
@@ -199,7 +199,7 @@ __device__ __forceinline__ WarpOut<W> regWarpForward(const TrainArgs& a, __half*
   WarpOut<W> fo;
   if constexpr (Pre)
   {
-    const PreEncoded src{ a.encG, base, a.n };
+    const PreEncoded src{ a.encG, base, a.sampleCount };
     warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, X0, p.ldX0, lane, stage, fo);
   }
   else
@@ -257,18 +257,18 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
         if constexpr (Pre)
         {
           const int64_t gi = base + g + 8 * k;
-          if (gi >= a.n)
+          if (gi >= a.sampleCount)
             continue;
           if constexpr (F == 1)
           {
-            a.dEncG[c * a.n + gi] = e0;
+            a.dEncG[c * a.sampleCount + gi] = e0;
             if (c + 1 < s.inputs)
-              a.dEncG[(c + 1) * a.n + gi] = e1;
+              a.dEncG[(c + 1) * a.sampleCount + gi] = e1;
           }
           else
           {
             const int l = c / F, f = c % F;
-            *reinterpret_cast<float2*>(a.dEncG + (l * a.n + gi) * F + f) = make_float2(e0, e1);
+            *reinterpret_cast<float2*>(a.dEncG + (l * a.sampleCount + gi) * F + f) = make_float2(e0, e1);
           }
         }
         else
