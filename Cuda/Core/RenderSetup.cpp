@@ -423,7 +423,7 @@ void setLighting(const RenderRequest& q, ray::Params& P)
   const double sun = std::min(90.0, std::max(0.1, q.sunAngle)) * 3.14159265358979 / 180.0;
   const double sunCos = std::cos(sun);
   P.sunExponent = sunCos > 1e-9 ? static_cast<float>(std::log(0.5) / std::log(sunCos)) : 0.0f;
-  P.g = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
+  P.anisotropy = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
   P.frame = 0;
