@@ -7,6 +7,7 @@
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralHdf5Layout.h"
 #include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Error.h"
@@ -69,7 +70,7 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   if (background)
     background->SetStage("reading the file's header");
   auto file = std::make_shared<nvi::OutOfCoreFile>();
-  file->Layout = nv::readVolumeFileLayout(request.OutOfCorePath, request.OutOfCoreArray); // nv::Error: reported
+  file->Layout = nvi::ReadOutOfCoreLayout(request.OutOfCorePath, request.OutOfCoreArray); // nv::Error: reported
   file->Reader = std::make_shared<nv::VolumeFileReader>(file->Layout);
   file->BudgetBytes = nvi::OutOfCoreBudgetBytes(settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason);
   nvi::FieldInfo& field = prepared.Field;

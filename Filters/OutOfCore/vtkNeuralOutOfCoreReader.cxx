@@ -1,5 +1,6 @@
 #include "vtkNeuralOutOfCoreReader.h"
 
+#include "vtkNeuralHdf5Layout.h"
 #include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Error.h"
@@ -30,7 +31,7 @@ int vtkNeuralOutOfCoreReader::CanReadFile(const char* name)
 {
   try
   {
-    nv::readVolumeFileLayout(name ? name : "");
+    nvi::ReadOutOfCoreLayout(name ? name : "", std::string());
     return 1;
   }
   catch (const std::exception&)
@@ -49,7 +50,7 @@ int vtkNeuralOutOfCoreReader::RequestInformation(
     if (!this->FileName || !*this->FileName)
       throw nv::Error("no file name");
     const nv::VolumeFileLayout layout =
-      nv::readVolumeFileLayout(this->FileName, this->ArrayName ? this->ArrayName : "");
+      nvi::ReadOutOfCoreLayout(this->FileName, this->ArrayName ? this->ArrayName : "");
     const int ext[6] = { 0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1) };
     if (layout.dims[0] > VTK_INT_MAX || layout.dims[1] > VTK_INT_MAX || layout.dims[2] > VTK_INT_MAX)
       throw nv::Error("more than 2^31 samples along an axis");
@@ -67,8 +68,7 @@ int vtkNeuralOutOfCoreReader::RequestInformation(
     // An empty extent (an empty output), not a failed request: the one error below is the file's.
     const int empty[6] = { 0, -1, 0, -1, 0, -1 };
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
-    vtkErrorMacro("Neural Out-of-Core Reader: cannot use '" << (this->FileName ? this->FileName : "")
-                                                          << "': " << e.what() << ". The output is empty.");
+    vtkErrorMacro("Neural Out Of Core Reader: " << e.what() << ". The output is empty.");
   }
   return 1;
 }
@@ -85,7 +85,7 @@ int vtkNeuralOutOfCoreReader::RequestData(
   {
     // The header again (cheap): the file may have changed since RequestInformation; the samples stay on disk.
     const nv::VolumeFileLayout layout =
-      nv::readVolumeFileLayout(this->FileName, this->ArrayName ? this->ArrayName : "");
+      nvi::ReadOutOfCoreLayout(this->FileName, this->ArrayName ? this->ArrayName : "");
     output->SetExtent(0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1));
     output->SetSpacing(layout.spacing);
     output->SetOrigin(layout.origin);
@@ -94,8 +94,7 @@ int vtkNeuralOutOfCoreReader::RequestData(
   catch (const std::exception& e)
   {
     output->Initialize();
-    vtkErrorMacro("Neural Out-of-Core Reader: cannot use '" << this->FileName << "': " << e.what()
-                                                          << ". The output is empty.");
+    vtkErrorMacro("Neural Out Of Core Reader: " << e.what() << ". The output is empty.");
   }
   return 1;
 }

@@ -122,6 +122,34 @@ def write_vti(name, values, compressed=False):
     return path
 
 
+H5_WRITER = r"""
+import sys, numpy as np, h5py
+path, kind = sys.argv[1], sys.argv[2]
+values = np.load(sys.argv[3])
+with h5py.File(path, "w") as f:
+    group = f.create_group("fields")
+    dtype = values.dtype.newbyteorder(">") if kind == "big" else values.dtype
+    options = dict(chunks=(8, 8, 8)) if kind == "chunked" else dict(chunks=(8, 8, 8), compression="gzip") \
+        if kind == "gzip" else {}
+    d = group.create_dataset("density", data=values.astype(dtype), **options)
+    d.attrs["spacing"] = np.array(%r)
+    d.attrs["origin"] = np.array(%r)
+""" % (SPACING, ORIGIN)
+
+
+def write_h5(name, values, kind):
+    """An HDF5 file written by h5py in a process of its own (a second HDF5 library must not enter pvbatch's)."""
+    import subprocess
+    path = os.path.join(FOLDER, name + ".h5")
+    np.save(os.path.join(FOLDER, name + ".npy"), values)
+    result = subprocess.run(["/usr/bin/python3", "-c", H5_WRITER, path, kind, os.path.join(FOLDER, name + ".npy")],
+                            capture_output=True, text=True)
+    if result.returncode != 0:
+        log("h5py cannot write %s: %s" % (name, result.stderr.strip()[-300:]))
+        return None
+    return path
+
+
 def figure(data, name):
     array = data.GetFieldData().GetArray(name)
     return array.GetValue(0) if array is not None else None
@@ -195,11 +223,20 @@ Delete(reader)
 CASES = [("nhdr", t, t in ("int16", "float64")) for t in NP_TYPES] + \
         [("nrrd", "uint16", True), ("nrrd", "float32", False), ("bov", "int16", True), ("bov", "float64", False),
          ("vti", "float32", False), ("vti", "uint8", False)]
-for fmt, type_name, big in CASES:
+HDF5_CASES = [("h5", "uint16", True), ("h5", "float32", False)]
+written = {}
+for fmt, type_name, big in CASES + HDF5_CASES:
     label = "%s_%s_%s" % (fmt, type_name, "be" if big else "le")
     values = field(type_name)
     writer = {"nhdr": write_nhdr, "nrrd": write_nrrd, "bov": write_bov}.get(fmt)
-    path = writer(label, values, type_name, big) if writer else write_vti(label, values)
+    if fmt == "h5":
+        path = write_h5(label, values, "big" if big else "little")
+        if path is None:
+            log("%s: not run (no h5py to write the file)" % label)
+            continue
+    else:
+        path = writer(label, values, type_name, big) if writer else write_vti(label, values)
+    written[fmt] = path
     reader, nc, out, text = train(path, TrainingSteps=FAST["TrainingSteps"] if label == "nhdr_float32_le" else 60)
     psnr, exact = figure(out, "NeuralPSNR"), figure(out, "NeuralPSNRExact")
     check("ERROR" not in text, "%s: no error (%s)" % (label, text.strip()[:300]))
@@ -225,6 +262,14 @@ for fmt, type_name, big in CASES:
     Delete(nc)
     Delete(reader)
 
+# --- File, Open: the reader is offered for each format, beside ParaView's own reader where it has one -------------
+factory = servermanager.vtkSMProxyManager.GetProxyManager().GetReaderFactory()
+for extension, path in sorted(written.items()):
+    readers = factory.GetReaders(path, servermanager.ActiveConnection.Session)
+    names = [readers.GetString(i) for i in range(readers.GetNumberOfStrings())]
+    log(".%s: File, Open offers %s" % (extension, names[1::3]))
+    check("NeuralOutOfCoreReader" in names, ".%s: File, Open offers the out-of-core reader" % extension)
+
 # --- out of core under a small budget against the same training in memory ------------------------------------------
 BIG = (64, 64, 64)
 z, y, x = np.meshgrid(*(np.linspace(0, 1, n) for n in BIG[::-1]), indexing="ij")
@@ -239,6 +284,17 @@ LONG = dict(TrainingSteps=1500, Levels=12, FeaturesPerLevel=2, Log2TableSize=15,
 reader, nc, out, text = train(os.path.join(FOLDER, "budget.nhdr"), budget_mib, **LONG)
 ooc_psnr = figure(out, "NeuralPSNR")
 log("out of core, MemoryBudget %.3f MiB (40%% of the file): %.3f dB; %s" % (budget_mib, ooc_psnr, text.strip()[-400:]))
+# A decoded output that the budget cannot hold is refused (the network stays), never made by loading the field.
+with nvtest.captured_messages() as messages:
+    nc.OutputMode = "Decoded, float32"
+    nc.UpdatePipeline()
+    refused = servermanager.Fetch(nc)
+check("exceeds its memory budget" in messages[0], "a decoded output above the budget is refused: %r"
+      % messages[0][-300:])
+check(refused.GetPointData().GetNumberOfArrays() == 0 and figure(refused, "NeuralSteps") == LONG["TrainingSteps"],
+      "the network stays without a decoded field or a new training")
+nc.OutputMode = "Network only"
+nc.UpdatePipeline()
 memory_psnr, memory, producer = in_memory_psnr(big, BIG, **dict(FAST, **LONG))
 log("in memory: %.3f dB; out of core %.3f dB (gap %.3f dB)" % (memory_psnr, ooc_psnr, memory_psnr - ooc_psnr))
 # A partly resident field (a fifth of the blocks resident, the rest of the budget for the probe and the slabs): at the
@@ -327,6 +383,22 @@ check(figure(out, "NeuralPSNRExact") == 1, "stopped: the figures are measured ov
 Delete(nc)
 Delete(reader)
 
+# --- the GPU (host-sampled batches from the block buffer), where one is usable --------------------------------------
+nc = NeuralCompress(Input=NeuralOutOfCoreReader(FileName=os.path.join(FOLDER, "budget.nhdr")),
+                    **dict(FAST, **dict(LONG, Device="Auto", TrainInBackground=0, MemoryBudget=budget_mib)))
+nc.UpdatePropertyInformation()
+if nc.GetProperty("GPUUsable") is not None and nc.GetProperty("GPUUsable").GetElement(0) == 1:
+    nc.UpdatePipeline()
+    out = servermanager.Fetch(nc)
+    device = out.GetFieldData().GetAbstractArray("NeuralDevice").GetValue(0)
+    log("GPU (%s): %.3f dB out of core under the same budget (CPU %.3f dB)" % (device, figure(out, "NeuralPSNR"),
+                                                                                ooc_psnr))
+    check("CPU" not in device and figure(out, "NeuralPSNRExact") == 1, "trained on the GPU, exact figures")
+    check(figure(out, "NeuralPSNR") > ooc_psnr - 3.0, "the GPU's network is as good as the CPU's")
+else:
+    log("no usable GPU: the GPU case is not run")
+Delete(nc)
+
 # --- bad files: one error each, an empty output, no crash ----------------------------------------------------------
 values16 = field("uint16")
 good = raw_bytes(values16, False)
@@ -343,6 +415,10 @@ BAD = [
 with open(BAD[2][1], "w") as f:
     f.write(nrrd_header("uint16", False).replace("type: ushort", "type: int64") + "data file: int64.raw\n")
 os.remove(os.path.join(FOLDER, "missing.raw"))
+for kind in ("chunked", "gzip"):
+    path = write_h5("bad_" + kind, values16, kind)
+    if path:
+        BAD.append(("HDF5 %s dataset" % kind, path, "chunked"))
 for label, path, phrase in BAD:
     with nvtest.captured_messages() as messages:
         reader = NeuralOutOfCoreReader(FileName=path)
@@ -353,8 +429,8 @@ for label, path, phrase in BAD:
     text = messages[0]
     log("%s: %s" % (label, text.strip().replace("\n", " | ")[:400]))
     check(phrase in text, "%s: the error says %r" % (label, phrase))
-    check(text.count("Neural Out-of-Core Reader") == 1, "%s: one reader error (%d)"
-          % (label, text.count("Neural Out-of-Core Reader")))
+    check(text.count("Neural Out Of Core Reader:") == 1, "%s: one reader error (%d)"
+          % (label, text.count("Neural Out Of Core Reader:")))
     check(image.GetNumberOfPoints() == 0, "%s: empty output" % label)
     check(servermanager.Fetch(nc).GetFieldData().GetArray("NeuralNetwork") is None, "%s: no network" % label)
     Delete(nc)
