@@ -12,8 +12,8 @@
 #include "OutOfCore/BlockBufferSource.h"
 #include "OutOfCore/FileMeasure.h"
 
-#include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
+#include "vtkNew.h"
 #include "vtkImageData.h"
 #include "vtkStringArray.h"
 
@@ -35,26 +35,16 @@ constexpr int64_t kProbeSamples = 65536;
 constexpr int kBlocksPerStep = 16;
 constexpr int kReaderThreads = 4;
 
-std::string StringValue(vtkFieldData* fd, const char* name)
+/// The field-data array that names the file (MarkOutOfCore), or null.
+vtkStringArray* MarkerArray(vtkFieldData* fd)
 {
-  auto* array = fd ? vtkStringArray::SafeDownCast(fd->GetAbstractArray(name)) : nullptr;
-  return array && array->GetNumberOfValues() > 0 ? array->GetValue(0) : std::string();
-}
-
-void AddString(vtkFieldData* fd, const char* name, const std::string& value)
-{
-  vtkNew<vtkStringArray> array;
-  array->SetName(name);
-  array->InsertNextValue(value);
-  fd->AddArray(array);
-}
-
-void AddNumber(vtkFieldData* fd, const char* name, double value)
-{
-  vtkNew<vtkDoubleArray> array;
-  array->SetName(name);
-  array->InsertNextValue(value);
-  fd->AddArray(array);
+  for (int k = 0; fd && k < fd->GetNumberOfArrays(); ++k)
+  {
+    auto* array = vtkStringArray::SafeDownCast(fd->GetAbstractArray(k));
+    if (array && array->GetNumberOfValues() >= 3 && array->GetValue(0) == kOutOfCoreMarker)
+      return array;
+  }
+  return nullptr;
 }
 
 uint64_t Fnv(uint64_t h, const void* data, size_t size)
@@ -126,9 +116,9 @@ std::unique_ptr<nv::PsnrProbe> RowProbe(const OutOfCoreFile& file, const nv::Val
 bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request)
 {
   auto* image = vtkImageData::SafeDownCast(input);
-  vtkFieldData* fd = image ? image->GetFieldData() : nullptr;
-  request.Path = StringValue(fd, kOutOfCoreFileArray);
-  request.Array = StringValue(fd, kOutOfCoreArrayArray);
+  vtkStringArray* marker = MarkerArray(image ? image->GetFieldData() : nullptr);
+  request.Path = marker ? marker->GetValue(1) : std::string();
+  request.Array = marker ? marker->GetValue(2) : std::string();
   return !request.Path.empty();
 }
 
@@ -143,11 +133,12 @@ std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout)
 
 void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray)
 {
-  vtkFieldData* fd = image->GetFieldData();
-  AddString(fd, kOutOfCoreFileArray, layout.headerPath);
-  AddString(fd, kOutOfCoreArrayArray, requestedArray);
-  AddString(fd, "NeuralOutOfCoreSummary", OutOfCoreSummary(layout));
-  AddNumber(fd, "NeuralOutOfCoreBytes", double(layout.bytes()));
+  vtkNew<vtkStringArray> marker;
+  marker->SetName(layout.arrayName.empty() ? "Scalars" : layout.arrayName.c_str());
+  for (const std::string& value : { std::string(kOutOfCoreMarker), layout.headerPath, requestedArray,
+         OutOfCoreSummary(layout) })
+    marker->InsertNextValue(value);
+  image->GetFieldData()->AddArray(marker);
 }
 
 int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason)

@@ -29,10 +29,10 @@ namespace vtkNeuralCompressInternals
 struct FieldInfo;
 struct Settings;
 
-/// Field data of the reader's output that names the file (its absence: not an out-of-core input).
-constexpr const char* kOutOfCoreFileArray = "NeuralOutOfCoreFile";
-/// The array (a .vti point array, an HDF5 dataset) the reader was asked for; empty: the file's own choice.
-constexpr const char* kOutOfCoreArrayArray = "NeuralOutOfCoreArray";
+/// The reader's output names the file in one field-data string array named after the file's field (so that Neural
+/// Compress's array selection shows that name): { kOutOfCoreMarker, file path, the array asked for (a .vti point
+/// array, an HDF5 dataset; empty: the file's own choice), the file's summary }. No such array: not an out-of-core input.
+constexpr const char* kOutOfCoreMarker = "NeuralOutOfCoreFile";
 
 /// The file an out-of-core reader's output stands for.
 struct OutOfCoreRequest

@@ -4,8 +4,8 @@
  *
  * Reads the header of a raw NRRD (.nhdr with its detached data file, or a .nrrd with raw encoding), a Brick of
  * Values (.bov) or a VTK XML image (.vti with a raw appended point array) and checks it against the data file's
- * size. The output is an image with the file's extent, spacing and origin and NO samples: its field data names the
- * file (NeuralOutOfCoreFile, NeuralOutOfCoreArray) and describes it (NeuralOutOfCoreSummary, NeuralOutOfCoreBytes).
+ * size. The output is an image with the file's extent, spacing and origin and NO samples: one field-data string array,
+ * named after the file's field, names the file and describes it (vtkNeuralOutOfCoreInput.h).
  * Neural Compress on this output trains from the file through a random block buffer within its MemoryBudget and
  * measures its figures in streamed passes over the file. Sample types: uint8, int16, uint16, int32, float32,
  * float64, either byte order. A header the reader cannot use, or a data file shorter than the header says, gives

@@ -215,6 +215,10 @@ check(image.GetDimensions() == DIMS, "reader: dimensions %s" % (image.GetDimensi
 check(np.allclose(image.GetSpacing(), SPACING) and np.allclose(image.GetOrigin(), ORIGIN),
       "reader: spacing %s origin %s" % (image.GetSpacing(), image.GetOrigin()))
 check(image.GetPointData().GetNumberOfArrays() == 0, "reader: no samples are loaded")
+probe_filter = NeuralCompress(Input=reader)
+check(list(probe_filter.SelectInputScalars)[-1] == "geometry",
+      "Neural Compress's array selection shows the file's field (%s)" % list(probe_filter.SelectInputScalars))
+Delete(probe_filter)
 reader.UpdatePropertyInformation()
 log("reader: " + reader.GetProperty("FileSummary").GetElement(0))
 Delete(reader)
