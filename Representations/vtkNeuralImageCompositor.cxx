@@ -137,7 +137,7 @@ bool vtkNeuralImageCompositor::PrepareTexture(vtkWindow* window)
 }
 
 bool vtkNeuralImageCompositor::SetDeviceImage(
-  vtkRenderer* ren, const float* deviceRgba, int width, int height, std::string& why)
+  vtkRenderer* ren, const float* deviceRgba, const void* ready, int width, int height, std::string& why)
 {
   const auto start = std::chrono::steady_clock::now();
   this->Image.clear();
@@ -156,7 +156,7 @@ bool vtkNeuralImageCompositor::SetDeviceImage(
     {
       this->Target = nv::GlImageTarget::create(this->Texture->GetHandle(), width, height);
     }
-    this->Target->write(deviceRgba);
+    this->Target->write(deviceRgba, ready);
   }
   catch (const std::exception& e)
   {

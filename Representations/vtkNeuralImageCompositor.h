@@ -39,8 +39,11 @@ public:
   void SetImage(std::vector<float>&& rgba, int width, int height);
   /// Write an image that lies in GPU memory (an engine render to nv::Memory::Device) straight into the texture through
   /// CUDA-OpenGL interop: no host copy, no upload. False, with the reason, when interop is not possible here (the
-  /// caller renders to the host instead); the texture is (re)registered when its size or context changes.
-  bool SetDeviceImage(vtkRenderer* ren, const float* deviceRgba, int width, int height, std::string& why);
+  /// caller renders to the host instead); the texture is (re)registered when its size or context changes. `ready`
+  /// (nv::RenderResult::deviceReady, may be null): the image is complete after that CUDA event; the copy waits for
+  /// it on the GPU, not here.
+  bool SetDeviceImage(
+    vtkRenderer* ren, const float* deviceRgba, const void* ready, int width, int height, std::string& why);
   bool HasImage() const { return this->Width > 0; }
   /// The image on the host (read back from the texture when it came from SetDeviceImage).
   const std::vector<float>& GetImage();

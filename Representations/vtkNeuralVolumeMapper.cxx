@@ -334,8 +334,10 @@ void vtkNeuralVolumeMapper::PaceInteractiveFrame()
 //------------------------------------------------------------------------------
 uint64_t vtkNeuralVolumeMapper::SceneKey(const nv::RenderRequest& q) const
 {
-  // Everything that changes the picture: the engine's own key plus the network's session.
-  return Mix(nv::renderKey(q), reinterpret_cast<uintptr_t>(this->Internals->Session.get()));
+  // Everything that changes the picture: the engine's own key plus the network's session; an interactive picture may
+  // show an older version's grid (liveRefreshMilliseconds), so it never stands for a still one.
+  return Mix(Mix(nv::renderKey(q), reinterpret_cast<uintptr_t>(this->Internals->Session.get())),
+    q.liveRefreshMilliseconds > 0.0 ? 1u : 0u);
 }
 
 bool vtkNeuralVolumeMapper::RenderProgressive(

@@ -36,6 +36,11 @@ constexpr std::chrono::seconds kMaxDecodeWait(600);
 /// Progressive mode: a new request waits at most this multiple of FrameBudget for its first image (then the previous
 /// picture is drawn and the refresh driver shows the new one when it is ready).
 constexpr double kFirstImageWait = 1.5;
+/// An interactive render of a network that changes while the view turns (training) keeps the decoded grid and the
+/// macrocell ranges of an older version for up to this long (nv::RenderRequest::liveRefreshMilliseconds): the
+/// Decode path re-decodes its grid ten times a second, not for every published version, while the view turns; a
+/// still render derives them for the current version.
+constexpr double kLiveRefreshMilliseconds = 100.0;
 /// Progressive mode, a network that trains: the share of the time its live picture may take to redraw new versions.
 constexpr double kLiveRenderShare = 0.5;
 /// Progressive mode: the progress bar appears once a refinement has run this long.

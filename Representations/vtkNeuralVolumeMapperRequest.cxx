@@ -49,6 +49,9 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
   // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
   // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
   q.waitForDecode = !this->ProgressiveRefinement && !interactive;
+  q.liveRefreshMilliseconds = interactive ? kLiveRefreshMilliseconds : 0.0;
+  // Interop (a render to device memory): return before the GPU finishes, the texture copy waits on the GPU.
+  q.deferDeviceSync = true;
   q.seed = 1;
   return std::string();
 }
@@ -226,7 +229,8 @@ void vtkNeuralVolumeMapper::RenderToCompositor(vtkRenderer* ren, const nv::Rende
   if (interop)
   {
     std::string why;
-    if (in.Result.deviceRgba && in.Compositor.SetDeviceImage(ren, in.Result.deviceRgba, q.width, q.height, why))
+    if (in.Result.deviceRgba &&
+      in.Compositor.SetDeviceImage(ren, in.Result.deviceRgba, in.Result.deviceReady, q.width, q.height, why))
     {
       in.DisplayPath = "CUDA-OpenGL interop";
       in.Timings[3] = in.Compositor.GetUploadMilliseconds();

@@ -82,9 +82,23 @@ bool NetworkArray(vtkSMProxy* representation, std::string& name, int& associatio
       return true;
     }
   }
-  // A Neural Compress output without a decoded field (OutputMode "Network only"): the array it compressed.
+  // A Neural Compress output without a decoded field (OutputMode "Network only"): the array it compressed -- for a
+  // file trained out of core (the Neural Out Of Core Reader upstream), the file's field.
   if (producer->GetXMLName() && std::strcmp(producer->GetXMLName(), "NeuralCompress") == 0)
   {
+    auto* upstream = vtkSMSourceProxy::SafeDownCast(vtkSMPropertyHelper(producer, "Input", true).GetAsProxy());
+    if (upstream && upstream->GetXMLName() && std::strcmp(upstream->GetXMLName(), "NeuralOutOfCoreReader") == 0)
+    {
+      upstream->UpdatePropertyInformation();
+      vtkSMPropertyHelper field(upstream, "FieldName", /*quiet=*/true);
+      const char* fieldName = field.GetNumberOfElements() >= 1 ? field.GetAsString(0) : nullptr;
+      if (fieldName && *fieldName)
+      {
+        name = fieldName;
+        association = vtkDataObject::POINT;
+        return true;
+      }
+    }
     vtkSMPropertyHelper selected(producer, "SelectInputScalars", /*quiet=*/true);
     const char* selectedName = selected.GetNumberOfElements() >= 5 ? selected.GetAsString(4) : nullptr;
     if (selectedName && *selectedName)

@@ -7,7 +7,8 @@ build=${NV_BUILD_DIR:-$root/build}
 
 pkgs=(paraview paraview-dev python3-paraview xvfb xauth libopenmpi-dev libdouble-conversion-dev libglew-dev
       libopenvdb-dev libboost-iostreams-dev cmake ninja-build g++ make clang libclang-rt-14-dev python3-pip
-      python3-matplotlib qtbase5-dev qttools5-dev qtxmlpatterns5-dev-tools xdotool imagemagick)
+      python3-matplotlib qtbase5-dev qttools5-dev qtxmlpatterns5-dev-tools xdotool imagemagick
+      libhdf5-openmpi-dev python3-h5py)  # HDF5: out-of-core .h5 datasets (the library of ParaView's VTK) and the test's files
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

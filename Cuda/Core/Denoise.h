@@ -96,13 +96,16 @@ NV_HD float rawVarianceOfMean(const DenoiseParams& p, const float* noisy, float 
   return fmaxf(0.0f, moment - p.paths * mu * mu) / float(p.frames - 1) / p.paths;
 }
 
-/// Step 4's weight of the raw image from the mean of rawVarianceOfMean over the image's pixels (values in [0, 1]).
-inline float fade(const DenoiseParams& p, double meanVariance)
+/// Step 4's weight of the raw image from the mean of rawVarianceOfMean over the image's pixels (values in [0, 1];
+/// host and device: the CUDA backend computes it on the GPU, without waiting for the sum).
+NV_HD float fade(const DenoiseParams& p, double meanVariance)
 {
-  if (p.frames < 2 || !(meanVariance > 0.0) || !(p.fadeEndDb > p.fadeStartDb))
-    return p.frames >= 2 && meanVariance == 0.0 ? 1.0f : 0.0f;
-  const double db = -10.0 * std::log10(meanVariance);
-  return static_cast<float>(std::min(1.0, std::max(0.0, (db - p.fadeStartDb) / (p.fadeEndDb - p.fadeStartDb))));
+  if (p.frames < 2 || !(p.fadeEndDb > p.fadeStartDb))
+    return 0.0f;
+  if (!(meanVariance > 0.0))
+    return meanVariance == 0.0 ? 1.0f : 0.0f; // no noise at all: the raw accumulation is the picture
+  const double t = (-10.0 * log10(meanVariance) - p.fadeStartDb) / (p.fadeEndDb - p.fadeStartDb);
+  return static_cast<float>(t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t));
 }
 
 /// The guide's value that the channel divides by.

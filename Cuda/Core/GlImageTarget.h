@@ -28,8 +28,10 @@ public:
   virtual int height() const = 0;
 
   /// Copies width * height premultiplied RGBA floats, row 0 at the bottom, from device memory of the GPU the
-  /// OpenGL context runs on into the texture (a device-to-device copy).
-  virtual void write(const float* deviceRgba) = 0;
+  /// OpenGL context runs on into the texture (a device-to-device copy). `ready` (RenderResult::deviceReady, may be
+  /// null): the copy waits on the GPU for that event and write() returns without waiting for the GPU; OpenGL's
+  /// later use of the texture is ordered after the copy either way.
+  virtual void write(const float* deviceRgba, const void* ready = nullptr) = 0;
   /// The texture's pixels, as write() received them (tests, and callers that need the picture on the host).
   virtual void read(std::vector<float>& rgba) = 0;
 };

@@ -35,13 +35,13 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
     {
       const bool skip = marchSkips(P);
       const bool grad = marchGradients(P);
-      int j = r.j;
+      int j = r.sampleIndex;
       for (int k = 0; k < K; ++k, ++j)
       {
         float t;
-        if (!nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
+        if (!nextSample(P, r.origin, r.direction, r.marchStart, r.segmentEnd, P.dt, skip, j, t))
           break;
-        const V3 p = r.o + r.d * t;
+        const V3 p = r.origin + r.direction * t;
         if (!q)
         {
           n += grad ? 7 : 1;
@@ -62,14 +62,14 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
     }
     case Shadow:
     {
-      int j = r.sj;
+      int j = r.shadowSampleIndex;
       for (int k = 0; k < K; ++k, ++j)
       {
         float t;
-        if (!nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
+        if (!nextSample(P, r.shadowOrigin, r.shadowDirection, 0.0f, r.shadowEnd, P.dtShadow, P.skipping != 0, j, t))
           break;
         if (q)
-          q[n] = clampUnit(r.so + r.sd * t);
+          q[n] = clampUnit(r.shadowOrigin + r.shadowDirection * t);
         ++n;
       }
       return n;
@@ -78,9 +78,9 @@ NV_HD int emit(const Params& P, const Ray& r, int K, V3* q)
     case Nee:
     {
       const bool nee = r.phase == Nee;
-      const V3 o = nee ? r.so : r.o, d = nee ? r.sd : r.d;
-      const float tEnd = nee ? r.stEnd : r.tEnd;
-      float t = r.t;
+      const V3 o = nee ? r.shadowOrigin : r.origin, d = nee ? r.shadowDirection : r.direction;
+      const float tEnd = nee ? r.shadowEnd : r.segmentEnd;
+      float t = r.distance;
       uint32_t c = r.nFlight;
       for (int k = 0; k < K; ++k)
       {
@@ -118,7 +118,7 @@ NV_HD void shadeGradient(const Params& P, const Ray& r, const float* v, float rg
     return;
   }
   V3 nrm = g * (-1.0f / gl);
-  const V3 view = r.dW * -1.0f;
+  const V3 view = r.worldDirection * -1.0f;
   if (dot(nrm, view) < 0.0f)
     nrm = nrm * -1.0f;
   const float ndl = fmaxf_(dot(nrm, P.lightW), 0.0f);
@@ -131,47 +131,47 @@ NV_HD void shadeGradient(const Params& P, const Ray& r, const float* v, float rg
 
 NV_HD void compositeSample(Ray& r, const float rgb[3], float alpha)
 {
-  const float w = (1.0f - r.c[3]) * alpha;
-  r.c[0] += w * rgb[0];
-  r.c[1] += w * rgb[1];
-  r.c[2] += w * rgb[2];
-  r.c[3] += w;
+  const float w = (1.0f - r.rgba[3]) * alpha;
+  r.rgba[0] += w * rgb[0];
+  r.rgba[1] += w * rgb[1];
+  r.rgba[2] += w * rgb[2];
+  r.rgba[3] += w;
 }
 
 /// Final colour of the projection blends from the accumulated value.
 NV_HD void finishProjection(const Params& P, Ray& r)
 {
-  float y = r.acc;
+  float y = r.projection;
   if (P.blend == Average)
-    y = r.count > 0 ? r.acc / static_cast<float>(r.count) : 0.0f;
+    y = r.count > 0 ? r.projection / static_cast<float>(r.count) : 0.0f;
   if (P.blend == Additive)
   {
     for (int k = 0; k < 4; ++k)
-      r.c[k] = fminf_(r.c[k], 1.0f);
+      r.rgba[k] = fminf_(r.rgba[k], 1.0f);
     return;
   }
-  const bool any = P.blend == Average ? r.count > 0 : (r.acc > -1.0e38f && r.acc < 1.0e38f);
+  const bool any = P.blend == Average ? r.count > 0 : (r.projection > -1.0e38f && r.projection < 1.0e38f);
   if (!any)
     return;
   float e[4];
   lookup(P, y, e);
   const float a = 1.0f - expNeg(e[3] * P.unitDistance);
-  r.c[0] = e[0] * a;
-  r.c[1] = e[1] * a;
-  r.c[2] = e[2] * a;
-  r.c[3] = a;
+  r.rgba[0] = e[0] * a;
+  r.rgba[1] = e[1] * a;
+  r.rgba[2] = e[2] * a;
+  r.rgba[3] = a;
 }
 
 /// Start a new path segment from network point p in world direction w.
 NV_HD void startSegment(const Params& P, Ray& r, V3 p, V3 w)
 {
-  r.o = p;
-  r.dW = w;
-  r.d = dirToUnit(P, w);
+  r.origin = p;
+  r.worldDirection = w;
+  r.direction = dirToUnit(P, w);
   float t0, t1;
-  boxInterval(p, r.d, t0, t1);
-  r.t = 0.0f;
-  r.tEnd = fmaxf_(t1, 0.0f);
+  boxInterval(p, r.direction, t0, t1);
+  r.distance = 0.0f;
+  r.segmentEnd = fmaxf_(t1, 0.0f);
 }
 
 /// A path leaves the volume after at least one scattering event: the uniform sky, and the sun's lobe when NEE does
@@ -182,9 +182,9 @@ NV_HD void escape(const Params& P, Ray& r)
   {
     float L = P.ambient * P.intensity;
     if (P.shading != PathTraceNee)
-      L += sunRadiance(P, r.dW);
+      L += sunRadiance(P, r.worldDirection);
     for (int k = 0; k < 3; ++k)
-      r.c[k] += r.thr[k] * L;
+      r.rgba[k] += r.throughput[k] * L;
   }
   r.phase = Done;
 }
@@ -214,7 +214,7 @@ NV_HD void scatter(const Params& P, Ray& r, V3 p)
 {
   const float u1 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++);
   ++r.bounces;
-  startSegment(P, r, p, phaseDir(P.g, r.dW, u1, u2));
+  startSegment(P, r, p, phaseDir(P.anisotropy, r.worldDirection, u1, u2));
 }
 
 /// Projection blends (Maximum, Minimum, Average): one sample's value into the accumulated one (NaN, a hole in a
@@ -224,12 +224,12 @@ NV_HD_INLINE void accumulateProjection(const Params& P, Ray& r, float y)
   if (!(y == y))
     return;
   if (P.blend == Maximum)
-    r.acc = fmaxf_(r.acc, y);
+    r.projection = fmaxf_(r.projection, y);
   else if (P.blend == Minimum)
-    r.acc = fminf_(r.acc, y);
+    r.projection = fminf_(r.projection, y);
   else if (P.avgLo >= P.avgHi || (y >= P.avgLo && y <= P.avgHi))
   {
-    r.acc += y;
+    r.projection += y;
     ++r.count;
   }
 }
@@ -240,14 +240,14 @@ NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, i
   const bool skip = marchSkips(P);
   const int qs = queriesPerStep(P);
   const bool projection = P.blend != Composite && P.blend != Additive;
-  int j = r.j;
+  int j = r.sampleIndex;
   for (int k = 0; k < K; ++k, ++j)
   {
     float t;
     // emit() stopped before K steps only where the segment ends: then so does the ray.
-    if (k * qs >= n || !nextSample(P, r.o, r.d, r.t0, r.tEnd, P.dt, skip, j, t))
+    if (k * qs >= n || !nextSample(P, r.origin, r.direction, r.marchStart, r.segmentEnd, P.dt, skip, j, t))
     {
-      r.plain = segmentSamples(r.t0, r.tEnd, P.dt);
+      r.plain = segmentSamples(r.marchStart, r.segmentEnd, P.dt);
       if (projection || P.blend == Additive)
         finishProjection(P, r);
       r.phase = Done;
@@ -268,8 +268,8 @@ NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, i
     if (P.blend == Additive)
     {
       for (int c = 0; c < 3; ++c)
-        r.c[c] += alpha * rgb[c];
-      r.c[3] += alpha;
+        r.rgba[c] += alpha * rgb[c];
+      r.rgba[3] += alpha;
       continue;
     }
     if (P.shading == RayMarchGradient)
@@ -277,60 +277,61 @@ NV_HD_INLINE void consumeMarch(const Params& P, Ray& r, int K, const float* v, i
     if (P.shading == RayMarchShadows)
     {
       for (int c = 0; c < 3; ++c)
-        r.pend[c] = rgb[c];
-      r.pend[3] = alpha;
-      r.j = j + 1;
-      startShadow(P, r, r.o + r.d * t, P.lightW);
+        r.pending[c] = rgb[c];
+      r.pending[3] = alpha;
+      r.sampleIndex = j + 1;
+      startShadow(P, r, r.origin + r.direction * t, P.lightW);
       r.phase = Shadow;
       return;
     }
     compositeSample(r, rgb, alpha);
-    if (r.c[3] >= P.termination)
+    if (r.rgba[3] >= P.termination)
     {
       r.plain = j + 1;
       r.phase = Done;
       return;
     }
   }
-  r.j = j;
+  r.sampleIndex = j;
 }
 
 /// consume() in the Shadow phase (ray marching with shadows): the shadow ray's transmittance; at its end the held
 /// sample is composited and marching resumes.
 NV_HD_INLINE void consumeShadow(const Params& P, Ray& r, int K, const float* v, int n)
 {
-  int j = r.sj;
+  int j = r.shadowSampleIndex;
   bool end = false;
   for (int k = 0; k < K; ++k, ++j)
   {
     float t;
-    if (k >= n || !nextSample(P, r.so, r.sd, 0.0f, r.stEnd, P.dtShadow, P.skipping != 0, j, t))
+    if (k >= n ||
+      !nextSample(P, r.shadowOrigin, r.shadowDirection, 0.0f, r.shadowEnd, P.dtShadow, P.skipping != 0, j, t))
     {
       end = true; // the shadow ray left the volume
       break;
     }
     float e[4];
     lookup(P, v[k], e);
-    r.sT *= expNeg(e[3] * P.dtShadow);
-    if (r.sT < 1e-3f)
+    r.shadowTransmittance *= expNeg(e[3] * P.dtShadow);
+    if (r.shadowTransmittance < 1e-3f)
     {
-      r.sT = 0.0f;
+      r.shadowTransmittance = 0.0f;
       end = true;
       break;
     }
   }
-  r.sj = j;
+  r.shadowSampleIndex = j;
   if (!end)
     return;
   float rgb[3];
-  const float light = P.intensity * (P.ambient + P.diffuse * r.sT);
+  const float light = P.intensity * (P.ambient + P.diffuse * r.shadowTransmittance);
   for (int c = 0; c < 3; ++c)
-    rgb[c] = r.pend[c] * light;
-  compositeSample(r, rgb, r.pend[3]);
+    rgb[c] = r.pending[c] * light;
+  compositeSample(r, rgb, r.pending[3]);
   r.phase = March;
-  if (r.c[3] >= P.termination)
+  if (r.rgba[3] >= P.termination)
   {
-    r.plain = r.j;
+    r.plain = r.sampleIndex;
     r.phase = Done;
   }
 }
@@ -339,21 +340,21 @@ NV_HD_INLINE void consumeShadow(const Params& P, Ray& r, int K, const float* v, 
 /// throughput takes the colour and it scatters, with next-event estimation after the sun's shadow ray.
 NV_HD_INLINE void collide(const Params& P, Ray& r, V3 p, const float e[4])
 {
-  r.c[3] = 1.0f;
+  r.rgba[3] = 1.0f;
   if (r.bounces >= P.maxBounces)
   {
     r.phase = Done;
     return;
   }
   for (int q = 0; q < 3; ++q)
-    r.thr[q] *= e[q];
+    r.throughput[q] *= e[q];
   if (P.shading == PathTraceNee)
   {
     const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
     // sunRadiance(w) / density(w) = 4 pi diffuse * intensity: the estimate is the phase function times
     // diffuse * intensity, times the shadow ray's transmittance.
     const V3 w = sunDir(P.lightW, P.sunExponent, u1, u2);
-    r.pend[0] = phase4pi(P.g, dot(r.dW, w)); // phase weight of the sun direction
+    r.pending[0] = phase4pi(P.anisotropy, dot(r.worldDirection, w)); // phase weight of the sun direction
     startShadow(P, r, clampUnit(p), w);
     r.phase = Nee;
   }
@@ -367,34 +368,34 @@ NV_HD_INLINE void collide(const Params& P, Ray& r, V3 p, const float e[4])
 /// segment's end (the path escapes).
 NV_HD_INLINE void consumeTrack(const Params& P, Ray& r, int K, const float* v, int n)
 {
-  float t = r.t;
+  float t = r.distance;
   uint32_t c = r.nFlight;
   for (int k = 0; k < K; ++k)
   {
     // nextFlight first: where emit() found the segment's end it drew random numbers past the last collision,
     // and the replay must draw them too (the stream continues after this segment).
-    if (!nextFlight(P, r, r.o, r.d, r.tEnd, t, c) || k >= n)
+    if (!nextFlight(P, r, r.origin, r.direction, r.segmentEnd, t, c) || k >= n)
     {
       // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
-      r.t = r.tEnd;
+      r.distance = r.segmentEnd;
       r.nFlight = c;
       escape(P, r);
       return;
     }
-    const V3 p = r.o + r.d * t;
+    const V3 p = r.origin + r.direction * t;
     const float mj = localMajorant(P, clampUnit(p));
     float e[4];
     lookup(P, v[k], e);
     const float xi = rand01(P, r.pixel, r.sample, 3u, r.nEvent++);
     if (xi * mj < e[3]) // real collision
     {
-      r.t = t;
+      r.distance = t;
       r.nFlight = c;
       collide(P, r, p, e);
       return;
     }
   }
-  r.t = t;
+  r.distance = t;
   r.nFlight = c;
 }
 
@@ -402,7 +403,7 @@ NV_HD_INLINE void consumeTrack(const Params& P, Ray& r, int K, const float* v, i
 /// and the path scatters.
 NV_HD_INLINE void consumeNee(const Params& P, Ray& r, int K, const float* v, int n)
 {
-  float t = r.t;
+  float t = r.distance;
   uint32_t c = r.nFlight;
   bool end = false;
   for (int k = 0; k < K; ++k)
@@ -410,32 +411,32 @@ NV_HD_INLINE void consumeNee(const Params& P, Ray& r, int K, const float* v, int
     // nextFlight first, as in Track: the path's flights continue this stream after the shadow ray, so the
     // number that overshot the shadow ray's end must be consumed here (else the next flight reuses it and is
     // biased long).
-    if (!nextFlight(P, r, r.so, r.sd, r.stEnd, t, c) || k >= n)
+    if (!nextFlight(P, r, r.shadowOrigin, r.shadowDirection, r.shadowEnd, t, c) || k >= n)
     {
       end = true; // the shadow ray left the volume
       break;
     }
-    const V3 p = r.so + r.sd * t;
+    const V3 p = r.shadowOrigin + r.shadowDirection * t;
     const float mj = localMajorant(P, clampUnit(p));
     float e[4];
     lookup(P, v[k], e);
     // mj is > 0 where nextFlight stopped; a point rounded into a neighbouring empty cell must not give 0/0.
     const float ratio = mj > 0.0f ? e[3] / mj : (e[3] > 0.0f ? 1.0f : 0.0f);
-    r.sT *= fmaxf_(0.0f, 1.0f - ratio);
-    if (r.sT < 1e-4f)
+    r.shadowTransmittance *= fmaxf_(0.0f, 1.0f - ratio);
+    if (r.shadowTransmittance < 1e-4f)
     {
-      r.sT = 0.0f;
+      r.shadowTransmittance = 0.0f;
       end = true;
       break;
     }
   }
-  r.t = t;
+  r.distance = t;
   r.nFlight = c;
   if (!end)
     return;
   for (int q = 0; q < 3; ++q)
-    r.c[q] += r.thr[q] * P.diffuse * P.intensity * r.sT * r.pend[0];
-  scatter(P, r, r.so);
+    r.rgba[q] += r.throughput[q] * P.diffuse * P.intensity * r.shadowTransmittance * r.pending[0];
+  scatter(P, r, r.shadowOrigin);
   r.phase = Track;
 }
 
@@ -465,7 +466,7 @@ NV_HD void consume(const Params& P, Ray& r, int K, const float* v, int n)
 NV_HD void result(const Ray& r, float out[4])
 {
   for (int k = 0; k < 4; ++k)
-    out[k] = r.c[k];
+    out[k] = r.rgba[k];
 }
 
 } // namespace ray

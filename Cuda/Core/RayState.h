@@ -121,7 +121,7 @@ struct Params
   V3 lightW;             ///< world direction towards the light, unit length
   float ambient, diffuse, specular, specularPower, intensity;
   float sunExponent;     ///< the sun's radiance lobe: max(0, cos)^sunExponent around lightW (sunRadiance)
-  float g;               ///< Henyey-Greenstein anisotropy of the phase function (0: isotropic)
+  float anisotropy;      ///< Henyey-Greenstein anisotropy of the phase function (0: isotropic)
   int maxBounces;
   uint32_t seed, frame;
   const float* depth;    ///< window depth of opaque geometry per pixel, or null
@@ -172,26 +172,28 @@ NV_HD void maskOutsideDomain(const Params& P, const V3* q, float* v, int n)
 
 struct Ray
 {
-  V3 o, d;          ///< network coordinates: p(t) = o + t d, t in world units
-  V3 dW;            ///< world direction of the current segment (unit length)
-  float t0, tEnd;   ///< marching: first segment start; end of the current segment (box exit / opaque depth)
-  float t;          ///< tracking: current distance
-  int j;            ///< marching: index of the next sample, at t0 + (j + 1/2) dt
-  V3 so, sd;        ///< shadow / NEE ray
-  float stEnd, sT;  ///< its end and transmittance
-  int sj;           ///< shadow marching: next sample index
-  float c[4];       ///< accumulated premultiplied colour and opacity
-  float pend[4];    ///< marching with shadows: the pending sample's shaded colour (rgb) and alpha; NEE: phase weight
-  float thr[3];     ///< path tracing: throughput
-  float acc;        ///< Maximum / Minimum / Average / Additive accumulator
-  int count;        ///< Average: samples in range
+  V3 origin, direction;             ///< network coordinates: p(t) = origin + t direction, t in world units
+  V3 worldDirection;                ///< world direction of the current segment (unit length)
+  float marchStart;                 ///< marching: start of the first segment
+  float segmentEnd;                 ///< end of the current segment (box exit / opaque depth)
+  float distance;                   ///< tracking: current distance t
+  int sampleIndex;                  ///< marching: index j of the next sample, at marchStart + (j + 1/2) dt
+  V3 shadowOrigin, shadowDirection; ///< shadow / NEE ray
+  float shadowEnd;                  ///< its end
+  float shadowTransmittance;        ///< its transmittance
+  int shadowSampleIndex;            ///< shadow marching: next sample index
+  float rgba[4];                    ///< accumulated premultiplied colour and opacity
+  float pending[4];                 ///< shadows: the pending sample's shaded rgb and alpha; NEE: phase weight
+  float throughput[3];              ///< path tracing: throughput
+  float projection;                 ///< Maximum / Minimum / Average / Additive accumulator
+  int count;                        ///< Average: samples in range
   uint32_t pixel;
-  uint32_t sample;  ///< path index within the pixel (several paths per pixel per render)
-  uint32_t nFlight; ///< counter of the free-flight random stream
-  uint32_t nEvent;  ///< counter of the event random stream
+  uint32_t sample;                  ///< path index within the pixel (several paths per pixel per render)
+  uint32_t nFlight;                 ///< counter of the free-flight random stream
+  uint32_t nEvent;                  ///< counter of the event random stream
   int phase;
   int bounces;
-  int plain;        ///< samples a plain marcher takes on this ray (set when marching ends)
+  int plain;                        ///< samples a plain marcher takes on this ray (set when marching ends)
 };
 
 } // namespace ray

@@ -303,20 +303,20 @@ NV_HD void initRay(const Params& P, int px, int py, Ray& r, uint32_t sample = 0)
       tFar = fminf_(tFar, fmaxf_(0.0f, dot(pd - nearW, dirW)));
     }
   }
-  r.o = toUnit(P, nearW);
-  r.d = dirToUnit(P, dirW);
-  r.dW = dirW;
+  r.origin = toUnit(P, nearW);
+  r.direction = dirToUnit(P, dirW);
+  r.worldDirection = dirW;
   float t0, t1;
-  boxInterval(r.o, r.d, t0, t1);
+  boxInterval(r.origin, r.direction, t0, t1);
   t0 = fmaxf_(t0, 0.0f);
   t1 = fminf_(t1, tFar);
   if (!(t0 < t1))
     return;
-  r.t0 = t0;
-  r.tEnd = t1;
-  r.t = t0;
-  r.thr[0] = r.thr[1] = r.thr[2] = 1.0f;
-  r.acc = P.blend == Minimum ? 3.0e38f : (P.blend == Maximum ? -3.0e38f : 0.0f);
+  r.marchStart = t0;
+  r.segmentEnd = t1;
+  r.distance = t0;
+  r.throughput[0] = r.throughput[1] = r.throughput[2] = 1.0f;
+  r.projection = P.blend == Minimum ? 3.0e38f : (P.blend == Maximum ? -3.0e38f : 0.0f);
   r.phase = P.shading >= PathTrace ? Track : March;
 }
 
@@ -344,14 +344,14 @@ NV_HD int queriesPerStep(const Params& P)
 /// Shadow ray from network point p towards the light (marching with shadows) or in world direction w (NEE).
 NV_HD void startShadow(const Params& P, Ray& r, V3 p, V3 w)
 {
-  r.so = p;
-  r.sd = dirToUnit(P, w);
+  r.shadowOrigin = p;
+  r.shadowDirection = dirToUnit(P, w);
   float t0, t1;
-  boxInterval(p, r.sd, t0, t1);
-  r.stEnd = fmaxf_(t1, 0.0f);
-  r.sT = 1.0f;
-  r.sj = 0;
-  r.t = 0.0f;
+  boxInterval(p, r.shadowDirection, t0, t1);
+  r.shadowEnd = fmaxf_(t1, 0.0f);
+  r.shadowTransmittance = 1.0f;
+  r.shadowSampleIndex = 0;
+  r.distance = 0.0f;
 }
 
 } // namespace ray

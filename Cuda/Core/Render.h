@@ -108,6 +108,14 @@ struct RenderRequest
   bool waitForDecode = false;     ///< Decode path: render with the full grid now, never a coarse one (a caller that
                                   ///< waits for the final picture: the CPU backend decodes it on all of the session's
                                   ///< threads, finishing a background decode already under way); not in the image key
+  double liveRefreshMilliseconds = 0.0; ///< a network that changes while the view turns (training): the decoded grid
+                                  ///< and the macrocell ranges of an older version stand in for the current one until
+                                  ///< they are this old, then are derived again (0: for every version; not in the
+                                  ///< image key). The interactive renders of the ParaView mapper set it.
+  bool deferDeviceSync = false;   ///< a render to Memory::Device returns once its GPU work is queued (CUDA backend):
+                                  ///< RenderResult::deviceReady orders the image's consumers after it, and the GPU
+                                  ///< figures of the stats are the previous render's (gpuFiguresOfPreviousRender);
+                                  ///< not in the image key. The ParaView mapper's interop path sets it.
   const float* depth = nullptr;   ///< optional width*height window depths in [0,1] of opaque geometry (row 0 bottom)
   RenderControl* control = nullptr; ///< optional cancellation and progress (CPU backend; not in the image key)
   const VolumeView* grid = nullptr; ///< Decode path only: march this volume (its own value range normalised like the
@@ -132,6 +140,10 @@ struct RenderStats
   bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
   bool cancelled = false;       ///< request.control->cancel stopped the render: rgba is empty, nothing was cached or
                                 ///< accumulated (render again to get the picture)
+  bool gpuFiguresOfPreviousRender = false; ///< RenderRequest::deferDeviceSync: renderMilliseconds,
+                                           ///< samplesEvaluated and samplesPlain are the previous render's
+  bool olderField = false;      ///< the grid or macrocell ranges of an older network version were used
+                                ///< (RenderRequest::liveRefreshMilliseconds)
   bool reused = false;          ///< ray marching: the request, network and image size were unchanged, so the previous
                                 ///< image was returned without rendering
   double decodeMilliseconds = 0.0;    ///< decoding and macrocell refresh done by this call
@@ -144,6 +156,8 @@ struct RenderResult
   std::vector<float> rgba;           ///< width * height * 4, premultiplied colour and opacity, row 0 at the bottom
   const float* deviceRgba = nullptr; ///< same layout in device memory (render to Memory::Device; GPU backend only;
                                      ///< valid until the session's next render)
+  const void* deviceReady = nullptr; ///< RenderRequest::deferDeviceSync: the CUDA event (cudaEvent_t) after which
+                                     ///< deviceRgba is complete (null: complete when render() returned)
   RenderStats stats;
 };
 

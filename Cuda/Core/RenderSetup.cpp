@@ -222,6 +222,8 @@ void validate(const RenderRequest& q)
     !std::isfinite(q.diffuse) || !std::isfinite(q.specular) || !std::isfinite(q.specularPower) ||
     !std::isfinite(q.sunAngle) || !std::isfinite(q.terminationOpacity) || !std::isfinite(q.anisotropy))
     os << "lighting parameters must be finite; ";
+  if (!(q.liveRefreshMilliseconds >= 0.0) || !std::isfinite(q.liveRefreshMilliseconds))
+    os << "the live refresh interval must be >= 0 ms (is " << q.liveRefreshMilliseconds << "); ";
   if (q.grid && (!q.grid->data || q.grid->count() < 1))
     os << "the reference grid is empty; ";
   double inv[16];
@@ -421,7 +423,7 @@ void setLighting(const RenderRequest& q, ray::Params& P)
   const double sun = std::min(90.0, std::max(0.1, q.sunAngle)) * 3.14159265358979 / 180.0;
   const double sunCos = std::cos(sun);
   P.sunExponent = sunCos > 1e-9 ? static_cast<float>(std::log(0.5) / std::log(sunCos)) : 0.0f;
-  P.g = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
+  P.anisotropy = static_cast<float>(std::min(0.99, std::max(-0.99, q.anisotropy)));
   P.maxBounces = q.maxBounces;
   P.seed = static_cast<uint32_t>(q.seed ^ (q.seed >> 32));
   P.frame = 0;

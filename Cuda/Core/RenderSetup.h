@@ -6,6 +6,7 @@
 #include "RayState.h"
 #include "Render.h"
 
+#include <chrono>
 #include <cstdint>
 #include <vector>
 
@@ -42,6 +43,18 @@ RenderSetup makeRenderSetup(const RenderRequest& request, const SourceInfo& sour
 /// Hash of everything in a request that changes the picture (RenderSetup::key), without the rest of the setup:
 /// what a caller compares to know whether the last image still holds.
 uint64_t renderKey(const RenderRequest& request);
+
+/// Whether a field derived from network version `fieldVersion` (a decoded grid, a lattice, macrocell ranges) at time
+/// `derivedAt` may stand in for version `version` in a render of `request` (RenderRequest::liveRefreshMilliseconds).
+inline bool fieldStillServes(uint64_t fieldVersion, std::chrono::steady_clock::time_point derivedAt, uint64_t version,
+  const RenderRequest& request)
+{
+  if (fieldVersion == version)
+    return true;
+  return request.liveRefreshMilliseconds > 0.0 &&
+    std::chrono::steady_clock::now() - derivedAt <
+    std::chrono::duration<double, std::milli>(request.liveRefreshMilliseconds);
+}
 
 /// Default K of Sample Streaming: the K sweep on an H100 (stent, 1280 x 720, ray marching; results/gpu_render_*)
 /// gave 8.3 / 4.7 / 3.0 / 2.4 / 2.1 / 1.2 / 1.3 ms for K = 1 / 2 / 4 / 8 / 16 / 32 / 64.

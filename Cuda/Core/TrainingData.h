@@ -2,6 +2,7 @@
 // and the PSNR probe.
 #pragma once
 
+#include "BatchSource.h"
 #include "PsnrProbe.h"
 #include "Volume.h"
 
@@ -30,6 +31,10 @@ struct TrainingData
   /// Probe sampling: a bank of training points (xyz in [0,1]^3 of the field, normalised values) that the trainer
   /// draws its batches from instead of interpolating Field; empty otherwise.
   std::vector<float> BankXyz, BankValues;
+  /// Out-of-core training (OutOfCore/BlockBufferSource.h): the trainer draws every batch from this source instead of
+  /// Field (whose view then carries only the dimensions, type and value range, its data null); null otherwise. The
+  /// pointer keeps what the source reads (its block buffer and file) alive.
+  std::shared_ptr<BatchSource> Batches;
   std::shared_ptr<void> Owner;      ///< keeps the array that Field may view in place alive
   std::unique_ptr<PsnrProbe> Probe; ///< null: no intermediate PSNR
 };

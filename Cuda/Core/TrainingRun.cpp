@@ -99,6 +99,8 @@ std::unique_ptr<nv::Trainer> TrainingRun::createTrainer()
       this->PhaseBudget = std::max(1e-3, this->PhaseBudget - secondsSince(started));
   }
   const TrainingData& d = *this->DataPtr;
+  if (d.Batches)
+    return this->SessionPtr->createTrainer(*d.Batches, this->Config);
   if (d.BankValues.empty())
     return this->SessionPtr->createTrainer(d.Field.View, this->Config);
   TrainingPoints bank;

@@ -93,7 +93,8 @@ public:
   bool inBackground() const { return this->Background; }
 
 private:
-  /// A trainer on the field, or on the bank of points when the data has one (after the prologue).
+  /// A trainer on the field, on the bank of points when the data has one, or on its out-of-core batch source (after
+  /// the prologue).
   std::unique_ptr<nv::Trainer> createTrainer();
   std::function<void()> Prologue;
   void worker();

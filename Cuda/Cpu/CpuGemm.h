@@ -58,14 +58,14 @@ enum class Epilogue
 
 struct Operands
 {
-  const float* a;
-  ptrdiff_t ars, aks; ///< A(r, k) = a[r * ars + k * aks]
-  const float* b;
-  ptrdiff_t ldb; ///< B(k, c) = b[k * ldb + c]
-  float* c;
+  const float* lhs;
+  ptrdiff_t ars, aks; ///< A(r, k) = lhs[r * ars + k * aks]
+  const float* rhs;
+  ptrdiff_t ldb; ///< B(k, c) = rhs[k * ldb + c]
+  float* result; ///< C
   ptrdiff_t ldc;
   const float* mask; ///< Epilogue::Mask only; same layout as C
-  int K;
+  int innerDim; ///< the k range: C(r, c) = sum over k < innerDim of A(r, k) B(k, c)
 };
 
 /// One register block: R rows x NV vectors of columns starting at (r0, c0).
@@ -77,12 +77,12 @@ inline void block(const Operands& o, int r0, int c0)
   {
     for (int v = 0; v < NV; ++v)
     {
-      acc[r][v] = E == Epilogue::Accumulate ? load(o.c + (r0 + r) * o.ldc + c0 + v * kVW) : Vec{};
+      acc[r][v] = E == Epilogue::Accumulate ? load(o.result + (r0 + r) * o.ldc + c0 + v * kVW) : Vec{};
     }
   }
-  const float* a = o.a + r0 * o.ars;
-  const float* b = o.b + c0;
-  for (int k = 0; k < o.K; ++k)
+  const float* a = o.lhs + r0 * o.ars;
+  const float* b = o.rhs + c0;
+  for (int k = 0; k < o.innerDim; ++k)
   {
     Vec bv[NV];
     for (int v = 0; v < NV; ++v)
@@ -102,7 +102,7 @@ inline void block(const Operands& o, int r0, int c0)
   {
     for (int v = 0; v < NV; ++v)
     {
-      float* dst = o.c + (r0 + r) * o.ldc + c0 + v * kVW;
+      float* dst = o.result + (r0 + r) * o.ldc + c0 + v * kVW;
       Vec x = acc[r][v];
       if (E == Epilogue::Relu)
       {
@@ -152,11 +152,11 @@ inline void scalarColumns(const Operands& o, int rows, int c0, int c1)
   {
     for (int c = c0; c < c1; ++c)
     {
-      float* dst = o.c + r * o.ldc + c;
+      float* dst = o.result + r * o.ldc + c;
       float acc = E == Epilogue::Accumulate ? *dst : 0.0f;
-      for (int k = 0; k < o.K; ++k)
+      for (int k = 0; k < o.innerDim; ++k)
       {
-        acc += o.a[r * o.ars + k * o.aks] * o.b[k * o.ldb + c];
+        acc += o.lhs[r * o.ars + k * o.aks] * o.rhs[k * o.ldb + c];
       }
       if (E == Epilogue::Relu)
       {

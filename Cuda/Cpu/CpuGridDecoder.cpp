@@ -80,6 +80,7 @@ struct CpuGridDecoder::Job
       {
         g->id = newGridId();
         g->version = version;
+        g->decodedAt = std::chrono::steady_clock::now();
         for (int a = 0; a < 3; ++a)
           g->dims[a] = dims[a];
         result = g; // complete once every block is decoded (a helping caller may still be on its last ones)
@@ -172,6 +173,7 @@ std::shared_ptr<DecodedGrid> CpuGridDecoder::decode(ThreadPool& pool, const Mode
   }
   g->id = newGridId();
   g->version = version;
+  g->decodedAt = std::chrono::steady_clock::now();
   for (int a = 0; a < 3; ++a)
     g->dims[a] = dims[a];
   return g;

@@ -10,6 +10,7 @@
 #include "ThreadPool.h"
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <thread>
@@ -25,6 +26,7 @@ struct DecodedGrid
 {
   uint64_t id = 0;      ///< unique per contents (caches downstream key on it)
   uint64_t version = 0; ///< network version it was decoded from
+  std::chrono::steady_clock::time_point decodedAt; ///< when (RenderRequest::liveRefreshMilliseconds ages it)
   int64_t dims[3] = { 0, 0, 0 };
   bool hasNaN = false;
   std::vector<float> values;
@@ -61,6 +63,13 @@ public:
   std::shared_ptr<const DecodedGrid> cached(uint64_t version, const int64_t dims[3]) const
   {
     return matches(Full.get(), version, dims) ? Full : nullptr;
+  }
+
+  /// The last full grid when it has `dims`, of any network version (else null): no decode.
+  std::shared_ptr<const DecodedGrid> lastFull(const int64_t dims[3]) const
+  {
+    const DecodedGrid* g = Full.get();
+    return g && g->dims[0] == dims[0] && g->dims[1] == dims[1] && g->dims[2] == dims[2] ? Full : nullptr;
   }
 
   /// True from the start of a background decode until its grid has been handed out by acquire() (or dropped).

@@ -55,7 +55,7 @@ struct FastLevel
 struct Corners
 {
   uint32_t idx[8];
-  float w[8];
+  float weights[8];
 };
 
 /// Corners of sample x on a level; prefetches their entries (for writing when `forWrite`).
@@ -68,7 +68,7 @@ inline void corners(const LevelInfo& lv, const FastLevel& fl, const float* x, co
   for (int c = 0; c < 8; ++c)
   {
     k.idx[c] = fl.index(corner[0] + (c & 1), corner[1] + ((c >> 1) & 1), corner[2] + ((c >> 2) & 1));
-    k.w[c] = cornerWeight(c, frac);
+    k.weights[c] = cornerWeight(c, frac);
     __builtin_prefetch(table + static_cast<size_t>(k.idx[c]) * F, forWrite ? 1 : 0, 3);
   }
 }
@@ -118,7 +118,7 @@ void encodeT(const GridLayout& g, const float* table, const float* xyz, int64_t 
       float acc[F] = {};
       for (int c = 0; c < 8; ++c)
       {
-        const float w = k[s].w[c];
+        const float w = k[s].weights[c];
         const float* e = table + static_cast<size_t>(k[s].idx[c]) * F;
         for (int f = 0; f < F; ++f)
         {
@@ -219,7 +219,7 @@ void backwardT(const GridLayout& g, const float* xyz, int64_t n, const float* dO
         const Corners& k = ring[slot][s];
         for (int c = 0; c < 8; ++c)
         {
-          addScaled<F>(grad + static_cast<size_t>(k.idx[c]) * F, k.w[c], d);
+          addScaled<F>(grad + static_cast<size_t>(k.idx[c]) * F, k.weights[c], d);
         }
       }
     }

@@ -122,14 +122,14 @@ void CpuMlp::forward(const float* WT, const float* in, int n, float* acts, float
   {
     const int inDim = layerIn(l);
     Operands o{};
-    o.a = l == 0 ? in : acts + (l - 1) * actStride;
+    o.lhs = l == 0 ? in : acts + (l - 1) * actStride;
     o.ars = inDim;
     o.aks = 1;
-    o.b = WT + (layerOffset(l) - base); // [in][out]
+    o.rhs = WT + (layerOffset(l) - base); // [in][out]
     o.ldb = Width;
-    o.c = acts + l * actStride;
+    o.result = acts + l * actStride;
     o.ldc = Width;
-    o.K = inDim;
+    o.innerDim = inDim;
     gemm::multiply<Epilogue::Relu>(o, n, Width);
   }
   // The output layer's [1][W] block is also its transpose.
@@ -151,14 +151,14 @@ void CpuMlp::backward(const float* W, const float* in, const float* acts, const 
     const float* X = l == 0 ? in : acts + (l - 1) * actStride;
     // dW_l[o][i] += sum_t dZ[t][o] X[t][i]
     Operands g{};
-    g.a = dZ;
+    g.lhs = dZ;
     g.ars = 1;
     g.aks = Width;
-    g.b = X;
+    g.rhs = X;
     g.ldb = inDim;
-    g.c = dW + (layerOffset(l) - base);
+    g.result = dW + (layerOffset(l) - base);
     g.ldc = inDim;
-    g.K = n;
+    g.innerDim = n;
     gemm::multiply<Epilogue::Accumulate>(g, Width, inDim);
     if (l == 0 && !dIn)
     {
@@ -166,15 +166,15 @@ void CpuMlp::backward(const float* W, const float* in, const float* acts, const 
     }
     // dX[t][i] = sum_o dZ[t][o] W_l[o][i], masked by the ReLU of the layer below (its output X > 0).
     Operands d{};
-    d.a = dZ;
+    d.lhs = dZ;
     d.ars = Width;
     d.aks = 1;
-    d.b = W + (layerOffset(l) - base);
+    d.rhs = W + (layerOffset(l) - base);
     d.ldb = inDim;
-    d.c = l > 0 ? dZNext : dIn;
+    d.result = l > 0 ? dZNext : dIn;
     d.ldc = inDim;
     d.mask = X;
-    d.K = Width;
+    d.innerDim = Width;
     if (l > 0)
     {
       gemm::multiply<Epilogue::Mask>(d, n, inDim);

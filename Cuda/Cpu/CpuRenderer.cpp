@@ -85,14 +85,18 @@ std::shared_ptr<const DecodedGrid> CpuRenderer::referenceGrid(const Model& model
 }
 
 std::shared_ptr<const DecodedGrid> CpuRenderer::networkLattice(const Model& model, uint64_t version,
-  const RenderControl* control)
+  const RenderRequest& q, bool& older)
 {
+  const RenderControl* control = q.control;
   int64_t dims[3];
   for (int a = 0; a < 3; ++a)
     dims[a] = std::max<int64_t>(1, std::min<int64_t>(model.source.dims[a], Options.latticeMax));
-  if (Lattice && Lattice->version == version && Lattice->dims[0] == dims[0] && Lattice->dims[1] == dims[1] &&
-    Lattice->dims[2] == dims[2])
+  if (Lattice && Lattice->dims[0] == dims[0] && Lattice->dims[1] == dims[1] && Lattice->dims[2] == dims[2] &&
+    fieldStillServes(Lattice->version, Lattice->decodedAt, version, q))
+  {
+    older = Lattice->version != version;
     return Lattice;
+  }
   // (A new network version decodes 2^21 samples: cancellable, as a publish while training starts it again.)
   std::shared_ptr<const DecodedGrid> lattice =
     Decoder.decodeNow(model, version, dims, control ? &control->cancel : nullptr);
@@ -256,9 +260,20 @@ bool CpuRenderer::prepareField(const Model& model, uint64_t version, const Rende
       f.grid = referenceGrid(model, *q.grid);
     else
     {
-      const CpuGridDecoder::Result a = Decoder.acquire(model, version, setup.gridDims, q.waitForDecode);
-      f.grid = a.grid;
-      f.stats.decodePending = a.pending;
+      // A live network's last full grid stands in for a while (RenderRequest::liveRefreshMilliseconds).
+      std::shared_ptr<const DecodedGrid> last = Decoder.lastFull(setup.gridDims);
+      if (last && last->version != version && !q.waitForDecode &&
+        fieldStillServes(last->version, last->decodedAt, version, q))
+      {
+        f.grid = last;
+        f.stats.olderField = true;
+      }
+      else
+      {
+        const CpuGridDecoder::Result a = Decoder.acquire(model, version, setup.gridDims, q.waitForDecode);
+        f.grid = a.grid;
+        f.stats.decodePending = a.pending;
+      }
     }
     f.lattice = f.grid;
     const DecodedGrid& lattice = *f.lattice;
@@ -266,7 +281,7 @@ bool CpuRenderer::prepareField(const Model& model, uint64_t version, const Rende
   }
   else
   {
-    f.lattice = networkLattice(model, version, q.control);
+    f.lattice = networkLattice(model, version, q, f.stats.olderField);
     if (!f.lattice)
       return false;
     const DecodedGrid& lattice = *f.lattice;

@@ -70,7 +70,10 @@ public:
 private:
   std::shared_ptr<const DecodedGrid> referenceGrid(const Model& model, const VolumeView& grid);
   /// Null when `control` cancelled it.
-  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version, const RenderControl* control);
+  /// The network's lattice for the macrocell ranges: the cached one while it serves `request` (an older version's
+  /// too, RenderRequest::liveRefreshMilliseconds: `older` set), else decoded now (null when cancelled).
+  std::shared_ptr<const DecodedGrid> networkLattice(const Model& model, uint64_t version, const RenderRequest& request,
+    bool& older);
 
   void renderImpl(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result);
   // renderImpl's steps, in order, on one render's state (Frame, CpuRenderer.cpp).

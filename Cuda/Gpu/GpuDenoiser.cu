@@ -69,10 +69,13 @@ __global__ void atrousKernel(DenoiseParams p, int step, const float* __restrict_
     denoise::atrousPixel(p, x, y, step, illum, variance, guide, illumOut, varianceOut);
 }
 
+/// total: step 4's sum of the pixels' variances of the mean (null: no fade).
 __global__ void remodulateKernel(DenoiseParams p, const float* noisy, const float* __restrict__ guide,
-  const float* __restrict__ illum, const float* __restrict__ rawVariance, float* out)
+  const float* __restrict__ illum, const float* __restrict__ rawVariance, const float* __restrict__ total, float* out)
 {
   const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (total)
+    p.rawFade = denoise::fade(p, double(*total) / (double(p.width) * double(p.height)));
   if (x < p.width && y < p.height)
     denoise::remodulate(p, x, y, noisy, guide, illum, rawVariance, out);
 }
@@ -119,21 +122,18 @@ void GpuDenoiser::denoise(const DenoiseParams& params, const float4* noisy, cons
   }
   NV_CUDA(cudaMemcpyAsync(RawVariance.get(), Variance[0].get(), size_t(pixels) * sizeof(float),
     cudaMemcpyDeviceToDevice, stream));
-  // Step 4's estimate: the mean variance of the raw mean, summed on the GPU, the fade weight on the host.
+  // Step 4's estimate: the mean variance of the raw mean, summed on the GPU; the remodulation computes the fade from
+  // it (nothing waits for the GPU here).
   p.rawFade = 0.0f;
+  const float* total = nullptr;
   if (p.frames >= 2)
   {
     if (!Total.get())
-    {
       Total.allocate(1, "denoiser sum");
-      HostTotal.allocate(1);
-    }
     NV_CUDA(cudaMemsetAsync(Total.get(), 0, sizeof(float), stream));
     rawVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), moments, Total.get());
     NV_CUDA_LAUNCH();
-    NV_CUDA(cudaMemcpyAsync(HostTotal.get(), Total.get(), sizeof(float), cudaMemcpyDeviceToHost, stream));
-    NV_CUDA(cudaStreamSynchronize(stream));
-    p.rawFade = denoise::fade(p, double(HostTotal.get()[0]) / double(pixels));
+    total = Total.get();
   }
   const dim3 block(16, 16), grid((p.width + 15) / 16, (p.height + 15) / 16);
   int cur = 0;
@@ -145,7 +145,7 @@ void GpuDenoiser::denoise(const DenoiseParams& params, const float4* noisy, cons
     cur ^= 1;
   }
   remodulateKernel<<<grid, block, 0, stream>>>(p, floats(noisy), floats(guide), floats(Illum[cur].get()),
-    RawVariance.get(), floats(out));
+    RawVariance.get(), total, floats(out));
   NV_CUDA_LAUNCH();
 }
 

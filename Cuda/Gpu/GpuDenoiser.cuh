@@ -31,7 +31,6 @@ private:
   DeviceBuffer<float4> Illum[2];
   DeviceBuffer<float> Variance[2];
   DeviceBuffer<float> Total;       ///< step 4: the sum of the pixels' variances of the mean
-  PinnedBuffer<float> HostTotal;
   DeviceBuffer<float4> NoisyCopy;  ///< `noisy` when the output overwrites it (remodulation reads neighbours)
   DeviceBuffer<float> RawVariance; ///< the demodulated variance before filtering (the shrinkage towards the raw)
 };

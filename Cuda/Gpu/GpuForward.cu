@@ -98,7 +98,8 @@ void binPoints(const DeviceModel& dm, const float* xyz, int64_t m, int bits, cud
 template <int Lpt>
 void launchEncodeLevelsL(int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
 {
-  const dim3 grid(static_cast<unsigned>((a.n + 255) / 256), static_cast<unsigned>((a.grid.levels + Lpt - 1) / Lpt));
+  const dim3 grid(static_cast<unsigned>((a.sampleCount + 255) / 256),
+    static_cast<unsigned>((a.grid.levels + Lpt - 1) / Lpt));
   switch (F)
   {
     case 1: encodeLevelsKernel<1, __half, Lpt><<<grid, 256, 0, stream>>>(a, enc); break;
@@ -204,7 +205,7 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     const int64_t m = std::min(chunk, n - b);
     a.xyz = xyz ? xyz + 3 * b : nullptr;
     a.first = first + b;
-    a.n = m;
+    a.sampleCount = m;
     a.out = out + b;
     if (pre)
     {

@@ -73,23 +73,23 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
   __syncthreads();
 
   const int g = lane >> 2, t = lane & 3;
-  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile * 16 < a.n; tile += int64_t(gridDim.x) * Warps)
+  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile * 16 < a.sampleCount; tile += int64_t(gridDim.x) * Warps)
   {
     const int64_t o0 = tile * 16 + g, o1 = o0 + 8;
     // Where this lane's two outputs go: binned points carry their original index (loaded here, used at the end).
     int64_t d0 = o0, d1 = o1;
     if (a.binned && t == 0)
     {
-      if (o0 < a.n)
+      if (o0 < a.sampleCount)
         d0 = __float_as_uint(a.binned[o0].w);
-      if (o1 < a.n)
+      if (o1 < a.sampleCount)
         d1 = __float_as_uint(a.binned[o1].w);
     }
     __syncwarp(); // the previous tile's ldmatrix reads of enc are done
     WarpOut<W> out;
     if constexpr (Pre)
     {
-      const PreEncoded src{ a.enc, tile * 16, a.n };
+      const PreEncoded src{ a.enc, tile * 16, a.sampleCount };
       warpForward<W, F, false, Weights>(a.grid, s, net, src, nullptr, enc, a.ldE, lane, NoStage{}, out);
     }
     else
@@ -101,9 +101,9 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
     }
     if (t == 0)
     {
-      if (o0 < a.n)
+      if (o0 < a.sampleCount)
         a.out[d0] = out.lo;
-      if (o1 < a.n)
+      if (o1 < a.sampleCount)
         a.out[d1] = out.hi;
     }
   }

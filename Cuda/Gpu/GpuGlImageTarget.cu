@@ -6,6 +6,7 @@
 
 #include <cuda_gl_interop.h>
 
+#include <memory>
 #include <sstream>
 
 namespace nv
@@ -45,6 +46,7 @@ public:
     NV_CHECK(texture != 0 && width > 0 && height > 0, "GlImageTarget: a texture and a size are needed");
     Device = glContextDevice();
     NV_CUDA(cudaSetDevice(Device));
+    CopyStream = std::make_unique<Stream>(); // on the context's GPU
     const cudaError_t e =
       cudaGraphicsGLRegisterImage(&Resource, texture, GL_TEXTURE_2D, cudaGraphicsRegisterFlagsNone);
     if (e != cudaSuccess)
@@ -56,6 +58,8 @@ public:
 
   ~GpuGlImageTarget() override
   {
+    if (CopyStream)
+      cudaStreamSynchronize(CopyStream->get()); // a copy in flight ends before the texture is unregistered
     if (Resource)
       cudaGraphicsUnregisterResource(Resource); // nothing may leave a destructor
   }
@@ -64,7 +68,7 @@ public:
   int width() const override { return Width; }
   int height() const override { return Height; }
 
-  void write(const float* deviceRgba) override
+  void write(const float* deviceRgba, const void* ready) override
   {
     NV_CHECK(deviceRgba != nullptr, "GlImageTarget::write: no image");
     cudaPointerAttributes attributes{};
@@ -72,15 +76,26 @@ public:
     NV_CHECK(attributes.type == cudaMemoryTypeDevice && attributes.device == Device,
       "GlImageTarget::write: the image is not in the memory of the GPU that runs the OpenGL context");
     const size_t row = static_cast<size_t>(Width) * kPixelBytes;
-    Mapped mapped(Resource);
-    NV_CUDA(cudaMemcpy2DToArray(mapped.array, 0, 0, deviceRgba, row, row, static_cast<size_t>(Height),
-      cudaMemcpyDeviceToDevice));
+    if (!ready)
+    {
+      Mapped mapped(Resource);
+      NV_CUDA(cudaMemcpy2DToArray(mapped.array, 0, 0, deviceRgba, row, row, static_cast<size_t>(Height),
+        cudaMemcpyDeviceToDevice));
+      return;
+    }
+    // A render still on the GPU: the copy waits for its event on this target's stream, the unmap orders OpenGL's
+    // later use of the texture after the copy; nothing here waits on the host.
+    NV_CUDA(cudaStreamWaitEvent(CopyStream->get(), static_cast<cudaEvent_t>(const_cast<void*>(ready)), 0));
+    Mapped mapped(Resource, CopyStream->get());
+    NV_CUDA(cudaMemcpy2DToArrayAsync(mapped.array, 0, 0, deviceRgba, row, row, static_cast<size_t>(Height),
+      cudaMemcpyDeviceToDevice, CopyStream->get()));
   }
 
   void read(std::vector<float>& rgba) override
   {
     const size_t row = static_cast<size_t>(Width) * kPixelBytes;
     rgba.resize(static_cast<size_t>(Width) * static_cast<size_t>(Height) * 4);
+    NV_CUDA(cudaStreamSynchronize(CopyStream->get())); // a deferred write() first
     Mapped mapped(Resource);
     NV_CUDA(cudaMemcpy2DFromArray(rgba.data(), row, mapped.array, 0, 0, row, static_cast<size_t>(Height),
       cudaMemcpyDeviceToHost));
@@ -90,21 +105,23 @@ private:
   /// The texture mapped for CUDA while it lives (OpenGL must not touch it meanwhile); unmapped on every exit.
   struct Mapped
   {
-    explicit Mapped(cudaGraphicsResource_t r)
+    explicit Mapped(cudaGraphicsResource_t r, cudaStream_t s = 0)
       : resource(r)
+      , stream(s)
     {
-      NV_CUDA(cudaGraphicsMapResources(1, &resource, 0));
+      NV_CUDA(cudaGraphicsMapResources(1, &resource, stream));
       const cudaError_t e = cudaGraphicsSubResourceGetMappedArray(&array, resource, 0, 0);
       if (e != cudaSuccess)
       {
-        cudaGraphicsUnmapResources(1, &resource, 0);
+        cudaGraphicsUnmapResources(1, &resource, stream);
         throwCuda(e, "cudaGraphicsSubResourceGetMappedArray", __FILE__, __LINE__);
       }
     }
-    ~Mapped() { cudaGraphicsUnmapResources(1, &resource, 0); }
+    ~Mapped() { cudaGraphicsUnmapResources(1, &resource, stream); }
     Mapped(const Mapped&) = delete;
     Mapped& operator=(const Mapped&) = delete;
     cudaGraphicsResource_t resource;
+    cudaStream_t stream;
     cudaArray_t array = nullptr;
   };
 
@@ -113,6 +130,7 @@ private:
   int Height;
   int Device = -1;
   cudaGraphicsResource_t Resource = nullptr;
+  std::unique_ptr<Stream> CopyStream; ///< write() after a render still on the GPU (RenderResult::deviceReady)
 };
 
 } // namespace

@@ -21,10 +21,10 @@ struct FwdArgs
   const float* table32; ///< training: encode from the fp32 parameters (encodeLevelsKernel<F, float>)
   const __half* w16;
   const float* wout;
-  const float* xyz; ///< n x 3, or null: grid points (nx, ny, nz, z0, first), or random training points
+  const float* xyz; ///< sampleCount x 3, or null: grid points (nx, ny, nz, z0, first), or random training points
   int random;       ///< xyz null and random: randomPoint(seed, step, i)
   uint64_t seed, step;
-  int64_t nx, ny, nz, z0, first, n;
+  int64_t nx, ny, nz, z0, first, sampleCount;
   float* out;
   const float4* binned; ///< inference on binned points (GpuBinning.cuh): x, y, z and the output index as float bits
   const __half* enc; ///< two-pass mode: encodings, level-major (level l of sample i at (l * n + i) * F)
@@ -97,7 +97,7 @@ __device__ __forceinline__ void scatterCorners(G* __restrict__ grad, const Level
 __device__ __forceinline__ void fwdPoint(const FwdArgs& a, int64_t gi, float x[3])
 {
   x[0] = x[1] = x[2] = 0.0f;
-  if (gi >= a.n)
+  if (gi >= a.sampleCount)
     return;
   if (a.binned)
   {
@@ -136,7 +136,7 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
   using E = Entry<T, F>;
   using V = typename HalfVec<F>::T;
   const int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
-  if (i >= a.n)
+  if (i >= a.sampleCount)
     return;
   float x[3];
   fwdPoint(a, i, x);
@@ -187,7 +187,7 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
     for (int f = 0; f < F; ++f)
       o[f] = __float2half_rn(acc[f]);
     // Streaming store (evict-first): the encodings are read once by the MLP pass; keep L2 for the level's table.
-    __stcs(reinterpret_cast<V*>(enc) + l * a.n + i, *reinterpret_cast<const V*>(o));
+    __stcs(reinterpret_cast<V*>(enc) + l * a.sampleCount + i, *reinterpret_cast<const V*>(o));
   }
 }
 
@@ -199,7 +199,7 @@ __global__ void __launch_bounds__(256) scatterLevelsKernel(const __grid_constant
   const float* __restrict__ dEnc, G* __restrict__ grad)
 {
   const int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
-  if (i >= a.n)
+  if (i >= a.sampleCount)
     return;
   const int l = blockIdx.y;
   float d[F];
@@ -207,7 +207,7 @@ __global__ void __launch_bounds__(256) scatterLevelsKernel(const __grid_constant
 #pragma unroll
   for (int f = 0; f < F; ++f)
   {
-    d[f] = __ldcs(dEnc + (l * a.n + i) * F + f);
+    d[f] = __ldcs(dEnc + (l * a.sampleCount + i) * F + f);
     any |= d[f] != 0.0f;
   }
   if (!any)

@@ -118,9 +118,12 @@ bool GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
 {
   const int64_t nx = s.gridDims[0], ny = s.gridDims[1], nz = s.gridDims[2];
   const void* source = q.grid ? q.grid->data : nullptr;
-  if (Grid.texture() && GridVersion == version && GridSource == source && GridDims[0] == nx && GridDims[1] == ny &&
-    GridDims[2] == nz)
+  if (Grid.texture() && GridSource == source && GridDims[0] == nx && GridDims[1] == ny && GridDims[2] == nz &&
+    (source || fieldStillServes(GridVersion, GridTime, version, q)))
+  {
+    OlderField |= GridVersion != version && !source;
     return false;
+  }
   const int64_t n = nx * ny * nz;
   if (GridLinear.size() < size_t(n))
     GridLinear.allocate(size_t(n), "decoded grid");
@@ -147,6 +150,7 @@ bool GpuRenderer::prepareGrid(const Model& model, uint64_t version, const Render
   GridDims[2] = nz;
   GridVersion = version;
   GridSource = source;
+  GridTime = std::chrono::steady_clock::now();
   return true;
 }
 
@@ -174,6 +178,13 @@ bool GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     k.dims[a] = L[a] * 100000 + s.cells.dims[a]; // the cell layout is part of the key
   if (k == Ranges)
     return false;
+  RangeKey older = k;
+  older.version = Ranges.version;
+  if (k.kind == 2 && older == Ranges && fieldStillServes(Ranges.version, RangesTime, version, q))
+  {
+    OlderField = true; // a live network's ranges, kept for a while (RenderRequest::liveRefreshMilliseconds)
+    return false;
+  }
   const int cells = s.cells.dims[0] * s.cells.dims[1] * s.cells.dims[2];
   if (Range.size() < size_t(cells))
     Range.allocate(size_t(cells), "macrocell ranges");
@@ -192,6 +203,7 @@ bool GpuRenderer::prepareRanges(const Model& model, uint64_t version, const Rend
     background, Range.get());
   NV_CUDA_LAUNCH();
   Ranges = k;
+  RangesTime = std::chrono::steady_clock::now();
   ++RangeStamp;
   return true;
 }
@@ -326,6 +338,7 @@ bool GpuRenderer::prepareScene(const Model& model, uint64_t version, const Rende
   ray::Params& P)
 {
   bool work = false;
+  OlderField = false;
   if (q.path == RenderPath::Decode)
     work |= prepareGrid(model, version, q, s);
   work |= uploadMasks(model, version, P);
@@ -390,6 +403,7 @@ void GpuRenderer::prepareGuide(const Model& model, uint64_t version, const Rende
 {
   if (GuideKey == accumKey && Guide.size() == size_t(Pixels))
     return;
+  collectGpuFigures(); // a deferred render's counters, before the guide's trace reuses them
   const auto t0 = std::chrono::steady_clock::now();
   // The emission-absorption picture of the same request: noise-free, the denoiser's colour and alpha.
   RenderRequest gq = q;
@@ -430,8 +444,25 @@ void GpuRenderer::resolveAccumulation(const RenderRequest& q, int spp, RenderSta
   st.denoised = true;
 }
 
+void GpuRenderer::collectGpuFigures()
+{
+  if (!FiguresPending)
+    return;
+  NV_CUDA(cudaEventSynchronize(CountersCopied.get()));
+  float ms = 0.0f;
+  NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
+  LastGpuFigures.renderMilliseconds = ms;
+  LastGpuFigures.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
+  LastGpuFigures.samplesPlain = FiguresPathTrace ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  float denoiseMs = 0.0f;
+  if (FiguresDenoised)
+    NV_CUDA(cudaEventElapsedTime(&denoiseMs, Traced.get(), End.get()));
+  LastGpuFigures.denoiseMilliseconds = denoiseMs;
+  FiguresPending = false;
+}
+
 void GpuRenderer::renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
-  uint64_t imageKey, RenderStats& st)
+  uint64_t imageKey, RenderStats& st, bool deferred)
 {
   ray::Params P = s.params;
   const bool pt = q.shading == ShadingMode::PathTrace || q.shading == ShadingMode::PathTraceNee;
@@ -453,6 +484,7 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   if (prepareScene(model, version, q, s, P))
     NV_CUDA(cudaStreamSynchronize(RenderStream));
   st.decodeMilliseconds = since(t0) - st.guideMilliseconds;
+  st.olderField = OlderField;
 
   float4* accum = nullptr;
   if (pt)
@@ -476,6 +508,7 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
     accum = Accum.get();
   }
   RenderCounters* c = Counters.get();
+  collectGpuFigures(); // a deferred render's figures (done by now, in the usual case), before the counters reset
   NV_CUDA(cudaMemsetAsync(c, 0, sizeof(RenderCounters), RenderStream));
   NV_CUDA(cudaEventRecord(Begin.get(), RenderStream));
   traceSamples(q, s, P, spp, accum, st);
@@ -486,18 +519,18 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   }
   NV_CUDA(cudaEventRecord(End.get(), RenderStream));
   NV_CUDA(cudaMemcpyAsync(HostCounters.get(), c, sizeof(RenderCounters), cudaMemcpyDeviceToHost, RenderStream));
-  NV_CUDA(cudaStreamSynchronize(RenderStream));
-  float ms = 0.0f;
-  NV_CUDA(cudaEventElapsedTime(&ms, Begin.get(), End.get()));
-  st.renderMilliseconds = ms;
-  if (st.denoised)
-  {
-    float denoiseMs = 0.0f;
-    NV_CUDA(cudaEventElapsedTime(&denoiseMs, Traced.get(), End.get()));
-    st.denoiseMilliseconds = denoiseMs;
-  }
-  st.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
-  st.samplesPlain = pt ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  NV_CUDA(cudaEventRecord(CountersCopied.get(), RenderStream));
+  FiguresPending = true;
+  FiguresPathTrace = pt;
+  FiguresDenoised = st.denoised;
+  // A deferred render returns now (its figures come with the next render); any other waits for its GPU work.
+  st.gpuFiguresOfPreviousRender = deferred;
+  if (!deferred)
+    collectGpuFigures();
+  st.renderMilliseconds = LastGpuFigures.renderMilliseconds;
+  st.denoiseMilliseconds = LastGpuFigures.denoiseMilliseconds;
+  st.samplesEvaluated = LastGpuFigures.samplesEvaluated;
+  st.samplesPlain = LastGpuFigures.samplesPlain;
   st.accumulatedFrames = pt ? Frames : 0;
   st.accumulatedPaths = pt ? Paths : 0;
 }
@@ -522,10 +555,11 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   }
   else
   {
-    renderImage(model, version, q, s, imageKey, st);
+    renderImage(model, version, q, s, imageKey, st, where == Memory::Device && q.deferDeviceSync);
     if (!pt)
     {
-      ImageKey = imageKey;
+      // A picture of an older field is not the version's picture: Image holds nothing to reuse then.
+      ImageKey = st.olderField ? 0 : imageKey;
       ImageStats = st;
     }
     else
@@ -536,6 +570,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
   {
     result.rgba.clear();
     result.deviceRgba = reinterpret_cast<const float*>(Image.get());
+    result.deviceReady = st.gpuFiguresOfPreviousRender ? static_cast<const void*>(End.get()) : nullptr;
   }
   else
   {
@@ -546,6 +581,7 @@ void GpuRenderer::render(const Model& model, uint64_t version, const RenderReque
     NV_CUDA(cudaStreamSynchronize(RenderStream));
     st.hostCopyMilliseconds = since(copyStart);
     result.deviceRgba = nullptr;
+    result.deviceReady = nullptr;
   }
   result.stats = st;
 }

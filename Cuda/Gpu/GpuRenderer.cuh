@@ -47,6 +47,8 @@ public:
   void render(const Model& model, uint64_t version, const RenderRequest& request, RenderResult& result,
     Memory where);
   int64_t deviceMemoryBytes() const;
+  /// Recorded after the last render's kernels (they read the session's network): a publish waits for it.
+  cudaEvent_t lastRenderEnd() const { return End.get(); }
 
 private:
   /// Which lattice the current macrocell ranges were computed from.
@@ -64,8 +66,12 @@ private:
   };
 
   /// One frame's image (not the cached one): scene preparation, the samples, the path-tracing average, stats.
+  /// `deferred` (RenderRequest::deferDeviceSync, a render to device memory): returns once the work is queued, with
+  /// the previous render's GPU figures.
   void renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
-    uint64_t imageKey, RenderStats& st);
+    uint64_t imageKey, RenderStats& st, bool deferred);
+  /// Waits for the last render's counters (if not yet collected) and keeps its GPU figures in LastGpuFigures.
+  void collectGpuFigures();
   /// Everything a frame reads besides the network, made current; true if GPU work was enqueued for it (decoding,
   /// macrocells, masks), false when a frame only moved the camera.
   bool prepareScene(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
@@ -92,6 +98,9 @@ private:
   GridTexture Grid;
   int64_t GridDims[3] = { 0, 0, 0 };
   uint64_t GridVersion = 0;
+  std::chrono::steady_clock::time_point GridTime;   ///< when Grid was decoded
+  std::chrono::steady_clock::time_point RangesTime; ///< when Range was computed
+  bool OlderField = false; ///< this frame's grid or ranges come from an older network version
   DeviceBuffer<uint32_t> Domain; ///< SourceInfo::domain on the device
   uint64_t DomainVersion = ~0ull;
   DeviceBuffer<uint32_t> Occupancy; ///< SourceInfo::occupancy on the device
@@ -123,7 +132,14 @@ private:
   DeviceBuffer<float> Slots, Points, Values;
   DeviceBuffer<unsigned char> ScanTemp;
   PinnedBuffer<uint32_t> HostScalars;
-  Event Begin, End, Traced; ///< Traced: the frame's paths done (the denoiser's time runs from it to End)
+  Event Begin, End;
+  Event Traced;               ///< path tracing: the frame's paths done (the denoiser's time runs from it to End)
+  Event CountersCopied;       ///< after the last render's counters reached HostCounters
+  bool FiguresPending = false; ///< the last render's counters and times are not in LastGpuFigures yet
+  bool FiguresPathTrace = false;
+  bool FiguresDenoised = false; ///< the last render denoised (its denoiseMilliseconds is Traced -> End)
+  RenderStats LastGpuFigures; ///< renderMilliseconds, denoiseMilliseconds, samplesEvaluated, samplesPlain of the last
+                              ///< collected render
 };
 
 } // namespace gpu

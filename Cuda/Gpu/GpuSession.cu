@@ -214,6 +214,9 @@ private:
         allocateDeviceModel(HostModel, BackNetwork);
         BackNetworkParams.allocate(Params32.size(), "parameters (back copy)");
       }
+      // The back copy was the network of earlier renders, which may still run on the GPU (a deferred render,
+      // RenderRequest::deferDeviceSync): the packing below waits for the last one.
+      NV_CUDA(cudaStreamWaitEvent(stream, Renderer->lastRenderEnd(), 0));
     }
     NV_CUDA(cudaMemcpyAsync(BackNetworkParams.get(), dParams, BackNetworkParams.bytes(), cudaMemcpyDeviceToDevice,
       stream));

@@ -40,7 +40,7 @@ struct TrainArgs
   const float* xyz; ///< null: randomPoint(seed, step, i)
   uint64_t seed, step;
   const float* targets; ///< NaN = invalid sample
-  int64_t n;
+  int64_t sampleCount;
   int tiles;
   int l1;
   Counters* counters;     ///< this step's
@@ -59,6 +59,24 @@ __device__ __forceinline__ void addLoss(const TrainArgs& a, float lossAcc)
     atomicAdd(&a.counters->lossFixed, static_cast<Fixed>(__double2ll_rn(static_cast<double>(lossAcc) * kLossFixedScale)));
   else
     atomicAdd(&a.counters->lossSum, static_cast<double>(lossAcc));
+}
+
+/// The step's loss-gradient scale, published to the counters by the grid's first thread.
+__device__ __forceinline__ float publishGradScale(const TrainArgs& a)
+{
+  const float gradScale = lossGradScale(a.prev, a.l1);
+  if (blockIdx.x == 0 && threadIdx.x == 0)
+    a.counters->gradScale = gradScale;
+  return gradScale;
+}
+
+/// The warp's loss, summed over its lanes and added once (lane 0).
+__device__ __forceinline__ void addWarpLoss(const TrainArgs& a, int lane, float lossAcc)
+{
+  for (int o = 16; o > 0; o >>= 1)
+    lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
+  if (lane == 0)
+    addLoss(a, lossAcc);
 }
 
 } // namespace gpu

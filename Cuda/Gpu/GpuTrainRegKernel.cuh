@@ -125,6 +125,34 @@ __device__ __forceinline__ void flushWeightGradTiles(const TrainArgs& a, const i
   }
 }
 
+/// The output row's gradient: sums over the row groups (lanes of equal lane & 3), added by row group 0.
+template <int W>
+__device__ __forceinline__ void flushOutputRowGrads(const TrainArgs& a, int lane, float (&woutAcc)[W / 8][2])
+{
+  const MlpShape& s = a.shape;
+  const int g = lane >> 2, t = lane & 3;
+#pragma unroll
+  for (int j = 0; j < W / 8; ++j)
+  {
+#pragma unroll
+    for (int e = 0; e < 2; ++e)
+    {
+      float v = woutAcc[j][e];
+      v += __shfl_xor_sync(0xffffffffu, v, 4);
+      v += __shfl_xor_sync(0xffffffffu, v, 8);
+      v += __shfl_xor_sync(0xffffffffu, v, 16);
+      woutAcc[j][e] = v;
+    }
+    if (g == 0 && a.fixedMlp)
+    {
+      fixedAdd(a.fixedMlp + s.off[s.hiddenLayers] + 8 * j + 2 * t, woutAcc[j][0]);
+      fixedAdd(a.fixedMlp + s.off[s.hiddenLayers] + 8 * j + 2 * t + 1, woutAcc[j][1]);
+    }
+    else if (g == 0)
+      atomicAddPair(a.gradPad + s.off[s.hiddenLayers] + 8 * j + 2 * t, woutAcc[j][0], woutAcc[j][1]);
+  }
+}
+
 template <int W, int F, int Warps, bool Pre>
 __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_constant__ TrainArgs a)
 {
@@ -151,11 +179,9 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
     woutAcc[j][0] = woutAcc[j][1] = 0.0f;
   float lossAcc = 0.0f;
 
-  const float gradScale = lossGradScale(a.prev, a.l1);
-  if (blockIdx.x == 0 && threadIdx.x == 0)
-    a.counters->gradScale = gradScale;
+  const float gradScale = publishGradScale(a);
   const int q8 = lane >> 3, r8 = lane & 7;
-  for (int64_t it = blockIdx.x; it * T < a.n; it += gridDim.x)
+  for (int64_t it = blockIdx.x; it * T < a.sampleCount; it += gridDim.x)
   {
     warpForwardBackward<W, F, Pre>(a, smem, it * T + warp * 16, warp * 16, lane, gradScale, woutAcc, lossAcc);
     __syncthreads();
@@ -196,33 +222,8 @@ __global__ void __launch_bounds__(Warps * 32, 1) trainRegKernel(const __grid_con
 
   // Flush: weight gradients (padded layout), output row, loss.
   flushWeightGradTiles(a, desc, nTiles, lane, acc);
-  // The output row's gradient: sums over the row groups, added by row group 0. Inline here: as a helper (woutAcc by
-  // reference, or scalar helpers for the sum and the add) it changed the kernels' SASS.
-  const int g = lane >> 2, t = lane & 3;
-#pragma unroll
-  for (int j = 0; j < W / 8; ++j)
-  {
-#pragma unroll
-    for (int e = 0; e < 2; ++e)
-    {
-      float v = woutAcc[j][e];
-      v += __shfl_xor_sync(0xffffffffu, v, 4);
-      v += __shfl_xor_sync(0xffffffffu, v, 8);
-      v += __shfl_xor_sync(0xffffffffu, v, 16);
-      woutAcc[j][e] = v;
-    }
-    if (g == 0 && a.fixedMlp)
-    {
-      fixedAdd(a.fixedMlp + s.off[s.hiddenLayers] + 8 * j + 2 * t, woutAcc[j][0]);
-      fixedAdd(a.fixedMlp + s.off[s.hiddenLayers] + 8 * j + 2 * t + 1, woutAcc[j][1]);
-    }
-    else if (g == 0)
-      atomicAddPair(a.gradPad + s.off[s.hiddenLayers] + 8 * j + 2 * t, woutAcc[j][0], woutAcc[j][1]);
-  }
-  for (int o = 16; o > 0; o >>= 1)
-    lossAcc += __shfl_xor_sync(0xffffffffu, lossAcc, o);
-  if (lane == 0)
-    addLoss(a, lossAcc);
+  flushOutputRowGrads<W>(a, lane, woutAcc);
+  addWarpLoss(a, lane, lossAcc);
 }
 
 /// Shared-memory plan of trainRegKernel for blocks of `warps` warps (fused: + per-warp dEnc); total 0 when the

@@ -452,7 +452,7 @@ private:
     a.seed = Train.seed;
     a.step = static_cast<uint64_t>(s);
     a.targets = Targets.get();
-    a.n = n;
+    a.sampleCount = n;
     a.l1 = Train.loss == LossType::L1 ? 1 : 0;
     a.counters = slot(s);
     a.prev = s > 1 ? slot(s - 1) : nullptr;
@@ -482,7 +482,7 @@ private:
     f.random = xyz ? 0 : 1;
     f.seed = Train.seed;
     f.step = static_cast<uint64_t>(s);
-    f.n = n;
+    f.sampleCount = n;
     if (EncG.get())
     {
       const dim3 lg(static_cast<unsigned>((n + 255) / 256), static_cast<unsigned>(Network.grid.levels));

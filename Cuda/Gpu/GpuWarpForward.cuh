@@ -89,21 +89,21 @@ __device__ __forceinline__ uint32_t reluHalf2(uint32_t v)
 template <bool HalfAcc>
 struct AccFrag
 {
-  float v[4];
-  __device__ __forceinline__ void zero() { v[0] = v[1] = v[2] = v[3] = 0.0f; }
+  float values[4];
+  __device__ __forceinline__ void zero() { values[0] = values[1] = values[2] = values[3] = 0.0f; }
   /// ReLU'd fp16 pairs: row g, row g + 8.
-  __device__ __forceinline__ uint32_t lo() const { return packRelu(v[0], v[1]); }
-  __device__ __forceinline__ uint32_t hi() const { return packRelu(v[2], v[3]); }
-  __device__ __forceinline__ void mma(const uint32_t (&a)[4], uint32_t b0, uint32_t b1) { mma16816(v, a, b0, b1); }
+  __device__ __forceinline__ uint32_t lo() const { return packRelu(values[0], values[1]); }
+  __device__ __forceinline__ uint32_t hi() const { return packRelu(values[2], values[3]); }
+  __device__ __forceinline__ void mma(const uint32_t (&a)[4], uint32_t b0, uint32_t b1) { mma16816(values, a, b0, b1); }
 };
 template <>
 struct AccFrag<true>
 {
-  uint32_t v[2];
-  __device__ __forceinline__ void zero() { v[0] = v[1] = 0u; }
-  __device__ __forceinline__ uint32_t lo() const { return reluHalf2(v[0]); }
-  __device__ __forceinline__ uint32_t hi() const { return reluHalf2(v[1]); }
-  __device__ __forceinline__ void mma(const uint32_t (&a)[4], uint32_t b0, uint32_t b1) { mma16816(v, a, b0, b1); }
+  uint32_t values[2];
+  __device__ __forceinline__ void zero() { values[0] = values[1] = 0u; }
+  __device__ __forceinline__ uint32_t lo() const { return reluHalf2(values[0]); }
+  __device__ __forceinline__ uint32_t hi() const { return reluHalf2(values[1]); }
+  __device__ __forceinline__ void mma(const uint32_t (&a)[4], uint32_t b0, uint32_t b1) { mma16816(values, a, b0, b1); }
 };
 
 /// Layer weights as the forward pass reads them: padded fp16 rows [W][K], layer l at base + off[l] with leading
@@ -201,11 +201,11 @@ struct EncodeFrom
 {
   const T* table;
 };
-/// Encoding source: level-major encodings (level l of sample i at (l * n + i) * F), rows [row, row + 16) of n.
+/// Encoding source: level-major encodings (level l of sample i at (l * sampleCount + i) * F), rows [row, row + 16).
 struct PreEncoded
 {
   const __half* enc;
-  int64_t row, n;
+  int64_t row, sampleCount;
 };
 
 /// Staging of the activations for a backward pass: X_l (l = 1..H-1) at base + off[l] (ld `ld`) and, when xh is not
@@ -254,8 +254,8 @@ __device__ __forceinline__ void warpEncodings(const GridLayout& grid, const PreE
     const int rr = it & 15, l = it >> 4;
     const int64_t gi = src.row + rr;
     V v{};
-    if (gi < src.n)
-      v = __ldcs(e + l * src.n + gi); // streamed: read once
+    if (gi < src.sampleCount)
+      v = __ldcs(e + l * src.sampleCount + gi); // streamed: read once
     *reinterpret_cast<V*>(enc + rr * ldE + l * F) = v;
   }
 }

@@ -45,7 +45,7 @@ __device__ __forceinline__ float2 maskPositive(float x, float y, uint32_t mask)
 __device__ __forceinline__ void trainPoint(const TrainArgs& a, int64_t gi, float x[3])
 {
   x[0] = x[1] = x[2] = 0.0f;
-  if (gi >= a.n)
+  if (gi >= a.sampleCount)
     return;
   if (a.xyz)
   {
@@ -70,7 +70,7 @@ __device__ __forceinline__ void warpLossGradient(const TrainArgs& a, int64_t bas
   for (int k = 0; k < 2; ++k)
   {
     const int64_t gi = base + g + 8 * k;
-    if (gi < a.n)
+    if (gi < a.sampleCount)
     {
       const float tg = a.targets[gi];
       if (!isnan(tg))
@@ -158,7 +158,7 @@ __device__ __forceinline__ void scatterEncodingGradient(const TrainArgs& a, cons
   const RegPlan& p = a.reg;
   const int r16 = lane & 15;
   const int64_t gi = base + r16;
-  if (gi >= a.n)
+  if (gi >= a.sampleCount)
     return;
   float x[3];
   trainPoint(a, gi, x);
@@ -185,24 +185,21 @@ __device__ __forceinline__ void scatterEncodingGradient(const TrainArgs& a, cons
   }
 }
 
-/// Phase 1 for the warp's 16 rows: loss, dZ_l / X_l staging and dL/d(encoding) (global level-major or scatter).
+/// 1-3. The forward pass of the warp's 16 rows: the encodings into X_0, every X_l staged for the backward pass and
+/// the weight gradients, the outputs (and X_H) in fo.
 template <int W, int F, bool Pre>
-__device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned char* smem, int64_t base, int row0,
-  int lane, float gradScale, float (&woutAcc)[W / 8][2], float& lossAcc)
+__device__ __forceinline__ WarpOut<W> regWarpForward(const TrainArgs& a, __half* sh, const float* swout,
+  int64_t base, int row0, int lane)
 {
   const RegPlan& p = a.reg;
   const MlpShape& s = a.shape;
-  __half* sh = reinterpret_cast<__half*>(smem);
-  const float* swout = reinterpret_cast<const float*>(smem + p.wout);
   __half* X0 = sh + p.layerInputs[0] + row0 * p.ldX0;
-
   const WarpNet net{ sh, p.weights, p.ldX0, p.ldA, swout };
   const StageActivations stage{ sh + row0 * p.ldA, p.layerInputs, p.ldA, nullptr, 0 };
-  // 1-3. Forward pass (encodings into X_0, X_l staged for the backward pass and the weight gradients), outputs.
   WarpOut<W> fo;
   if constexpr (Pre)
   {
-    const PreEncoded src{ a.encG, base, a.n };
+    const PreEncoded src{ a.encG, base, a.sampleCount };
     warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, nullptr, X0, p.ldX0, lane, stage, fo);
   }
   else
@@ -212,6 +209,19 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
     const EncodeFrom<float> src{ a.table32 };
     warpForward<W, F, false, WeightsInShared>(a.grid, s, net, src, x, X0, p.ldX0, lane, stage, fo);
   }
+  return fo;
+}
+
+/// Phase 1 for the warp's 16 rows: loss, dZ_l / X_l staging and dL/d(encoding) (global level-major or scatter).
+template <int W, int F, bool Pre>
+__device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned char* smem, int64_t base, int row0,
+  int lane, float gradScale, float (&woutAcc)[W / 8][2], float& lossAcc)
+{
+  const RegPlan& p = a.reg;
+  const MlpShape& s = a.shape;
+  __half* sh = reinterpret_cast<__half*>(smem);
+  const float* swout = reinterpret_cast<const float*>(smem + p.wout);
+  const WarpOut<W> fo = regWarpForward<W, F, Pre>(a, sh, swout, base, row0, lane);
   float gr[2] = { 0.0f, 0.0f };
   warpLossGradient(a, base, lane, gradScale, fo.lo, fo.hi, gr, lossAcc);
 
@@ -220,7 +230,8 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
   hiddenLayersBackward<W>(p, s, sh, row0, lane, dA);
 
   // 6. dL/d(encoding) = dZ_0 . W_0, 64 columns at a time (inline here: as a helper it changed the fused kernels'
-  // register counts), level-major to global memory (Pre) or to the warp's dEnc rows for the scatter.
+  // register counts, and a helper for one lane's store pair raised 9 of the 24 instances' by up to 6), level-major
+  // to global memory (Pre) or to the warp's dEnc rows for the scatter.
   const int g = lane >> 2, t = lane & 3;
   float* dEw = reinterpret_cast<float*>(smem + p.encodingGrads) + row0 * p.ldDE; // fused mode only
   for (int n0 = 0; n0 < s.paddedInputs; n0 += 64)
@@ -246,18 +257,18 @@ __device__ __forceinline__ void warpForwardBackward(const TrainArgs& a, unsigned
         if constexpr (Pre)
         {
           const int64_t gi = base + g + 8 * k;
-          if (gi >= a.n)
+          if (gi >= a.sampleCount)
             continue;
           if constexpr (F == 1)
           {
-            a.dEncG[c * a.n + gi] = e0;
+            a.dEncG[c * a.sampleCount + gi] = e0;
             if (c + 1 < s.inputs)
-              a.dEncG[(c + 1) * a.n + gi] = e1;
+              a.dEncG[(c + 1) * a.sampleCount + gi] = e1;
           }
           else
           {
             const int l = c / F, f = c % F;
-            *reinterpret_cast<float2*>(a.dEncG + (l * a.n + gi) * F + f) = make_float2(e0, e1);
+            *reinterpret_cast<float2*>(a.dEncG + (l * a.sampleCount + gi) * F + f) = make_float2(e0, e1);
           }
         }
         else

@@ -64,6 +64,7 @@ BlockBuffer::BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig
   }
   for (int64_t k = resident; k < resident + loading; ++k)
     this->Free.push_back(k);
+  this->weighResidents();
   for (int t = 0; loading > 0 && t < std::max(1, config.readerThreads); ++t)
   {
     try
@@ -114,16 +115,32 @@ void BlockBuffer::load(Slot& slot, uint64_t blockIndex)
   ++this->BlocksRead;
 }
 
+void BlockBuffer::weighResidents()
+{
+  this->CumulativeCells.resize(this->Resident.size());
+  int64_t total = 0;
+  for (size_t k = 0; k < this->Resident.size(); ++k)
+  {
+    const Slot& slot = this->Slots[static_cast<size_t>(this->Resident[k])];
+    total += std::max<int64_t>(1, slot.cells[0]) * std::max<int64_t>(1, slot.cells[1]) *
+      std::max<int64_t>(1, slot.cells[2]);
+    this->CumulativeCells[k] = total;
+  }
+}
+
 void BlockBuffer::drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values,
   int64_t first) const
 {
   const int64_t* dims = this->Reader.layout().dims;
-  const int64_t resident = static_cast<int64_t>(this->Resident.size());
+  const int64_t totalCells = this->CumulativeCells.back();
   for (int64_t i = 0; i < count; ++i)
   {
     const uint64_t index = static_cast<uint64_t>(first + i);
-    const Slot& slot = this->Slots[static_cast<size_t>(
-      this->Resident[static_cast<size_t>(randomBankIndex(seed, step, index, resident))])];
+    const int64_t cell = randomBankIndex(seed, step, index, totalCells);
+    const size_t position = static_cast<size_t>(
+      std::upper_bound(this->CumulativeCells.begin(), this->CumulativeCells.end(), cell) -
+      this->CumulativeCells.begin());
+    const Slot& slot = this->Slots[static_cast<size_t>(this->Resident[position])];
     float u[3];
     int64_t base[3];
     float t[3];
@@ -182,6 +199,7 @@ void BlockBuffer::advance(int blocks)
     this->Resident[static_cast<size_t>(position)] = loaded;
     ++this->BlocksSwapped;
   }
+  this->weighResidents();
   lock.unlock();
   this->Wake.notify_all();
 }

@@ -53,7 +53,9 @@ public:
   BlockBuffer& operator=(const BlockBuffer&) = delete;
 
   /// `count` samples of step `step`: positions xyz (interleaved, [0,1]^3 of the whole volume) uniform inside the
-  /// resident blocks, each block equally likely, and the trilinearly interpolated values in the file's units. Not to
+  /// resident blocks, each block as likely as its share of their cells (a smaller block at the volume's far faces is
+  /// drawn less often: the draws are uniform over the resident part of the volume), and the trilinearly
+  /// interpolated values in the file's units. Not to
   /// be called while advance() runs (the training loop calls them in turn).
   /// `first`: the index of the first sample (draws are a function of seed, step and index: threads may fill disjoint
   /// ranges of one step).
@@ -73,6 +75,8 @@ private:
   };
 
   void load(Slot& slot, uint64_t blockIndex);
+  /// CumulativeCells from the resident slots (after the first reads and after every swap).
+  void weighResidents();
   uint64_t randomBlock(uint64_t draw) const;
   void readerLoop();
 
@@ -82,6 +86,7 @@ private:
   int64_t BlockCount = 1;
   std::vector<Slot> Slots;         ///< resident first (Resident[k] indexes them), then loading
   std::vector<int64_t> Resident;   ///< slot of each resident block
+  std::vector<int64_t> CumulativeCells; ///< cells of Resident[0..k] (flat axes count 1): drawSamples' weights
   std::vector<int64_t> Free;       ///< slots waiting for a reader
   std::vector<int64_t> Ready;      ///< slots a reader filled, waiting for advance()
   mutable std::mutex Mutex;

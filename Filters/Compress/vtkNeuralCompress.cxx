@@ -276,6 +276,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     return false;
   }
   in.DecodeRequested = false;
+  in.MeasureRequested = false; // a settled run's figures are exact already
   if (live && !nvi::HasBytes(record.Bytes))
   {
     // The run installs the job's first network in its thread, then its first snapshot is written: the geometry the
@@ -346,6 +347,11 @@ bool vtkNeuralCompress::CurrentNetwork(
 {
   if (live)
   {
+    if (this->Internals->MeasureRequested)
+    {
+      this->Internals->MeasureRequested = false;
+      this->MeasureRequestedNow(job); // the snapshot below carries its figures
+    }
     record = job.Snapshot();
     if (this->Internals->DecodeRequested)
     {

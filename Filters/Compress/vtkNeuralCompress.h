@@ -242,6 +242,14 @@ public:
   ///@}
 
   ///@{
+  /// Out-of-core inputs (the Neural Out-of-Core Reader's output): host memory in MiB that the file's samples may take
+  /// (the random block buffer, the PSNR probe and a streamed pass's slabs); 0 = automatic (a quarter of what the
+  /// process may allocate, at most three times the file). Ignored for other inputs.
+  vtkSetClampMacro(MemoryBudget, double, 0.0, 1.0e9);
+  vtkGetMacro(MemoryBudget, double);
+  ///@}
+
+  ///@{
   /// Steps between two PSNR estimates in the training log (0 = only at the end).
   vtkSetClampMacro(PSNRInterval, int, 0, VTK_INT_MAX);
   vtkGetMacro(PSNRInterval, int);
@@ -321,6 +329,9 @@ public:
   void FastForward();      ///< 1000 more steps without intermediate views
   void StopTraining();
   void DecodeNow();        ///< decode the current network into the output now (decoded output modes)
+  /// Out-of-core inputs, while paused: the next update measures the network shown over every voxel of the file (one
+  /// streamed pass, with progress, abortable); its figures replace the estimate until training resumes.
+  void MeasureNow();
   /// Block until the current run has finished its phase (at most `seconds`, < 0: no limit); the
   /// next update then shows the final network.
   void WaitForTraining(double seconds);
@@ -385,6 +396,7 @@ protected:
   int SamplingDimensions[3] = { 0, 0, 0 };
   int Sampling = SAMPLING_RESAMPLE;
   int ProbePoints = 0;
+  double MemoryBudget = 0.0;
   int PSNRInterval = 100;
   double TargetPSNR = 0.0;
   int OutputMode = OUTPUT_NETWORK_ONLY;
@@ -450,6 +462,13 @@ private:
   /// Records the training key; a new job (StartJob) when it or the time differs from the current job's.
   void StartJobIfChanged(const vtkNeuralCompressInternals::InputIdentity& identity,
     const vtkNeuralCompressInternals::PreparedField& prepared);
+
+  /// An out-of-core reader's output (vtkNeuralOutOfCoreInput.h): the file's header, value range (a streamed pass),
+  /// block buffer and probe; false after reporting an error or when cancelled.
+  bool PrepareOutOfCoreField(const vtkNeuralCompressInternals::InputRequest& request,
+    const vtkNeuralCompressInternals::Settings& settings, vtkNeuralCompressInternals::PreparedField& prepared);
+  /// MeasureNow's pass, in an execution (its progress and abort); false after reporting why it did not measure.
+  bool MeasureRequestedNow(vtkNeuralCompressInternals::Job& job);
 
   /// The OpenVDB reader's sparse output (vtkNeuralCompressSparse.h): trained from its active voxels and background
   /// samples without a dense grid; false after reporting an error.

@@ -133,6 +133,12 @@ void vtkNeuralCompress::DecodeNow()
   this->Modified();
 }
 
+void vtkNeuralCompress::MeasureNow()
+{
+  this->Internals->MeasureRequested = true;
+  this->Modified();
+}
+
 void vtkNeuralCompress::WaitForTraining(double seconds)
 {
   vtkInternals& in = *this->Internals;

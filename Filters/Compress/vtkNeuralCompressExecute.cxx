@@ -10,6 +10,7 @@
 #include "vtkNeuralCompressResample.h"
 #include "vtkNeuralCompressSparse.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/EngineWarnings.h"
 #include "Core/Error.h"
@@ -110,6 +111,8 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
   nvi::Settings settings = this->CurrentSettings();
   if (request.IsImage)
     settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
+  if (request.OutOfCorePath.empty())
+    settings.MemoryBudgetMiB = 0.0; // inputs in memory: no budget decides their training
   const nvi::InputIdentity identity = this->IdentityOf(request, settings.Canonical(), time);
   if (background)
   {
@@ -159,6 +162,16 @@ bool vtkNeuralCompress::RequestInput(
   request.Source = inputObject;
   request.IsImage = image != nullptr;
   request.InputMTime = inputObject ? inputObject->GetMTime() : 0;
+  nvi::OutOfCoreRequest file;
+  if (nvi::OutOfCoreRequestOf(inputObject, file))
+  {
+    // A file that is never loaded (vtkNeuralOutOfCoreInput.h): no array to select; the file names its field.
+    request.OutOfCorePath = file.Path;
+    request.OutOfCoreArray = file.Array;
+    request.ArrayName = "file:" + file.Path + "|" + file.Array;
+    request.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    return true;
+  }
   if (image)
   {
     request.Array = this->GetInputArrayToProcess(0, inputVector, request.Association);
@@ -237,6 +250,10 @@ bool vtkNeuralCompress::IsCurrentTraining(const nvi::InputIdentity& identity) co
 bool vtkNeuralCompress::PrepareField(
   const nvi::InputRequest& request, const nvi::Settings& settings, nvi::PreparedField& prepared)
 {
+  if (!request.OutOfCorePath.empty())
+  {
+    return this->PrepareOutOfCoreField(request, settings, prepared);
+  }
   nvi::Preparation* background = nvi::Preparation::OfThisThread();
   auto stage = [background](const char* text) {
     if (background)

@@ -280,8 +280,11 @@ void Job::Finalize(const RunStatus& status)
   std::string decodeError;
   vtkSmartPointer<vtkDataArray> decoded = this->DecodeAtPhaseEnd(field, mode, abortedBefore, decodeError);
   PhaseMeasurement measured;
-  measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
-    this->TrainingSettings.Threads, measured.ResampledPsnr, measured.SourceSamples);
+  if (field.OutOfCore)
+    measured = this->MeasureOutOfCoreFile(field, status, abortedBefore);
+  else
+    measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
+      this->TrainingSettings.Threads, measured.ResampledPsnr, measured.SourceSamples);
   std::shared_ptr<NetworkRecord> record = this->MeasuredRecord(model, status, measured, abortedBefore);
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
@@ -352,7 +355,7 @@ std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
   m.Steps = status.Steps;
   m.Seconds = status.Seconds;
   m.Psnr = error.psnr;
-  m.PsnrFinal = true;
+  m.PsnrFinal = measured.Exact;
   m.MaxError = error.maxAbsError;
   m.MaxErrorOfRange = error.maxErrorOfRange;
   m.ResampledPsnr = measured.ResampledPsnr;
@@ -521,6 +524,16 @@ NetworkRecord Job::Snapshot()
   m.Seconds = status.Seconds;
   m.Psnr = status.Psnr; // the probe's estimate (NaN before the first)
   m.PsnrFinal = false;
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    if (this->PausedFiguresStep >= 0 && this->PausedFiguresStep == status.Steps)
+    {
+      m.Psnr = this->PausedFigures.psnr; // measured over the whole file at this very step (MeasurePaused)
+      m.MaxError = this->PausedFigures.maxAbsError;
+      m.MaxErrorOfRange = this->PausedFigures.maxErrorOfRange;
+      m.PsnrFinal = true;
+    }
+  }
   m.Ratio = static_cast<double>(this->Source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;

@@ -89,6 +89,8 @@ struct SourceSamples
   int64_t SourceBytes = 0;    ///< bytes of the selected array in every block (the compression ratio's numerator)
 };
 
+struct OutOfCoreFile;
+
 struct FieldInfo
 {
   std::string Name;
@@ -114,6 +116,9 @@ struct FieldInfo
   double PreparationSeconds = 0.0;
   /// A resampling coarsened to fit the TimeBudget: the dimensions the output keeps at OutputResolution 0 0 0 (0: none).
   int CoarsenedDims[3] = { 0, 0, 0 };
+  /// Out-of-core inputs (vtkNeuralOutOfCoreInput.h): the file the network trains from and is measured against (no
+  /// field in memory); null otherwise.
+  std::shared_ptr<const OutOfCoreFile> OutOfCore;
 };
 
 /// The output geometry of `field` at `outputResolution` (vtkNeuralCompress::OutputResolution): a change re-decodes the
@@ -204,6 +209,11 @@ public:
   /// execution that started the job outputs it); true when they exist.
   bool WaitForFirstLiveBytes(double seconds);
   bool FirstBytesAwaited = false; ///< the filter waited for them once (its thread only)
+  /// Out-of-core inputs: the exact figures of the network shown while the run is paused (MeasureNow), streamed over
+  /// the file in the filter's thread; live snapshots at that step carry them instead of the estimate. False when the
+  /// pass was aborted or failed (`problem`).
+  bool MeasurePaused(const std::function<bool()>& abort, const std::function<void(double)>& progress,
+    std::string& problem);
 
   mutable std::mutex Mutex;
 
@@ -214,7 +224,11 @@ private:
     nv::ErrorStats Error;
     double ResampledPsnr = std::numeric_limits<double>::quiet_NaN();
     int64_t SourceSamples = 0;
+    bool Exact = true; ///< false: an out-of-core pass that was aborted (Error holds the last estimate)
   };
+  /// The phase end's measurement of an out-of-core input: one streamed pass over the file (abortable like the
+  /// decode); its last estimate when aborted.
+  PhaseMeasurement MeasureOutOfCoreFile(const FieldInfo& field, const RunStatus& status, bool abortedBefore);
   /// Finalize of a job being replaced: the stored-precision `model` kept for warm starts and the cache, state
   /// "Interrupted", without a decode or a measurement.
   void KeepInterruptedNetwork(nv::Model& model, const RunStatus& status);
@@ -241,6 +255,8 @@ private:
   std::atomic<bool> InitialInstalled{ false };
   vtkSmartPointer<vtkDataArray> Decoded;
   int DecodedMode = 0;
+  nv::ErrorStats PausedFigures; ///< MeasurePaused's (under Mutex)
+  int64_t PausedFiguresStep = -1; ///< the step they were measured at (-1: none)
 };
 
 /// 64-bit key of a training: the field's values, geometry and the settings.

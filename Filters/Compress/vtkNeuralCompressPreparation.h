@@ -33,6 +33,9 @@ struct InputRequest
   int Association = -1;
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< the sampling dimensions RequestInformation announced (0: none)
   bool IsImage = false;
+  /// An out-of-core reader's output (vtkNeuralOutOfCoreInput.h): the file it names and the array asked for; the
+  /// path is empty for every other input.
+  std::string OutOfCorePath, OutOfCoreArray;
   const void* Source = nullptr; ///< the pipeline's input object (Object may be a copy of it)
   /// Images: the input's modification time; other inputs: InputStamp (vtkNeuralCompressResample.h), also the
   /// resampler's cache key.

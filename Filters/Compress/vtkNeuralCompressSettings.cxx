@@ -44,6 +44,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.Sampling = this->Sampling;
   s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
+  s.MemoryBudgetMiB = this->MemoryBudget;
   return s;
 }
 
@@ -66,6 +67,8 @@ std::string Settings::Canonical() const
     s << " probe " << ProbePoints; // Resample keeps the v1 string, so saved states' keys stay valid
   if (!KeepBest)
     s << " last"; // the default keeps the v1 string too
+  if (MemoryBudgetMiB != 0.0)
+    s << " memory " << MemoryBudgetMiB; // out-of-core inputs only (others train with 0)
   return s.str();
 }
 
@@ -165,7 +168,8 @@ RunLimits FirstPhaseLimits(const Settings& settings, const FieldInfo& field, con
   const bool comparesDecoded = outputMode == vtkNeuralCompress::OUTPUT_FLOAT32 && field.Geometry.OnSourceGrid;
   limits.FinalSamples = (decodes ? int64_t(decodedDims[0]) * decodedDims[1] * decodedDims[2] : int64_t(0)) +
     (fieldView.data && !comparesDecoded ? fieldView.count() : int64_t(0)) +
-    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0));
+    (field.Samples ? static_cast<int64_t>(field.Samples->Values.size()) : int64_t(0)) +
+    (field.OutOfCore ? fieldView.count() : int64_t(0)); // the streamed pass over every voxel of the file
   limits.TargetPsnr = settings.Deterministic ? 0.0 : settings.TargetPsnr;
   limits.PsnrInterval =
     settings.PsnrInterval > 0 ? settings.PsnrInterval : (limits.TargetPsnr > 0.0 ? 100 : 0);

@@ -27,6 +27,7 @@ struct Settings
   bool Deterministic = false, WarmStart = true;
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
   bool KeepBest = true;
+  double MemoryBudgetMiB = 0.0; ///< out-of-core inputs (vtkNeuralOutOfCoreInput.h); 0: automatic
   /// Every field, for the training key.
   std::string Canonical() const;
 };

@@ -134,7 +134,9 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   job->Storage = configs.Storage;
   job->Train = configs.Train;
   const nv::Device device = nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote);
-  CheckTrainingMemory(configs.Network, configs.Train, device, configs.GpuResident ? view.bytes() : 0);
+  // An out-of-core field stays in its file: nothing of it is uploaded (its batches are host-sampled).
+  CheckTrainingMemory(
+    configs.Network, configs.Train, device, configs.GpuResident && !field.OutOfCore ? view.bytes() : 0);
   job->NetworkConfig = configs.Network;
   job->Source = SourceOf(field, *data); // the geometry is checked now (as the network format does), not after training
 

@@ -33,6 +33,7 @@ struct vtkNeuralCompress::vtkInternals
   std::string TrainedNetworksText;
   std::string StatusText;
   bool DecodeRequested = false;
+  bool MeasureRequested = false; ///< MeasureNow: the next execution measures a paused out-of-core run
   bool SummaryPrinted = false;
   bool FromCache = false; ///< the current job's network is one trained before, taken from the cache
   size_t NotesPrinted = 0;    ///< notes of the current run printed (as text)

@@ -1,6 +1,7 @@
 #include "vtkNeuralCompressDecode.h"
 
 #include "vtkNeuralCompress.h"
+#include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Macrocells.h"
 #include "Core/ResourceEstimate.h"
@@ -309,6 +310,7 @@ vtkSmartPointer<vtkDataArray> DecodeOutput(
     return nullptr;
   }
   CheckDecodedOutputMemory(f, outputMode);
+  CheckOutOfCoreDecode(f, outputMode);
   const OutputGeometry& g = f.Geometry;
   const int64_t count = int64_t(g.DecodedDims[0]) * g.DecodedDims[1] * g.DecodedDims[2];
   vtkSmartPointer<vtkDataArray> array;

@@ -90,6 +90,12 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
     AddFieldValue<vtkTypeInt64Array>(fd, "NeuralSourceSamples", m.SourceSamples);
     AddFieldValue<vtkDoubleArray>(fd, "NeuralResampledPSNR", m.ResampledPsnr);
   }
+  if (field.OutOfCore)
+  {
+    // An out-of-core input: 1 once NeuralPSNR and NeuralMaxError are measured over every voxel of the file, 0 for
+    // the estimate (on random rows of the file) while training.
+    AddFieldValue<vtkIntArray>(fd, "NeuralPSNRExact", m.PsnrFinal ? 1 : 0);
+  }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", m.ModelBytes);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", m.Invalid);

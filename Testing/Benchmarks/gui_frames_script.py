@@ -5,7 +5,8 @@ the GUI drew meanwhile. Neural Compress trains in the background the whole time:
 still (the live picture refreshed by the GUI's own timer) and during each drag give the training's share.
 
 Phases, at each view size (layout preview mode, 1280x720; the view gets what the window holds, recorded): still view, then a drag with each Neural
-Volume render path (Decode, Sample Streaming, In-Shader), then a drag over stock Volume of the original field.
+Volume render path (Decode, Sample Streaming, In-Shader), then a drag over stock Volume of the original field, then
+one over the empty view (nothing shown: the GUI's own ceiling on this display, xdotool's event rate included).
 Environment: NV_PLUGIN, NV_TEST_OUTPUT (gui_frames.json goes there), NV_TEST_DIR (Testing/ParaView), NV_GUI_DEVICE
 (CUDA or CPU), NV_GUI_SMALL=1 (a quick run: 32^3, small views, short drags), NV_DATA_DIR (the stent when present),
 NV_HOST_PYTHON (the Python that runs the xdotool driver). Every figure is wall time in the GUI's process."""
@@ -31,7 +32,7 @@ SMALL = os.environ.get("NV_GUI_SMALL") == "1"
 SIZES = [(320, 180)] if SMALL else [(1280, 720)]
 STILL_SECONDS = 1.0 if SMALL else 3.0
 DRAG_STEPS = 20 if SMALL else 200
-PATHS = ["Decode", "Sample Streaming", "In-Shader", "stock Volume"]
+PATHS = ["Decode", "Sample Streaming", "In-Shader", "stock Volume", "empty view"]
 
 nvtest.load_plugin(globals(), scripted=False)
 stent = os.path.join(os.environ.get("NV_DATA_DIR", ""), "stent", "stent_128x128x256_int16.nhdr")
@@ -101,6 +102,9 @@ def start_drag():
     if path == "stock Volume":
         Hide(nc, view)
         Show(source, view)
+    elif path == "empty view":
+        Hide(nc, view)
+        Hide(source, view)
     else:
         neural.RenderPath = path
     Render(view)
@@ -121,7 +125,7 @@ def finish_drag(now):
              "frame_gap_median_ms": round(1000 * statistics.median(gaps), 2) if gaps else None,
              "events_handled": len(handled) - state["handled"]}
     size_entry = state["results"]["sizes"][str(SIZES[state["size"]])]
-    if PATHS[state["path"]] != "stock Volume":
+    if PATHS[state["path"]] not in ("stock Volume", "empty view"):
         # (with stock Volume shown the filter's output is hidden: nothing reports the training's steps)
         entry["steps_per_s"] = round((steps_trained() - state["steps"]) / seconds, 1)
         alone = size_entry["still"]["steps_per_s"]
@@ -132,6 +136,7 @@ def finish_drag(now):
     else:
         Hide(source, view)
         Show(nc, view)
+        Render(view)
     size_entry[PATHS[state["path"]]] = entry
     log("%r %s: %r" % (SIZES[state["size"]], PATHS[state["path"]], entry))
 

@@ -11,7 +11,7 @@
 #include <cstdio>
 #include <string>
 
-NV_TEST(RefusedWithAReasonWithoutAGpu)
+NV_TEST(refused_with_a_reason_without_a_gpu)
 {
   std::string why;
   if (nv::cudaBackendUsable(&why))

@@ -335,6 +335,54 @@ NV_TEST(macrocells_recompute_only_what_changed)
   }
 }
 
+NV_TEST(a_live_network_keeps_its_field_while_the_view_turns)
+{
+  // RenderRequest::liveRefreshMilliseconds: an interactive render of a newer network version keeps the decoded grid
+  // (Decode) or the lattice behind the macrocell ranges (network paths) of the older version until it is that old;
+  // 0 derives them for every version. The field kept is reported (stats.olderField) and never passes for the
+  // version's own picture.
+  Model newer = scene().model;
+  for (float& w : newer.params())
+    w *= 1.25f; // another network: a visibly different picture
+  for (int path = 0; path < 3; ++path)
+  {
+    CpuRenderer r(pool());
+    const CpuMacrocells& c = r.macrocells();
+    RenderRequest q = blobRequest(scene().model, RenderPath(path), ShadingMode::RayMarch, 24, 24);
+    RenderResult first, kept, fresh, reference;
+    r.render(scene().model, 1, q, first);
+    EXPECT_TRUE(!first.stats.olderField && c.rangeUpdates() == 1);
+
+    RenderRequest live = q;
+    live.liveRefreshMilliseconds = 1e7;
+    r.render(newer, 2, live, kept);
+    EXPECT_TRUE(kept.stats.olderField && c.rangeUpdates() == 1);
+    if (path == 0)
+      EXPECT_TRUE(kept.rgba == first.rgba); // the same grid marched again: the older picture
+    else
+      EXPECT_TRUE(kept.rgba != first.rgba); // the newer network, inside the older ranges
+
+    r.render(newer, 2, q, fresh); // a still render: the current version's field
+    CpuRenderer other(pool());
+    other.render(newer, 2, q, reference);
+    EXPECT_TRUE(!fresh.stats.olderField && !fresh.stats.reused && c.rangeUpdates() == 2);
+    EXPECT_TRUE(fresh.rgba == reference.rgba && fresh.rgba != first.rgba);
+
+    live.liveRefreshMilliseconds = 1.0; // too old after 20 ms: derived again
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    r.render(scene().model, 3, live, kept);
+    EXPECT_TRUE(!kept.stats.olderField && c.rangeUpdates() == 3);
+  }
+  RenderRequest bad = blobRequest(scene().model, RenderPath::Decode, ShadingMode::RayMarch, 8, 8);
+  for (double ms : { -1.0, std::nan(""), HUGE_VAL })
+  {
+    bad.liveRefreshMilliseconds = ms;
+    CpuRenderer r(pool());
+    RenderResult res;
+    EXPECT_THROW_MSG(r.render(scene().model, 1, bad, res), "live refresh interval");
+  }
+}
+
 NV_TEST(nothing_is_drawn_outside_the_domain)
 {
   // A resampled source's domain mask (SourceInfo::domain): here the half x < 0.5 of the box. Looking along -z with

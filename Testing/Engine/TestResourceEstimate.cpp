@@ -29,7 +29,7 @@ nv::ModelConfig smallConfig()
 }
 } // namespace
 
-NV_TEST(ParameterCountMatchesTheModel)
+NV_TEST(parameter_count_matches_the_model)
 {
   const nv::ModelConfig c = smallConfig();
   EXPECT_TRUE(nv::parameterCount(c) == static_cast<int64_t>(nv::Model(c).paramCount()));
@@ -41,7 +41,7 @@ NV_TEST(ParameterCountMatchesTheModel)
   EXPECT_TRUE(nv::parameterCount(d) == static_cast<int64_t>(nv::Model(d).paramCount()));
 }
 
-NV_TEST(TrainingEstimateHasTheTableAndTheBatch)
+NV_TEST(training_estimate_has_the_table_and_the_batch)
 {
   const nv::ModelConfig c = smallConfig();
   nv::TrainConfig t;
@@ -61,7 +61,7 @@ NV_TEST(TrainingEstimateHasTheTableAndTheBatch)
   EXPECT_NEAR_REL(static_cast<double>(b.hostBytes), 23.8e9, 0.02, 0.0);
 }
 
-NV_TEST(SaturationInsteadOfOverflow)
+NV_TEST(saturation_instead_of_overflow)
 {
   const int64_t max = std::numeric_limits<int64_t>::max();
   EXPECT_TRUE(nv::saturatingMul(int64_t(1) << 40, int64_t(1) << 40) == max);
@@ -71,7 +71,7 @@ NV_TEST(SaturationInsteadOfOverflow)
   EXPECT_TRUE(nv::decodeGridMemory(dims, nv::Device::Cpu).hostBytes == max);
 }
 
-NV_TEST(RefusalNamesEstimateAndLimit)
+NV_TEST(refusal_names_estimate_and_limit)
 {
   nv::MemoryEstimate e;
   e.hostBytes = 9400000000;
@@ -86,7 +86,7 @@ NV_TEST(RefusalNamesEstimateAndLimit)
   EXPECT_TRUE(nv::hostMemoryLimit() < nv::physicalMemoryBytes());
 }
 
-NV_TEST(GridClampKeepsProportions)
+NV_TEST(grid_clamp_keeps_proportions)
 {
   int64_t out[3];
   const int64_t fits[3] = { 100, 200, 300 };
@@ -101,7 +101,7 @@ NV_TEST(GridClampKeepsProportions)
   EXPECT_TRUE(nv::clampGrid(line, 100, out) && out[0] == 100 && out[1] == 1 && out[2] == 1);
 }
 
-NV_TEST(DecodeGridFitsTheMachine)
+NV_TEST(decode_grid_fits_the_machine)
 {
   nv::SourceInfo src;
   src.dims[0] = 64;
@@ -124,7 +124,7 @@ NV_TEST(DecodeGridFitsTheMachine)
   EXPECT_TRUE(used[0] == nv::kMaxDecodeResolution && used[1] == 2 && used[2] == 2);
 }
 
-NV_TEST(BudgetFollowsTheProcessLimits)
+NV_TEST(budget_follows_the_process_limits)
 {
   const int64_t gb = 1000000000;
   nv::ProcessMemoryLimits none; // unlimited: the physical memory's share
@@ -147,7 +147,7 @@ NV_TEST(BudgetFollowsTheProcessLimits)
   EXPECT_TRUE(nv::hostMemoryBudget(&data).bytes == 0);
 }
 
-NV_TEST(RefusalUnderALoweredAddressSpaceLimit)
+NV_TEST(refusal_under_a_lowered_address_space_limit)
 {
   if (nvtest::skipAddressSpaceLimits())
     return;
@@ -196,7 +196,7 @@ NV_TEST(RefusalUnderALoweredAddressSpaceLimit)
   EXPECT_TRUE(rc == 0);
 }
 
-NV_TEST(DecodeGridWithinWhatTheNetworkResolves)
+NV_TEST(decode_grid_within_what_the_network_resolves)
 {
   nv::EncodingConfig e;
   e.levels = 8;

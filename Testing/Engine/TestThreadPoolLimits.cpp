@@ -41,7 +41,7 @@ bool posted(const std::vector<std::string>& warnings, const std::string& text)
 }
 } // namespace
 
-NV_TEST(AbsurdThreadCountsAreCapped)
+NV_TEST(absurd_thread_counts_are_capped)
 {
   const int hardware = nv::ThreadPool::defaultThreads();
   std::string why;
@@ -62,7 +62,7 @@ NV_TEST(AbsurdThreadCountsAreCapped)
   EXPECT_TRUE(rc == 0);
 }
 
-NV_TEST(RefusedThreadsLeaveAWorkingPool)
+NV_TEST(refused_threads_leave_a_working_pool)
 {
   if (nvtest::skipAddressSpaceLimits())
     return;

@@ -104,7 +104,7 @@ double psnrOf(NetworkSession& s, const VolumeView& vol)
 }
 } // namespace
 
-NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
+NV_TEST(background_run_publishes_while_the_caller_goes_on)
 {
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values);
@@ -145,7 +145,7 @@ NV_TEST(BackgroundRunPublishesWhileTheCallerGoesOn)
   EXPECT_TRUE(last > first + 3.0);
 }
 
-NV_TEST(PauseResumeContinueFastForwardAreExact)
+NV_TEST(pause_resume_continue_fast_forward_are_exact)
 {
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
@@ -178,7 +178,7 @@ NV_TEST(PauseResumeContinueFastForwardAreExact)
   EXPECT_TRUE(run.log().size() == 387);
 }
 
-NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
+NV_TEST(stop_ends_within_a_fifth_of_a_second_and_publishes_nothing_after)
 {
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
@@ -206,7 +206,7 @@ NV_TEST(StopEndsWithinAFifthOfASecondAndPublishesNothingAfter)
   EXPECT_TRUE(run.status().State == RunState::Finished);
 }
 
-NV_TEST(AbortInTheCallingThreadIsNotSticky)
+NV_TEST(abort_in_the_calling_thread_is_not_sticky)
 {
   const std::vector<float> values = analyticVolume(0.0);
   auto d = data(values, false);
@@ -221,7 +221,7 @@ NV_TEST(AbortInTheCallingThreadIsNotSticky)
   EXPECT_TRUE(run.status().State == RunState::Finished);
 }
 
-NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
+NV_TEST(target_psnr_and_time_budget_end_the_phase)
 {
   const std::vector<float> values = analyticVolume(0.0);
   {
@@ -257,7 +257,7 @@ NV_TEST(TargetPsnrAndTimeBudgetEndThePhase)
   }
 }
 
-NV_TEST(TimeBudgetKeepsTimeForTheMeasurementAtTheEnd)
+NV_TEST(time_budget_keeps_time_for_the_measurement_at_the_end)
 {
   // The budget bounds the run and the measurement its phase end makes (FinalSamples network evaluations at the rate
   // the probes measured): here the hook evaluates 2^19 points, as the filter measures a field of that size.
@@ -289,7 +289,7 @@ NV_TEST(TimeBudgetKeepsTimeForTheMeasurementAtTheEnd)
   EXPECT_TRUE(total >= 0.8 && total <= 1.2);
 }
 
-NV_TEST(LowPriorityWorkersRunAtAHigherNiceness)
+NV_TEST(low_priority_workers_run_at_a_higher_niceness)
 {
 #if defined(__linux__)
   // TrainConfig::lowPriority: the CPU trainer's workers (not the caller's thread) leave an application its cores.
@@ -305,7 +305,7 @@ NV_TEST(LowPriorityWorkersRunAtAHigherNiceness)
 #endif
 }
 
-NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
+NV_TEST(annealed_schedule_ends_at_its_floor_on_the_last_step)
 {
   // The default schedule (Auto) anneals over the phase after its hold: TrainingRun plans the trainer's steps, so the
   // cosine reaches 1/100 of the rate exactly at the last step; a later Continue stays at that floor. Under a time budget the plan
@@ -371,7 +371,7 @@ NV_TEST(AnnealedScheduleEndsAtItsFloorOnTheLastStep)
   }
 }
 
-NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
+NV_TEST(same_seed_and_steps_give_the_same_network_bit_for_bit)
 {
   const std::vector<float> values = analyticVolume(0.0);
   std::vector<std::vector<float>> params;
@@ -402,7 +402,7 @@ NV_TEST(SameSeedAndStepsGiveTheSameNetworkBitForBit)
   EXPECT_TRUE(s->currentModel().params() != params[0]);
 }
 
-NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
+NV_TEST(warm_start_reaches_the_cold_psnr_in_fewer_steps)
 {
   // Time step t trained; t+1 is the same field moved a little (a flow advancing).
   const std::vector<float> t0 = analyticVolume(0.0), t1 = analyticVolume(0.15);
@@ -429,7 +429,7 @@ NV_TEST(WarmStartReachesTheColdPsnrInFewerSteps)
   EXPECT_TRUE(warmAtStart > coldPsnr - 10.0); // the previous network is already a fair picture of t+1
 }
 
-NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
+NV_TEST(non_finite_loss_rolls_back_and_lowers_the_learning_rate)
 {
   // Learning rate 1e6: the loss explodes at step 2. The run rolls back to its last good network, lowers the learning
   // rate 10x each time (measured: 6 times, to 1) and goes on; it ends with a finite network, a finite (honest, here
@@ -461,7 +461,7 @@ NV_TEST(NonFiniteLossRollsBackAndLowersTheLearningRate)
   EXPECT_TRUE(st.Warnings.size() >= 2 && st.Warnings.size() <= 10); // several 10x cuts, within the limit
 }
 
-NV_TEST(KeepsTheBestProbedNetwork)
+NV_TEST(keeps_the_best_probed_network)
 {
   // L2 at a constant learning rate of 0.05 climbs and then wanders: the run keeps the network of its best probe
   // (the phase's final PSNR estimate is never more than 0.1 dB below the best in its log), and without KeepBest the

@@ -82,7 +82,7 @@ void expectSummary(nvtest::SyntheticVdb v)
 }
 } // namespace
 
-NV_TEST(ValidLayouts)
+NV_TEST(valid_layouts)
 {
   expectSummary(nvtest::SyntheticVdb());
   expectSummary(threeGrids());
@@ -102,7 +102,7 @@ NV_TEST(ValidLayouts)
   expectSummary(none);
 }
 
-NV_TEST(LongNamesAreClipped)
+NV_TEST(long_names_are_clipped)
 {
   nvtest::SyntheticVdb v;
   v.grids[0].name = std::string(100000, 'x') + "\x01\xff";
@@ -114,7 +114,7 @@ NV_TEST(LongNamesAreClipped)
   EXPECT_TRUE(contains(m, "truncated") && m.size() < 1000);
 }
 
-NV_TEST(EveryTruncationIsRefused)
+NV_TEST(every_truncation_is_refused)
 {
   const Bytes b = threeGrids().build();
   EXPECT_TRUE(contains(refusal(b, 0), "the file is empty (0 bytes)"));
@@ -137,7 +137,7 @@ NV_TEST(EveryTruncationIsRefused)
     std::to_string(v.grids[0].endPos) + ": the file is truncated"));
 }
 
-NV_TEST(BitFlipsInTheHeadersAreRefused)
+NV_TEST(bit_flips_in_the_headers_are_refused)
 {
   nvtest::SyntheticVdb v = threeGrids();
   const Bytes b = v.build();
@@ -175,7 +175,7 @@ NV_TEST(BitFlipsInTheHeadersAreRefused)
   EXPECT_TRUE(refused > int(b.size())); // most header bits matter; the filler's do not
 }
 
-NV_TEST(RandomBitFlips)
+NV_TEST(random_bit_flips)
 {
   const Bytes b = threeGrids().build();
   for (unsigned seed = 1; seed <= 200; ++seed)
@@ -190,7 +190,7 @@ NV_TEST(RandomBitFlips)
   }
 }
 
-NV_TEST(Files)
+NV_TEST(files)
 {
   EXPECT_THROW_MSG(nv::VdbFileCheck::checkFile("/nonexistent/none.vdb"), "cannot open the file");
   EXPECT_THROW_MSG(nv::VdbFileCheck::checkFile("/tmp"), "not a regular file");
@@ -209,7 +209,7 @@ NV_TEST(Files)
   std::remove(path.c_str());
 }
 
-NV_TEST(SmokeVdb)
+NV_TEST(smoke_vdb)
 {
   const std::string path = dataDir() + "/openvdb_smoke1/smoke.vdb";
   std::ifstream in(path, std::ios::binary);

@@ -131,8 +131,10 @@ double medianWallMs(int reps, Fn&& fn)
 }
 } // namespace
 
-void copyToHost(const float* device, size_t n, float* host)
+void copyToHost(const float* device, size_t n, float* host, const void* ready)
 {
+  if (ready)
+    NV_CUDA(cudaEventSynchronize(static_cast<cudaEvent_t>(const_cast<void*>(ready))));
   NV_CUDA(cudaMemcpy(host, device, n * sizeof(float), cudaMemcpyDeviceToHost));
 }
 

@@ -41,8 +41,9 @@ double benchDecodeKernel(const Model& model, int64_t nx, int64_t ny, int64_t nz,
 double benchSessionInfer(NetworkSession& session, int64_t n, int reps);
 double benchSessionDecode(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int reps);
 
-/// Copy n floats of device memory to the host (tests of device-memory outputs).
-void copyToHost(const float* device, size_t n, float* host);
+/// Copy n floats of device memory to the host (tests of device-memory outputs); `ready` (RenderResult::deviceReady):
+/// after that event.
+void copyToHost(const float* device, size_t n, float* host, const void* ready = nullptr);
 
 /// The CUDA path-tracing denoiser (GpuDenoiser) on host images: uploads, denoises, downloads into out
 /// (width x height x 4); moments may be null with params.frames < 2.

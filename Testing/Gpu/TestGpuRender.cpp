@@ -380,8 +380,94 @@ NV_TEST(gpu_denoised_path_tracing_converges)
   RenderResult dev;
   gpu->render(q, dev, Memory::Device);
   std::vector<float> copy(den.rgba.size());
-  gpu::copyToHost(dev.deviceRgba, copy.size(), copy.data());
+  gpu::copyToHost(dev.deviceRgba, copy.size(), copy.data(), dev.deviceReady);
   EXPECT_TRUE(dev.stats.denoised && dev.stats.accumulatedPaths == 9 && allFinite(copy));
+}
+
+NV_TEST(gpu_live_network_keeps_its_field_while_the_view_turns)
+{
+  // RenderRequest::liveRefreshMilliseconds on the GPU: a newer version's interactive render keeps the older grid /
+  // ranges (stats.olderField), never passes for the version's picture, and a still render equals a fresh session's.
+  Model newer = scene().model;
+  for (float& w : newer.params())
+    w *= 1.25f;
+  for (int path = 0; path < 3; ++path)
+  {
+    auto gpu = gpuSession(scene().model, true);
+    RenderRequest q = request(path, 0, 32);
+    RenderResult first, kept, fresh, reference;
+    gpu->render(q, first, Memory::Host);
+    RenderRequest live = q;
+    live.liveRefreshMilliseconds = 1e7;
+    gpu->setModel(newer);
+    gpu->render(live, kept, Memory::Host);
+    EXPECT_TRUE(kept.stats.olderField && !first.stats.olderField);
+    if (path == 0)
+      EXPECT_TRUE(kept.rgba == first.rgba);
+    else
+      EXPECT_TRUE(kept.rgba != first.rgba);
+    gpu->render(q, fresh, Memory::Host);
+    auto other = gpuSession(newer, true);
+    other->render(q, reference, Memory::Host);
+    EXPECT_TRUE(!fresh.stats.olderField && !fresh.stats.reused);
+    const double db = psnr(fresh.rgba, reference.rgba);
+    std::printf("    %s: still render after the kept field vs a fresh session %.1f dB\n", kPath[path], db);
+    EXPECT_TRUE(db >= 80.0 && fresh.rgba != first.rgba);
+  }
+}
+
+NV_TEST(gpu_deferred_device_render)
+{
+  // RenderRequest::deferDeviceSync: a render to device memory returns before its GPU work ends; deviceReady marks the
+  // image complete, and the GPU figures arrive with the next render. The image equals the synchronous one, for every
+  // path, also while a trainer publishes new networks between renders.
+  for (int path = 0; path < 3; ++path)
+  {
+    auto gpu = gpuSession(scene().model, true);
+    RenderRequest q = request(path, 1, 64);
+    RenderResult sync, deferred, next;
+    gpu->render(q, sync, Memory::Host);
+    q.deferDeviceSync = true;
+    q.lightDirection[0] = 0.3; // a new picture (not the cached one)
+    RenderResult hostRef;
+    gpu->render(q, hostRef, Memory::Host); // deferDeviceSync is ignored by a host render
+    EXPECT_TRUE(!hostRef.stats.gpuFiguresOfPreviousRender && hostRef.deviceReady == nullptr);
+    q.lightDirection[0] = 0.0;
+    gpu->render(q, deferred, Memory::Device);
+    EXPECT_TRUE(deferred.stats.gpuFiguresOfPreviousRender && deferred.deviceReady != nullptr);
+    std::vector<float> image(size_t(64) * 64 * 4);
+    gpu::copyToHost(deferred.deviceRgba, image.size(), image.data(), deferred.deviceReady);
+    const double db = psnr(image, sync.rgba);
+    std::printf("    %s: deferred device render vs synchronous %.1f dB\n", kPath[path], db);
+    EXPECT_TRUE(image == sync.rgba || db >= 80.0);
+    // A deferred render reports the previous render's figures; its own come with the next one.
+    EXPECT_TRUE(deferred.stats.samplesEvaluated == hostRef.stats.samplesEvaluated);
+    q.lightDirection[0] = 0.6;
+    gpu->render(q, next, Memory::Device);
+    EXPECT_TRUE(next.stats.samplesEvaluated == sync.stats.samplesEvaluated && sync.stats.samplesEvaluated > 0);
+  }
+  // Deferred renders interleaved with publishes: every picture is one network's, whole.
+  Model newer = scene().model;
+  for (float& w : newer.params())
+    w *= 1.25f;
+  auto gpu = gpuSession(scene().model, true);
+  auto reference = gpuSession(newer, true);
+  RenderRequest q = request(2, 0, 64);
+  RenderResult ref;
+  reference->render(q, ref, Memory::Host);
+  q.deferDeviceSync = true;
+  for (int round = 0; round < 3; ++round)
+  {
+    RenderResult r;
+    gpu->setModel(round % 2 ? scene().model : newer);
+    gpu->render(q, r, Memory::Device);
+    if (round == 2)
+    {
+      std::vector<float> image(size_t(64) * 64 * 4);
+      gpu::copyToHost(r.deviceRgba, image.size(), image.data(), r.deviceReady);
+      EXPECT_TRUE(image == ref.rgba || psnr(image, ref.rgba) >= 80.0);
+    }
+  }
 }
 
 NV_TEST(gpu_depth_buffer_and_inside_camera)

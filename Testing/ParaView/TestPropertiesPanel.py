@@ -106,7 +106,7 @@ for i in range(nc_proto.GetNumberOfPropertyGroups()):
 check(list(groups) == ["Data", "Size", "Training", "Advanced"], "filter groups: %r" % list(groups))
 EXPECTED_GROUPS = {
     "Data": ["SelectInputScalars", "VectorMode", "VectorComponent", "OutputMode", "OutputResolution", "Sampling",
-             "SamplingDimensions", "ProbePoints"],
+             "SamplingDimensions", "ProbePoints", "MemoryBudget"],
     "Size": ["TargetCompressionRatio", "Log2TableSize", "StoragePrecision", "Levels", "FeaturesPerLevel",
              "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
     "Advanced": ["BatchSize", "LearningRate", "LearningRateSchedule", "Loss", "Seed", "PSNRInterval",

@@ -1,0 +1,255 @@
+#include "vtkNeuralOutOfCoreInput.h"
+
+#include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCompressSettings.h"
+
+#include "Core/Error.h"
+#include "Core/HashGridMath.h"
+#include "Core/NetworkSession.h"
+#include "Core/PsnrProbe.h"
+#include "Core/ResourceEstimate.h"
+#include "Core/ValueRange.h"
+#include "OutOfCore/BlockBufferSource.h"
+#include "OutOfCore/FileMeasure.h"
+
+#include "vtkFieldData.h"
+#include "vtkNew.h"
+#include "vtkImageData.h"
+#include "vtkStringArray.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+namespace vtkNeuralCompressInternals
+{
+namespace
+{
+/// The budget's shares: the block buffer, the PSNR probe, a streamed pass's slabs (FileMeasure.h holds about 20
+/// bytes per sample of a slab whose doubles and floats it sizes at 12).
+constexpr int64_t kBufferEighths = 5, kProbeEighths = 1, kSlabEighths = 1;
+constexpr int64_t kProbeSamples = 65536;
+constexpr int kBlocksPerStep = 16;
+constexpr int kReaderThreads = 4;
+
+/// The field-data array that names the file (MarkOutOfCore), or null.
+vtkStringArray* MarkerArray(vtkFieldData* fd)
+{
+  for (int k = 0; fd && k < fd->GetNumberOfArrays(); ++k)
+  {
+    auto* array = vtkStringArray::SafeDownCast(fd->GetAbstractArray(k));
+    if (array && array->GetNumberOfValues() >= 3 && array->GetValue(0) == kOutOfCoreMarker)
+      return array;
+  }
+  return nullptr;
+}
+
+uint64_t Fnv(uint64_t h, const void* data, size_t size)
+{
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < size; ++i)
+    h = (h ^ bytes[i]) * 1099511628211ull;
+  return h;
+}
+
+/// Cells per block edge: 32, or fewer where the buffer's share would hold fewer than 64 blocks (small budgets keep
+/// many small blocks rather than a few large ones), never below 4.
+int BlockCellsFor(int64_t bufferBytes)
+{
+  const double edge = std::cbrt(double(bufferBytes) / (64.0 * sizeof(float))) - 1.0;
+  return static_cast<int>(std::max(4.0, std::min(32.0, std::floor(edge))));
+}
+
+/// Owns what an out-of-core trainer draws from: the file, its block buffer and the batch source on it.
+struct BufferedFile
+{
+  BufferedFile(const std::shared_ptr<const OutOfCoreFile>& file, const nv::BlockBufferConfig& config,
+    const nv::ValueRange& range)
+    : File(file)
+    , Buffer(file->Layout, config)
+    , Source(Buffer, range, kBlocksPerStep)
+  {
+  }
+  std::shared_ptr<const OutOfCoreFile> File;
+  nv::BlockBuffer Buffer;
+  nv::BlockBufferSource Source;
+};
+
+/// The PSNR probe: random rows of the file (sequential reads), every stride-th sample of each, normalised.
+std::unique_ptr<nv::PsnrProbe> RowProbe(const OutOfCoreFile& file, const nv::ValueRange& range, uint64_t seed)
+{
+  const nv::VolumeFileLayout& layout = file.Layout;
+  const int64_t nx = layout.dims[0], ny = layout.dims[1], nz = layout.dims[2];
+  const int64_t probeBytes = file.BudgetBytes * kProbeEighths / 8;
+  // Each kept sample holds its position and value (16 bytes); a row read at once holds nx doubles.
+  const int64_t samples = std::min<int64_t>(kProbeSamples, std::max<int64_t>(0, (probeBytes - nx * 8) / 16));
+  if (samples < 256)
+    NV_THROW("the MemoryBudget of " + nv::formatBytes(file.BudgetBytes) + " cannot hold one row of the file (" +
+      std::to_string(nx) + " samples) and a PSNR probe; raise MemoryBudget");
+  const int64_t rows = std::min(ny * nz, std::max<int64_t>(64, (samples + nx - 1) / nx));
+  const int64_t stride = std::max<int64_t>(1, (rows * nx + samples - 1) / samples);
+  std::vector<double> row(static_cast<size_t>(nx));
+  std::vector<float> xyz, values;
+  xyz.reserve(static_cast<size_t>(3 * samples + 3 * nx));
+  values.reserve(static_cast<size_t>(samples + nx));
+  auto unit = [](int64_t i, int64_t n) { return n > 1 ? float(double(i) / double(n - 1)) : 0.5f; };
+  for (int64_t r = 0; r < rows; ++r)
+  {
+    const uint64_t h = nv::mix64(nv::mix64(seed ^ 0x524f5750524f4245ull) + uint64_t(r));
+    const int64_t line = static_cast<int64_t>((static_cast<unsigned __int128>(h) * uint64_t(ny * nz)) >> 64);
+    const int64_t y = line % ny, z = line / ny;
+    file.Reader->readBox({ 0, y, z }, { nx, 1, 1 }, row.data());
+    for (int64_t i = (r * 7919) % stride; i < nx; i += stride)
+    {
+      xyz.insert(xyz.end(), { unit(i, nx), unit(y, ny), unit(z, nz) });
+      values.push_back(std::isfinite(row[size_t(i)]) ? static_cast<float>(range.fraction(row[size_t(i)]))
+                                                     : std::numeric_limits<float>::quiet_NaN());
+    }
+  }
+  return std::unique_ptr<nv::PsnrProbe>(new nv::PsnrProbe(xyz, values, kProbeSamples));
+}
+} // namespace
+
+bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request)
+{
+  auto* image = vtkImageData::SafeDownCast(input);
+  vtkStringArray* marker = MarkerArray(image ? image->GetFieldData() : nullptr);
+  request.Path = marker ? marker->GetValue(1) : std::string();
+  request.Array = marker ? marker->GetValue(2) : std::string();
+  return !request.Path.empty();
+}
+
+std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout)
+{
+  std::ostringstream text;
+  text << layout.format << ", " << layout.dims[0] << " x " << layout.dims[1] << " x " << layout.dims[2] << " "
+       << nv::scalarTypeName(layout.type) << ", " << (layout.bigEndian ? "big" : "little") << " endian, "
+       << nv::formatBytes(layout.bytes()) << " ('" << layout.arrayName << "')";
+  return text.str();
+}
+
+void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray)
+{
+  vtkNew<vtkStringArray> marker;
+  marker->SetName(layout.arrayName.empty() ? "Scalars" : layout.arrayName.c_str());
+  for (const std::string& value : { std::string(kOutOfCoreMarker), layout.headerPath, requestedArray,
+         OutOfCoreSummary(layout) })
+    marker->InsertNextValue(value);
+  image->GetFieldData()->AddArray(marker);
+}
+
+int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason)
+{
+  const nv::HostMemoryBudget host = nv::hostMemoryBudget();
+  std::ostringstream text;
+  if (memoryBudgetMiB > 0.0)
+  {
+    const double asked = memoryBudgetMiB * double(1 << 20);
+    if (asked > double(host.bytes))
+      NV_THROW("MemoryBudget " + nv::formatBytes(int64_t(std::min(asked, 9.0e18))) + " exceeds what this process may "
+        "allocate (" + nv::formatBytes(host.bytes) + ": " + host.reason + "); lower MemoryBudget or set it to 0 "
+        "(automatic)");
+    text << "MemoryBudget " << nv::formatBytes(int64_t(asked));
+    reason = text.str();
+    return int64_t(asked);
+  }
+  const int64_t share = host.bytes == std::numeric_limits<int64_t>::max()
+    ? int64_t(1) << 30
+    : static_cast<int64_t>(double(host.bytes) * kAutomaticBudgetShare);
+  // A file the budget holds twice over needs no more (its blocks, the probe and the slabs all fit).
+  const int64_t budget = std::max<int64_t>(int64_t(16) << 20, std::min(share, nv::saturatingMul(fileBytes, 3)));
+  text << "automatic: " << nv::formatBytes(budget) << " (at most " << int(kAutomaticBudgetShare * 100) << "% of "
+       << nv::formatBytes(host.bytes) << (host.reason.empty() ? "" : ", " + host.reason) << ")";
+  reason = text.str();
+  return budget;
+}
+
+int64_t OutOfCoreSlabBytes(const OutOfCoreFile& file)
+{
+  return std::max<int64_t>(1, file.BudgetBytes * kSlabEighths / 8);
+}
+
+std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
+  const std::shared_ptr<const OutOfCoreFile>& file, const nv::VolumeStats& stats, uint64_t seed)
+{
+  const nv::VolumeFileLayout& layout = file->Layout;
+  auto data = std::make_shared<nv::TrainingData>();
+  data->Field.View.data = nullptr; // never in memory: the trainer draws from the block buffer
+  data->Field.View.type = layout.type;
+  std::copy(layout.dims, layout.dims + 3, data->Field.View.dims);
+  data->Field.View.valueMin = stats.min;
+  data->Field.View.valueMax = stats.max;
+  data->Field.RawBytes = layout.bytes();
+  const nv::ValueRange range(stats.min, stats.max);
+  nv::BlockBufferConfig config;
+  config.memoryBudgetBytes = file->BudgetBytes * kBufferEighths / 8;
+  config.blockCells = BlockCellsFor(config.memoryBudgetBytes);
+  config.readerThreads = kReaderThreads;
+  config.seed = seed;
+  auto buffered = std::make_shared<BufferedFile>(file, config, range);
+  const nv::BlockBufferStats filled = buffered->Buffer.stats();
+  std::ostringstream d;
+  d << "out of core: " << OutOfCoreSummary(layout) << "; block buffer of " << filled.residentBlocks << " resident "
+    << config.blockCells << "^3-cell blocks (" << nv::formatBytes(filled.bufferBytes) << " of the " << file->BudgetReason
+    << ")";
+  data->Field.Description = d.str();
+  data->Batches = std::shared_ptr<nv::BatchSource>(buffered, &buffered->Source);
+  data->Probe = RowProbe(*file, range, seed);
+  return data;
+}
+
+uint64_t OutOfCoreKey(const OutOfCoreFile& file, const FieldInfo& field, const Settings& settings)
+{
+  const nv::VolumeFileLayout& layout = file.Layout;
+  std::ostringstream identity;
+  identity.precision(17);
+  identity << "out-of-core " << layout.headerPath << '|' << layout.dataPath << '|' << layout.dataOffset << '|'
+           << static_cast<int>(layout.type) << '|' << layout.bigEndian << '|' << layout.arrayName << '|'
+           << file.BudgetBytes;
+  struct stat info;
+  if (::stat(layout.dataPath.c_str(), &info) == 0)
+    identity << '|' << int64_t(info.st_size) << '|' << int64_t(info.st_mtim.tv_sec) << '.'
+             << int64_t(info.st_mtim.tv_nsec);
+  const std::string text = identity.str();
+  nv::VolumeView keyView; // the file's identity stands for its values (which are never all read for a key)
+  keyView.data = text.data();
+  keyView.type = nv::ScalarType::UInt8;
+  keyView.dims[0] = static_cast<int64_t>(text.size());
+  keyView.dims[1] = keyView.dims[2] = 1;
+  return TrainingKey(keyView, field, settings) ^ Fnv(1469598103934665603ull, layout.dims, sizeof(layout.dims));
+}
+
+void CheckOutOfCoreDecode(const FieldInfo& field, int outputMode)
+{
+  if (!field.OutOfCore || outputMode == 0)
+    return;
+  const int* dims = field.Geometry.DecodedDims;
+  const int64_t count = nv::saturatingMul(nv::saturatingMul(dims[0], dims[1]), dims[2]);
+  // The decoded values (float or double) and, for the input's type, its copy: at most 16 bytes a sample.
+  const int64_t bytes = nv::saturatingMul(count, 16);
+  if (bytes <= field.OutOfCore->BudgetBytes)
+    return;
+  std::ostringstream text;
+  text << "the decoded output of an out-of-core input (" << dims[0] << " x " << dims[1] << " x " << dims[2]
+       << " samples, up to " << nv::formatBytes(bytes) << ") exceeds its memory budget ("
+       << field.OutOfCore->BudgetReason << "): the file's field is never loaded. Choose OutputMode 'Network only' "
+       << "(the Neural Volume representation renders the network), a coarser OutputResolution or a larger "
+       << "MemoryBudget.";
+  throw nv::Error(text.str());
+}
+
+nv::ErrorStats MeasureOutOfCore(nv::NetworkSession& session, const OutOfCoreFile& file, double valueMin,
+  double valueMax, const std::function<bool()>& abort, const std::function<void(double)>& progress)
+{
+  return nv::measureOnFile(session, *file.Reader, valueMin, valueMax, OutOfCoreSlabBytes(file),
+    [&abort, &progress](double fraction) {
+      if (progress)
+        progress(fraction);
+      return !(abort && abort());
+    });
+}
+
+} // namespace vtkNeuralCompressInternals

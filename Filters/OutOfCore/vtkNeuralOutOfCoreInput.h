@@ -1,0 +1,89 @@
+// Private to NeuralVolume::Filters: Neural Compress on a file it never loads (issue 22). The out-of-core reader
+// (vtkNeuralOutOfCoreReader.h) outputs the file's geometry without samples and names the file in its field data;
+// Neural Compress then trains from the engine's random block buffer on that file (Cuda/OutOfCore/BlockBuffer.h, within
+// MemoryBudget), estimates the PSNR on random rows of it while training, and measures its exact figures in one
+// streamed pass over every voxel (Cuda/OutOfCore/FileMeasure.h) at the end of a phase or on MeasureNow.
+#ifndef vtkNeuralOutOfCoreInput_h
+#define vtkNeuralOutOfCoreInput_h
+
+#include "OutOfCore/VolumeFileLayout.h"
+#include "OutOfCore/VolumeFileReader.h"
+#include "Core/Engine.h"
+#include "Core/TrainingData.h"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+class vtkDataObject;
+class vtkImageData;
+
+namespace nv
+{
+class NetworkSession;
+}
+
+namespace vtkNeuralCompressInternals
+{
+struct FieldInfo;
+struct Settings;
+
+/// The reader's output names the file in one field-data string array named after the file's field (so that Neural
+/// Compress's array selection shows that name): { kOutOfCoreMarker, file path, the array asked for (a .vti point
+/// array, an HDF5 dataset; empty: the file's own choice), the file's summary }. No such array: not an out-of-core input.
+constexpr const char* kOutOfCoreMarker = "NeuralOutOfCoreFile";
+
+/// The file an out-of-core reader's output stands for.
+struct OutOfCoreRequest
+{
+  std::string Path;
+  std::string Array;
+};
+
+/// True (with the file) when `input` is an out-of-core reader's output.
+bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request);
+
+/// The reader's output: the file's geometry, no samples, the file named in field data (with its summary figures).
+void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray);
+
+/// "NRRD (detached header), 64 x 64 x 64 uint16, big endian, 524 kB".
+std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout);
+
+/// An open out-of-core file, shared by the job's training data and its measurements.
+struct OutOfCoreFile
+{
+  nv::VolumeFileLayout Layout;
+  std::shared_ptr<nv::VolumeFileReader> Reader;
+  int64_t BudgetBytes = 0;  ///< what the block buffer, the probe and a measurement's slabs may hold
+  std::string BudgetReason; ///< "MemoryBudget 64 MiB", "automatic: 20% of ..."
+};
+
+/// The bytes of `memoryBudgetMiB` (0: automatic, kAutomaticBudgetShare of what the host may still allocate, at most
+/// the file's bytes plus a margin); throws nv::Error when the budget asked exceeds what the host may allocate.
+int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason);
+constexpr double kAutomaticBudgetShare = 0.25;
+
+/// Bytes of the slabs a streamed pass reads at once (a share of the budget; at least one plane).
+int64_t OutOfCoreSlabBytes(const OutOfCoreFile& file);
+
+/// The training data of the file: no field in memory (the view carries its dimensions, type and value range), a
+/// block buffer within the budget as the trainer's batch source, and a PSNR probe on random rows of the file.
+std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
+  const std::shared_ptr<const OutOfCoreFile>& file, const nv::VolumeStats& stats, uint64_t seed);
+
+/// The training key: the settings, the geometry, the file (path, size, modification time, layout) and the budget.
+uint64_t OutOfCoreKey(const OutOfCoreFile& file, const FieldInfo& field, const Settings& settings);
+
+/// A decoded output of an out-of-core input (OutputMode Decoded) must fit its MemoryBudget: throws nv::Error (with
+/// the figures and the advice) when it does not. Nothing for other inputs or OutputMode "Network only".
+void CheckOutOfCoreDecode(const FieldInfo& field, int outputMode);
+
+/// The session's network over every voxel of the file in one streamed pass (exact PSNR and max error); `abort`
+/// polled after each slab (nv::Error "stopped"), `progress` told its fraction.
+nv::ErrorStats MeasureOutOfCore(nv::NetworkSession& session, const OutOfCoreFile& file, double valueMin,
+  double valueMax, const std::function<bool()>& abort, const std::function<void(double)>& progress);
+
+} // namespace vtkNeuralCompressInternals
+
+#endif
