@@ -135,7 +135,8 @@ struct RenderStats
   int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
   int64_t accumulatedPaths = 0; ///< path tracing: paths per pixel averaged into this image
   bool denoised = false;        ///< path tracing: the image is the denoised accumulation (request.denoise)
-  double guideMilliseconds = 0.0;   ///< request.denoise: rendering the guide (once per picture; 0 when cached)
+  double guideMilliseconds = 0.0;   ///< request.denoise: rendering the guide (once per picture; 0 when cached; the
+                                    ///< GPU backend: the host's time to prepare and enqueue it)
   double denoiseMilliseconds = 0.0; ///< request.denoise: filtering the image
   bool decodePending = false;   ///< Decode path: a coarser grid was used, the full grid is still being decoded
   bool cancelled = false;       ///< request.control->cancel stopped the render: rgba is empty, nothing was cached or

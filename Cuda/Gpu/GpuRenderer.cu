@@ -419,8 +419,8 @@ void GpuRenderer::prepareGuide(const Model& model, uint64_t version, const Rende
   traceSamples(gq, gs, GP, 1, nullptr, ignored);
   if (Guide.size() != size_t(Pixels))
     Guide.allocate(size_t(Pixels), "denoiser guide");
+  // (In order on the render stream: nothing waits for the guide here.)
   NV_CUDA(cudaMemcpyAsync(Guide.get(), Image.get(), Guide.bytes(), cudaMemcpyDeviceToDevice, RenderStream));
-  NV_CUDA(cudaStreamSynchronize(RenderStream));
   GuideKey = accumKey;
   ImageKey = 0; // Image no longer holds the cached ray-marched picture
   st.guideMilliseconds = since(t0);
