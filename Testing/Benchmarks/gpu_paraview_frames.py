@@ -11,14 +11,20 @@ Without --data the field is ParaView's Wavelet at n^3; with it, a raw volume rea
 stent). Every figure is wall time in the script's thread (the frame as ParaView shows it) unless named engine."""
 import argparse
 import json
+import os
 import statistics
+import sys
 import time
 
-from paraview.simple import *  # noqa: F401,F403
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "ParaView"))
+import nvtest  # noqa: E402  (read_png, region_psnr, shot)
+
+from paraview.simple import *  # noqa: F401,F403,E402
 from paraview import servermanager
 import paraview.simple
 
 SIZES = [(1280, 720), (1920, 1080)]
+OUT_DIR = "."  # the path-tracing pictures go beside the JSON file
 DEVICE = "CUDA"
 PATHS = ["Decode", "Sample Streaming", "In-Shader"]
 ORBIT = 30
@@ -83,23 +89,53 @@ def frames(source, array, nc, size):
             out[key] = orbit_ms(view, still, neural)
             out[key + "_interactive"] = orbit_ms(view, interactive, neural)
     neural.CudaGLInterop = 1
-    neural.RenderPath = "Decode"
-    neural.ShadingMode = "Path Tracing + Next-Event Estimation"
-    neural.TargetSamples = 64
-    view.GetActiveCamera().Azimuth(5.0)
-    started = time.perf_counter()
-    Render(view)
-    out["pt_nee_still_64spp_ms"] = round(1000 * (time.perf_counter() - started), 3)
-    neural.SMProxy.UpdatePropertyInformation()
-    out["pt_nee_frames"] = neural.GetPropertyValue("LastAccumulatedFrames")
-    neural.TargetSamples = 1
-    view.GetActiveCamera().Azimuth(5.0)
-    started = time.perf_counter()
-    Render(view)
-    out["pt_nee_one_pass_ms"] = round(1000 * (time.perf_counter() - started), 3)
+    out["path_tracing"] = path_tracing_still(view, neural, "%dx%d" % tuple(size))
     neural.ShadingMode = "Ray Marching"
     Delete(view)
     return out
+
+
+def path_tracing_still(view, neural, tag):
+    """Path tracing + NEE still renders of one view (Decode): one pass, the still render to TargetSamples paths with
+    the denoiser (the default) and without, and a raw 1024-path reference; every picture's PSNR against the reference
+    over the pixels the volume covers. Each render starts a new accumulation (the camera leaves and comes back)."""
+    neural.RenderPath = "Decode"
+    neural.ShadingMode = "Path Tracing + Next-Event Estimation"
+    camera = view.GetActiveCamera()
+    camera.Azimuth(5.0)
+
+    def still(target, denoise):
+        neural.TargetSamples = 1
+        camera.Azimuth(1.0)
+        Render(view)
+        camera.Azimuth(-1.0)
+        neural.TargetSamples = target
+        neural.Denoise = denoise
+        started = time.perf_counter()
+        Render(view)
+        ms = 1000 * (time.perf_counter() - started)
+        png = os.path.join(OUT_DIR, "pt_%s_%d_%s.png" % (tag, target, "denoised" if denoise else "raw"))
+        nvtest.shot(view, png, view.ViewSize)
+        neural.SMProxy.UpdatePropertyInformation()
+        return {"ms": round(ms, 3), "paths": neural.GetPropertyValue("LastAccumulatedPaths"), "png": png}
+
+    reference = still(1024, 0)
+    ref = nvtest.read_png(reference["png"])
+    background = ref[0, 0]
+    mask = (abs(ref - background).sum(axis=2) > 3.0)
+    result = {"reference_1024_raw": reference, "volume_pixels": int(mask.sum())}
+    for target in (1, 4, 8, 16, 32, 64):
+        for denoise in (1, 0):
+            r = still(target, denoise)
+            r["psnr_vs_reference"] = round(nvtest.region_psnr(nvtest.read_png(r["png"]), ref, mask), 2)
+            result["%d_%s" % (target, "denoised" if denoise else "raw")] = r
+    one = result["1_denoised"]["ms"]
+    for key, r in list(result.items()):
+        if isinstance(r, dict) and "ms" in r:
+            r["passes_of_one"] = round(r["ms"] / one, 2) if one > 0 else None
+    neural.TargetSamples = 64
+    neural.Denoise = 1
+    return result
 
 
 def refresh(nc):
@@ -177,8 +213,10 @@ def main():
     parser.add_argument("--device", default="CUDA")
     parser.add_argument("--small", action="store_true")
     a = parser.parse_args()
-    global DEVICE, SIZES, ORBIT
+    global DEVICE, SIZES, ORBIT, OUT_DIR
     DEVICE = a.device
+    OUT_DIR = os.path.join(os.path.dirname(os.path.abspath(a.out)), os.path.basename(a.out).replace(".json", "_pictures"))
+    os.makedirs(OUT_DIR, exist_ok=True)
     if a.small:
         SIZES, ORBIT = [(160, 90)], 3
     LoadPlugin(a.plugin, remote=False, ns=globals())
@@ -205,7 +243,6 @@ def main():
         print("RESULT " + json.dumps(result[key]), flush=True)
     with open(a.out, "w") as f:
         json.dump(result, f, indent=1)
-    import os
     os._exit(0)  # no view teardown (GLX, see Testing/ParaView/nvtest.py)
 
 

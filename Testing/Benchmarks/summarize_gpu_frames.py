@@ -1,18 +1,18 @@
 """Markdown tables from gpu_paraview_frames.py's JSON files (issue 24): per view size, Render() of an empty view, of
 stock Volume and of each Neural Volume path (CUDA-OpenGL interop, still and interactive; the host path), the engine's
 GPU time, and the frame's overhead beyond the empty view and the engine's GPU time, split into the engine call's own
-(launch, synchronisation) and ParaView's outside the Neural Volume mapper; the path-tracing still against one pass;
+(launch, synchronisation) and ParaView's outside the Neural Volume mapper; the path-tracing still (denoised and raw) in single passes' time and PSNR against 1024 paths;
 training beside a turning view.   usage: summarize_gpu_frames.py FRAMES.json..."""
 import json
+import re
 import sys
 
 PATHS = ["Decode", "Sample Streaming", "In-Shader"]
+PT_ROWS = []
 
 
 def rows(data):
-    for size in ("1280x720", "1920x1080"):
-        if size not in data:
-            continue
+    for size in sorted((k for k in data if re.fullmatch(r"\d+x\d+", k)), key=lambda k: int(k.split("x")[0])):
         r = data[size]
         empty, stock = r["empty_ms"], r["stock_volume"]["render_ms"]
         for path in PATHS:
@@ -25,10 +25,21 @@ def rows(data):
                 yield ("| %s | %s | %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |"
                        % (data["data"], size, "%s (%s)" % (path, label), empty, stock, v["render_ms"], gpu, overhead,
                           call, outside))
-        yield ("| %s | %s | path tracing + NEE still, 64 paths/pixel vs one pass | | | %.0f vs %.1f (%.0fx) | | | | |"
-               % (data["data"], size, r["pt_nee_still_64spp_ms"], r["pt_nee_one_pass_ms"],
-                  r["pt_nee_still_64spp_ms"] / r["pt_nee_one_pass_ms"]))
+        pt = r.get("path_tracing")
+        if pt:
+            PT_ROWS.append((data["data"], size, pt))
 
+
+def pt_rows():
+    """Path tracing + NEE still (Decode): time in single passes and PSNR against the raw 1024-path picture."""
+    yield "| data | view | paths | denoised: ms (passes of one) | PSNR | raw: ms (passes of one) | PSNR |"
+    yield "|---|---|---|---|---|---|---|"
+    for name, size, pt in PT_ROWS:
+        for target in (1, 4, 8, 16, 32, 64):
+            d, w = pt["%d_denoised" % target], pt["%d_raw" % target]
+            yield ("| %s | %s | %d | %.1f (%.1f) | %.1f | %.1f (%.1f) | %.1f |"
+                   % (name, size, target, d["ms"], d["passes_of_one"], d["psnr_vs_reference"], w["ms"],
+                      w["passes_of_one"], w["psnr_vs_reference"]))
 
 print("| data | view | Neural Volume path | empty view | stock Volume | Neural Volume Render() | engine GPU | overhead "
       "beyond empty + engine GPU | of it: engine call | of it: outside the mapper |")
@@ -42,6 +53,9 @@ for path in sys.argv[1:]:
     for key in ("training_share", "training_share_unpaced"):
         if key in data:
             shares.append((data["data"] + ("" if key == "training_share" else " (renders not paced)"), data[key]))
+print()
+for line in pt_rows():
+    print(line)
 print()
 print("| data | training alone (steps/s) | beside a turning 1920x1080 view | share | interactive renders/s |")
 print("|---|---|---|---|---|")
