@@ -9,6 +9,7 @@ mkdir -p "$O"
 for d in .devcarry/bin-base .devcarry/bin; do
   for f in $d/*.xz; do [ -e "$f" ] && xz -d -f "$f" && chmod +x "${f%.xz}"; done
 done
+export LD_LIBRARY_PATH=$PWD/.devcarry/bin${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}  # the new binaries link libNeuralEngine.so
 STENT=.devcarry/data/stent/stent_128x128x256_int16.nhdr
 for round in 1 2 3; do
   for which in base new; do

@@ -17,8 +17,8 @@ stent=$NV_DATA_DIR/stent/stent_128x128x256_int16.nhdr
 for part in ${@:-frames state gui}; do
   case $part in
     frames)
-      frames wavelet256 150
-      [ -f "$stent" ] && frames stent 110 --data "$stent" ;;
+      frames wavelet256 240
+      [ -f "$stent" ] && frames stent 200 --data "$stent" ;;
     frames512)
       frames wavelet512 240 --n 512 ;;
     state)
