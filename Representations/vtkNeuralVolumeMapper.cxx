@@ -272,25 +272,22 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       return;
     }
     this->ReadSceneDepth(ren, vol, q);
+    bool drawn = false;
     if (this->ProgressiveRefinement && in.Session->device() == nv::Device::Cpu && !in.WorkerRefused)
     {
       // In the background: this render only starts or continues the work and draws the newest image.
       std::string error;
-      const bool drawn = this->RenderProgressive(q, interactive, scale, error);
+      drawn = this->RenderProgressive(q, interactive, scale, error);
       if (!drawn && !in.WorkerRefused)
       {
         this->Fail(error, true);
         return;
       }
-      if (drawn)
-      {
-        in.LastError.clear();
-        in.Reported.clear();
-        this->DrawImage(ren, frameStart);
-        return;
-      }
     }
-    this->RenderBlocking(ren, q, interactive, scale);
+    if (!drawn)
+    {
+      this->RenderBlocking(ren, q, interactive, scale); // (also when the worker was just refused)
+    }
     in.LastError.clear();
     in.Reported.clear();
   }

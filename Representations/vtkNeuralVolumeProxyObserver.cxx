@@ -87,7 +87,7 @@ bool NetworkArray(vtkSMProxy* representation, std::string& name, int& associatio
   if (producer->GetXMLName() && std::strcmp(producer->GetXMLName(), "NeuralCompress") == 0)
   {
     auto* upstream = vtkSMSourceProxy::SafeDownCast(vtkSMPropertyHelper(producer, "Input", true).GetAsProxy());
-    if (upstream && upstream->GetXMLName() && std::strcmp(upstream->GetXMLName(), "NeuralOutOfCoreReader") == 0)
+    if (upstream && upstream->GetXMLName() && std::strcmp(upstream->GetXMLName(), "ZNeuralOutOfCoreReader") == 0)
     {
       upstream->UpdatePropertyInformation();
       vtkSMPropertyHelper field(upstream, "FieldName", /*quiet=*/true);

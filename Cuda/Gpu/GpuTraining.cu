@@ -12,6 +12,7 @@
 #include "GpuEngine.h"
 #include "GpuInternal.cuh"
 #include "GpuTrainKernelChoice.cuh"
+#include "GpuTrainerState.cuh"
 
 #include <algorithm>
 #include <cmath>
@@ -28,65 +29,26 @@ namespace gpu
 namespace
 {
 
-class GpuTrainer final : public Trainer
+class GpuTrainer final : public Trainer, private GpuTrainerState
 {
 public:
   /// source: out-of-core batches (BatchSource.h), drawn on the host like the host-sampled strategy's, their
   /// positions copied with their targets; else volume or points.
   GpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
     const KernelOptions& options, PublishFn publish, BatchSource* source = nullptr)
-    : Config(model.config())
-    , Train(config)
-    , Volume(volume)
-    , Points(points)
-    , Source(source)
-    , Options(options)
-    , Publish(std::move(publish))
+    : GpuTrainerState(model, volume, points, config, options, std::move(publish), source)
   {
     validate(config);
-    const size_t np = model.paramCount();
-    EncodingParamCount = model.encodingParamCount();
-    MlpParamCount = np - EncodingParamCount;
-    allocateDeviceModel(model, Network);
-    Params.allocate(np, "parameters");
-    TableGrad.allocate(EncodingParamCount, "hash-table gradient");
-    TableMoments.allocate(EncodingParamCount, "hash-table Adam moments");
-    MlpFirstMoment.allocate(MlpParamCount, "MLP Adam first moments");
-    MlpSecondMoment.allocate(MlpParamCount, "MLP Adam second moments");
-    GradPad.allocate(Network.shape.total, "MLP gradient");
-    if (config.deterministic)
-    {
-      FixedTableGrad.allocate(EncodingParamCount, "fixed-point hash-table gradient (deterministic training)");
-      FixedMlpGrad.allocate(Network.shape.total, "fixed-point MLP gradient (deterministic training)");
-      NV_CUDA(cudaMemsetAsync(FixedTableGrad.get(), 0, FixedTableGrad.bytes(), ComputeStream.get()));
-      NV_CUDA(cudaMemsetAsync(FixedMlpGrad.get(), 0, FixedMlpGrad.bytes(), ComputeStream.get()));
-    }
-    const int64_t B = config.batchSize;
-    Targets.allocate(B, "targets");
-    Network.options = options;
-    if (trainTwoPass(options, Network.table16.bytes(), B))
-    {
-      const int64_t D = int64_t(Network.grid.levels) * Network.grid.features;
-      EncG.allocate(size_t(B * D), "encodings");
-      DEncG.allocate(size_t(B * D), "encoding gradients");
-    }
-    StepCounters.allocate(kSlots, "step counters");
-    NV_CUDA(cudaMemsetAsync(StepCounters.get(), 0, StepCounters.bytes(), ComputeStream.get()));
-    HostStepCounters.allocate(kSlots);
-    const bool two = EncG.get() != nullptr;
-    chooseKernel(two, B);
-    NV_CUDA(cudaMemcpyAsync(Params.get(), model.params().data(), np * sizeof(float), cudaMemcpyHostToDevice,
-      ComputeStream.get()));
-    NV_CUDA(cudaMemsetAsync(TableGrad.get(), 0, TableGrad.bytes(), ComputeStream.get()));
-    NV_CUDA(cudaMemsetAsync(TableMoments.get(), 0, TableMoments.bytes(), ComputeStream.get()));
-    NV_CUDA(cudaMemsetAsync(MlpFirstMoment.get(), 0, MlpFirstMoment.bytes(), ComputeStream.get()));
-    NV_CUDA(cudaMemsetAsync(MlpSecondMoment.get(), 0, MlpSecondMoment.bytes(), ComputeStream.get()));
-    NV_CUDA(cudaMemsetAsync(GradPad.get(), 0, GradPad.bytes(), ComputeStream.get()));
-    packParams(Params.get(), Network, ComputeStream.get());
-    ComputeStream.sync();
-    if (RegKernelPlan.warps > 0)
-      Network.table16.release(); // the register-resident kernel encodes from the fp32 parameters
+    allocateTraining(model, config, options);
+    uploadParameters(model);
+    prepareSampling(volume, points, config);
+  }
 
+  /// Where each step's samples come from: a bank of points, the volume on the GPU, or host-sampled batches (of the
+  /// volume or of an out-of-core source), the first one prepared now.
+  void prepareSampling(const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config)
+  {
+    const int64_t B = config.batchSize;
     if (points.count > 0)
     {
       // A bank of points: uploaded once; each step gathers its batch on the GPU.
@@ -100,7 +62,7 @@ public:
       ComputeStream.sync();
       return;
     }
-    Strategy = source ? TrainingStrategy::HostSampled : config.strategy;
+    Strategy = Source ? TrainingStrategy::HostSampled : config.strategy;
     if (Strategy == TrainingStrategy::Auto)
     {
       size_t freeB = 0, totalB = 0;
@@ -394,36 +356,6 @@ private:
     NV_CUDA_LAUNCH();
   }
 
-  /// Register-resident kernel when the shape and shared memory allow, else the WMMA kernel.
-  void chooseKernel(bool two, int64_t B)
-  {
-    const int limit = sharedMemoryLimit(Options);
-    const int maxSmem = limit - 1024; // static shared memory of the kernel
-    RegKernelPlan = makeRegPlan(Network.shape, kRegWarps, !two);
-    TrainKernel = Options.trainRegisterResident && RegKernelPlan.warps > 0 && RegKernelPlan.total <= maxSmem
-      ? pickReg(Network.shape.width, Network.grid.features, two)
-      : nullptr;
-    int perSm = 0;
-    if (TrainKernel)
-    {
-      const void* fp = reinterpret_cast<const void*>(TrainKernel);
-      NV_CUDA(cudaFuncSetAttribute(fp, cudaFuncAttributeMaxDynamicSharedMemorySize, RegKernelPlan.total));
-      NV_CUDA(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&perSm, fp, kRegWarps * 32, RegKernelPlan.total));
-      if (perSm >= 1)
-      {
-        const int64_t iters = (B + 16 * kRegWarps - 1) / (16 * kRegWarps);
-        Blocks = static_cast<int>(std::min<int64_t>(iters, int64_t(perSm) * deviceInfo().sms));
-        return;
-      }
-    }
-    RegKernelPlan = RegPlan{};
-    TrainKernel = pickTrain(Network.shape.width, Network.grid.features, two);
-    WmmaPlan = choosePlan(Network.shape, true, reinterpret_cast<const void*>(TrainKernel), limit, &perSm);
-    const int64_t tiles = (B + WmmaPlan.tileSamples - 1) / WmmaPlan.tileSamples;
-    Blocks = static_cast<int>(std::min<int64_t>(tiles, int64_t(perSm) * deviceInfo().sms));
-    Slots.allocate(size_t(Blocks) * Network.shape.total, "per-block MLP gradients");
-  }
-
   AdamArgs adamArgs(int64_t s) const { return makeAdamArgs(Train, Plateau.scale(), s); }
 
   /// Forward/backward of step s on n samples (xyz null: random points). Two-pass mode: level-major encode, MLP
@@ -431,33 +363,7 @@ private:
   void launchTrain(const float* xyz, int64_t n, int64_t s)
   {
     cudaStream_t st = ComputeStream.get();
-    TrainArgs a{};
-    a.grid = Network.grid;
-    a.shape = Network.shape;
-    a.plan = WmmaPlan;
-    for (int l = 1; l < Network.shape.hiddenLayers; ++l)
-      a.actOff[l] = (l - 1) * WmmaPlan.tileSamples * WmmaPlan.ldA;
-    a.reg = RegKernelPlan;
-    a.table16 = Network.table16.get();
-    a.table32 = Params.get();
-    a.w16 = Network.w16.get();
-    // fp32 output row (last MLP layer)
-    a.wout = Params.get() + EncodingParamCount + (MlpParamCount - Network.shape.width);
-    a.gradTable = TableGrad.get();
-    a.slots = Slots.get();
-    a.gradPad = GradPad.get();
-    a.fixedTable = FixedTableGrad.get();
-    a.fixedMlp = FixedMlpGrad.get();
-    a.xyz = xyz;
-    a.seed = Train.seed;
-    a.step = static_cast<uint64_t>(s);
-    a.targets = Targets.get();
-    a.sampleCount = n;
-    a.l1 = Train.loss == LossType::L1 ? 1 : 0;
-    a.counters = slot(s);
-    a.prev = s > 1 ? slot(s - 1) : nullptr;
-    a.encG = EncG.get();
-    a.dEncG = DEncG.get();
+    TrainArgs a = trainArgs(xyz, n, s);
     int blocks = Blocks, threads = 0, smem = 0;
     if (RegKernelPlan.warps > 0)
     {
@@ -552,9 +458,6 @@ private:
     NV_CUDA_LAUNCH();
   }
 
-  static constexpr int64_t kSlots = 256; ///< counters ring: one slot per queued step
-
-  Counters* slot(int64_t s) const { return StepCounters.get() + s % kSlots; }
 
   /// f(device, host, count) for the ring slots of steps [s0, s0 + m) (two calls when they wrap).
   template <typename TrainKernel>
@@ -566,36 +469,6 @@ private:
       f(StepCounters.get(), HostStepCounters.get(), static_cast<size_t>(m - first));
   }
 
-  ModelConfig Config;
-  TrainConfig Train;
-  VolumeView Volume;
-  TrainingPoints Points;
-  KernelOptions Options;
-  PublishFn Publish;
-  TrainingStrategy Strategy = TrainingStrategy::GpuResident;
-  size_t EncodingParamCount = 0, MlpParamCount = 0;
-  mutable Stream ComputeStream;
-  DeviceModel Network;
-  DeviceBuffer<float> Params, MlpFirstMoment, MlpSecondMoment, GradPad, Slots, Targets, Xyz, DEncG, BankXyz, BankValues;
-  DeviceBuffer<__half> TableGrad, EncG;
-  DeviceBuffer<uint32_t> TableMoments;
-  DeviceBuffer<Fixed> FixedTableGrad, FixedMlpGrad; ///< deterministic mode only (GpuFixedPoint.cuh)
-  DeviceBuffer<unsigned char> DeviceVolume;
-  DeviceBuffer<Counters> StepCounters;
-  PlateauSchedule Plateau{ Train.optimizer }; ///< loss-driven decay (OptimizerConfig::plateauWindow)
-  GpuImportanceGrid Importance; ///< error-guided sampling (TrainConfig::importanceGrid), GPU-resident volumes only
-  PinnedBuffer<Counters> HostStepCounters;
-  PinnedBuffer<float> HostTargets[2];
-  PinnedBuffer<float> HostXyz[2]; ///< out-of-core batches: the positions the source drew
-  BatchSource* Source = nullptr;
-  int HostValidCounts[2] = { 0, 0 };
-  std::unique_ptr<ThreadPool> Pool;
-  std::future<int64_t> NextBatch;
-  SmemPlan WmmaPlan{};
-  RegPlan RegKernelPlan{};
-  TrainFn TrainKernel = nullptr;
-  int Blocks = 1;
-  int64_t Steps = 0;
 };
 
 } // namespace

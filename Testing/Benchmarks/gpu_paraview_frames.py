@@ -222,7 +222,7 @@ def main():
     LoadPlugin(a.plugin, remote=False, ns=globals())
     paraview.simple._DisableFirstRenderCameraReset()
     if a.data:
-        source, array, name = OpenDataFile(a.data), "ImageFile", a.data.split("/")[-1]
+        source, array, name = NrrdReader(FileName=a.data), "ImageFile", a.data.split("/")[-1]
     else:
         source, array, name = Wavelet(WholeExtent=[0, a.n - 1] * 3), "RTData", "wavelet%d" % a.n
     source.UpdatePipeline()

@@ -37,7 +37,7 @@ PATHS = ["Decode", "Sample Streaming", "In-Shader", "stock Volume", "empty view"
 nvtest.load_plugin(globals(), scripted=False)
 stent = os.path.join(os.environ.get("NV_DATA_DIR", ""), "stent", "stent_128x128x256_int16.nhdr")
 if not SMALL and os.path.exists(stent):
-    source, array, data_name = OpenDataFile(stent), "ImageFile", "stent"
+    source, array, data_name = NrrdReader(FileName=stent), "ImageFile", "stent"
 else:
     n = 32 if SMALL else 256
     source, array, data_name = Wavelet(WholeExtent=[0, n - 1] * 3), "RTData", "wavelet%d" % n

@@ -427,12 +427,13 @@ NV_TEST(gpu_deferred_device_render)
     RenderRequest q = request(path, 1, 64);
     RenderResult sync, deferred, next;
     gpu->render(q, sync, Memory::Host);
+    const double light = q.lightDirection[0];
     q.deferDeviceSync = true;
-    q.lightDirection[0] = 0.3; // a new picture (not the cached one)
+    q.lightDirection[0] = light - 0.3; // a new picture (not the cached one)
     RenderResult hostRef;
     gpu->render(q, hostRef, Memory::Host); // deferDeviceSync is ignored by a host render
     EXPECT_TRUE(!hostRef.stats.gpuFiguresOfPreviousRender && hostRef.deviceReady == nullptr);
-    q.lightDirection[0] = 0.0;
+    q.lightDirection[0] = light; // sync's picture again, rendered anew (the cached image is hostRef's)
     gpu->render(q, deferred, Memory::Device);
     EXPECT_TRUE(deferred.stats.gpuFiguresOfPreviousRender && deferred.deviceReady != nullptr);
     std::vector<float> image(size_t(64) * 64 * 4);
@@ -442,7 +443,7 @@ NV_TEST(gpu_deferred_device_render)
     EXPECT_TRUE(image == sync.rgba || db >= 80.0);
     // A deferred render reports the previous render's figures; its own come with the next one.
     EXPECT_TRUE(deferred.stats.samplesEvaluated == hostRef.stats.samplesEvaluated);
-    q.lightDirection[0] = 0.6;
+    q.lightDirection[0] = light + 0.3;
     gpu->render(q, next, Memory::Device);
     EXPECT_TRUE(next.stats.samplesEvaluated == sync.stats.samplesEvaluated && sync.stats.samplesEvaluated > 0);
   }

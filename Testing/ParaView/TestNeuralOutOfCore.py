@@ -272,7 +272,13 @@ for extension, path in sorted(written.items()):
     readers = factory.GetReaders(path, servermanager.ActiveConnection.Session)
     names = [readers.GetString(i) for i in range(readers.GetNumberOfStrings())]
     log(".%s: File, Open offers %s" % (extension, names[1::3]))
-    check("NeuralOutOfCoreReader" in names, ".%s: File, Open offers the out-of-core reader" % extension)
+    check("ZNeuralOutOfCoreReader" in names, ".%s: File, Open offers the out-of-core reader" % extension)
+    if extension in ("nhdr", "vti"):
+        # ParaView's own reader stays the default of scripts (OpenDataFile loads the field as before)
+        opened = OpenDataFile(path)
+        check(opened.GetXMLName() != "ZNeuralOutOfCoreReader",
+              ".%s: OpenDataFile picks ParaView's reader (%s)" % (extension, opened.GetXMLName()))
+        Delete(opened)
 
 # --- out of core under a small budget against the same training in memory ------------------------------------------
 BIG = (64, 64, 64)
