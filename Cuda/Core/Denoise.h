@@ -21,8 +21,9 @@
 //      remodulates: illumination x guide.
 // Defaults chosen by measuring (the same file): the guide term is weak (sigmaGuide 1: demodulation does most of the
 // guide's work on smooth volumes), the luminance term SVGF's 4 standard deviations, 5 passes (129-pixel footprint).
-//   4. fades to the raw accumulation as the accumulation converges by itself: the mean over the image of every pixel's
-//      variance of its mean (from the moments) estimates the raw picture's squared error, hence its PSNR; between
+//   4. fades to the raw accumulation as the accumulation converges by itself: the mean over the pixels the volume
+//      covers (guide alpha > albedoFloor: an empty background would make a small volume look converged) of every
+//      pixel's variance of its mean (from the moments) estimates the raw picture's squared error, hence its PSNR; between
 //      fadeStartDb and fadeEndDb the image goes linearly from denoised to raw (the filter's residual bias on fine
 //      structure, e.g. a CT at one pixel per vessel wall, is then never worse than the converged raw picture).
 // Pixels the guide leaves empty (alpha <= floor) keep the path-traced value; a non-finite input pixel stays
@@ -86,8 +87,15 @@ NV_HD void addFrameMoment(const float* before, const float* after, float framePa
   moment += framePaths * l * l;
 }
 
+/// Whether the guide shows the volume at a pixel (alpha above the floor): the pixels the filter and step 4's estimate
+/// take part in.
+NV_HD bool guideCovers(const DenoiseParams& p, const float* guide)
+{
+  return guide[3] > p.albedoFloor;
+}
+
 /// Step 4's estimate, one pixel: the variance of the accumulated mean's luminance (image units; 0 with one frame or a
-/// non-finite value).
+/// non-finite value). It is averaged over the pixels guideCovers.
 NV_HD float rawVarianceOfMean(const DenoiseParams& p, const float* noisy, float moment)
 {
   if (p.frames < 2 || !finite4(noisy) || !finiteValue(moment))
@@ -96,7 +104,7 @@ NV_HD float rawVarianceOfMean(const DenoiseParams& p, const float* noisy, float 
   return fmaxf(0.0f, moment - p.paths * mu * mu) / float(p.frames - 1) / p.paths;
 }
 
-/// Step 4's weight of the raw image from the mean of rawVarianceOfMean over the image's pixels (values in [0, 1];
+/// Step 4's weight of the raw image from the mean of rawVarianceOfMean over the pixels guideCovers (values in [0, 1];
 /// host and device: the CUDA backend computes it on the GPU, without waiting for the sum).
 NV_HD float fade(const DenoiseParams& p, double meanVariance)
 {
@@ -120,7 +128,7 @@ NV_HD float guideDivisor(const DenoiseParams& p, float guide)
 NV_HD void demodulate(const DenoiseParams& p, const float* noisy, const float* guide, float moment, float* illum,
   float& variance)
 {
-  if (!(guide[3] > p.albedoFloor) || !finite4(noisy))
+  if (!guideCovers(p, guide) || !finite4(noisy))
   {
     illum[0] = illum[1] = illum[2] = illum[3] = NAN;
     variance = 0.0f;

@@ -57,18 +57,27 @@ void CpuDenoiser::denoise(ThreadPool& pool, const DenoiseParams& params, const f
     });
     cur ^= 1;
   }
-  // Step 4: the raw accumulation's estimated error (a sum per worker, then over the workers).
-  std::vector<double> sums(static_cast<size_t>(pool.size()), 0.0);
+  // Step 4: the raw accumulation's estimated error over the pixels the volume covers (sums per worker, then over
+  // the workers).
+  std::vector<double> sums(static_cast<size_t>(pool.size()), 0.0), covered(sums.size(), 0.0);
   pool.parallelFor(int64_t(pixels), [&](int64_t begin, int64_t end, int worker) {
-    double sum = 0.0;
+    double sum = 0.0, count = 0.0;
     for (int64_t i = begin; i < end; ++i)
-      sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments ? moments[i] : 0.0f);
+      if (denoise::guideCovers(p, guide + 4 * i))
+      {
+        sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments ? moments[i] : 0.0f);
+        count += 1.0;
+      }
     sums[static_cast<size_t>(worker)] += sum;
+    covered[static_cast<size_t>(worker)] += count;
   });
-  double total = 0.0;
-  for (double s : sums)
-    total += s;
-  p.rawFade = denoise::fade(p, total / double(pixels));
+  double total = 0.0, count = 0.0;
+  for (size_t w = 0; w < sums.size(); ++w)
+  {
+    total += sums[w];
+    count += covered[w];
+  }
+  p.rawFade = count > 0.0 ? denoise::fade(p, total / count) : 0.0f;
   const float* result = Illum[cur].data();
   const float* rawVariance = RawVariance.data();
   forEachPixel(pool, p, [&](int x, int y, int64_t) {

@@ -31,17 +31,28 @@ __global__ void frameMomentKernel(const float4* __restrict__ before, const float
   }
 }
 
-__global__ void rawVarianceKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ moments,
-  float* __restrict__ total)
+/// total[0]: the sum of the covered pixels' variances of the mean; total[1]: how many pixels the volume covers.
+__global__ void rawVarianceKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ guide,
+  const float* __restrict__ moments, float* __restrict__ total)
 {
   const int64_t n = int64_t(p.width) * p.height;
-  float sum = 0.0f;
+  float sum = 0.0f, covered = 0.0f;
   for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
-    sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments[i]);
+    if (denoise::guideCovers(p, guide + 4 * i))
+    {
+      sum += denoise::rawVarianceOfMean(p, noisy + 4 * i, moments[i]);
+      covered += 1.0f;
+    }
   for (int offset = 16; offset > 0; offset /= 2)
+  {
     sum += __shfl_down_sync(0xffffffffu, sum, offset);
+    covered += __shfl_down_sync(0xffffffffu, covered, offset);
+  }
   if ((threadIdx.x & 31) == 0)
+  {
     atomicAdd(total, sum);
+    atomicAdd(total + 1, covered);
+  }
 }
 
 __global__ void demodulateKernel(DenoiseParams p, const float* __restrict__ noisy, const float* __restrict__ guide,
@@ -69,13 +80,13 @@ __global__ void atrousKernel(DenoiseParams p, int step, const float* __restrict_
     denoise::atrousPixel(p, x, y, step, illum, variance, guide, illumOut, varianceOut);
 }
 
-/// total: step 4's sum of the pixels' variances of the mean (null: no fade).
+/// total: step 4's sum of the covered pixels' variances of the mean and their count (null: no fade).
 __global__ void remodulateKernel(DenoiseParams p, const float* noisy, const float* __restrict__ guide,
   const float* __restrict__ illum, const float* __restrict__ rawVariance, const float* __restrict__ total, float* out)
 {
   const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   if (total)
-    p.rawFade = denoise::fade(p, double(*total) / (double(p.width) * double(p.height)));
+    p.rawFade = total[1] > 0.0f ? denoise::fade(p, double(total[0]) / double(total[1])) : 0.0f;
   if (x < p.width && y < p.height)
     denoise::remodulate(p, x, y, noisy, guide, illum, rawVariance, out);
 }
@@ -129,9 +140,9 @@ void GpuDenoiser::denoise(const DenoiseParams& params, const float4* noisy, cons
   if (p.frames >= 2)
   {
     if (!Total.get())
-      Total.allocate(1, "denoiser sum");
-    NV_CUDA(cudaMemsetAsync(Total.get(), 0, sizeof(float), stream));
-    rawVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), moments, Total.get());
+      Total.allocate(2, "denoiser sum");
+    NV_CUDA(cudaMemsetAsync(Total.get(), 0, 2 * sizeof(float), stream));
+    rawVarianceKernel<<<gridFor(pixels), 256, 0, stream>>>(p, floats(noisy), floats(guide), moments, Total.get());
     NV_CUDA_LAUNCH();
     total = Total.get();
   }

@@ -198,16 +198,21 @@ inline double referenceFade(const ReferenceDenoiseState& s)
   const nv::DenoiseParams& p = s.in.params;
   if (p.frames < 2)
     return 0.0;
-  double sum = 0.0;
+  double sum = 0.0, covered = 0.0;
   for (size_t i = 0; i < s.n; ++i)
   {
+    if (!(s.in.guide[4 * i + 3] > p.albedoFloor)) // the pixels the volume covers only
+      continue;
+    covered += 1.0;
     const float* q = &s.in.noisy[4 * i];
     if (!(std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) && std::isfinite(q[3])))
       continue;
     const double qd[3] = { q[0], q[1], q[2] }, mu = s.lum(qd);
     sum += std::max(0.0, s.in.moments[i] - double(p.paths) * mu * mu) / (p.frames - 1) / p.paths;
   }
-  const double db = -10.0 * std::log10(sum / double(s.n));
+  if (covered == 0.0)
+    return 0.0;
+  const double db = -10.0 * std::log10(sum / covered);
   return std::min(1.0, std::max(0.0, (db - p.fadeStartDb) / (p.fadeEndDb - p.fadeStartDb)));
 }
 

@@ -159,6 +159,57 @@ NV_TEST(a_nan_is_never_smoothed_away)
   EXPECT_TRUE(nonFinite == 1);
 }
 
+NV_TEST(empty_background_does_not_make_the_picture_look_converged)
+{
+  // Step 4 (the fade to the raw accumulation) estimates the raw picture's error over the pixels the volume covers:
+  // the same accumulation inside a frame three times as wide (empty background added) gives the same picture.
+  // Over every pixel the background's zero variance would raise the estimate by 10 log10(3) = 4.8 dB.
+  bool fadeBandSeen = false;
+  for (int frames : { 40, 160, 640, 2560 })
+  {
+    const DenoiseInput in = syntheticDenoiseInput(48, 40, frames, 7);
+    DenoiseInput wide = in;
+    const int width = in.params.width, height = in.params.height, wideWidth = 3 * width;
+    wide.params.width = wideWidth;
+    wide.noisy.assign(size_t(4) * wideWidth * height, 0.0f);
+    wide.guide.assign(size_t(4) * wideWidth * height, 0.0f);
+    wide.moments.assign(size_t(wideWidth) * height, 0.0f);
+    double sum = 0.0;
+    int covered = 0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+      {
+        const size_t i = size_t(y) * width + x, j = size_t(y) * wideWidth + x;
+        std::copy(&in.noisy[4 * i], &in.noisy[4 * i] + 4, &wide.noisy[4 * j]);
+        std::copy(&in.guide[4 * i], &in.guide[4 * i] + 4, &wide.guide[4 * j]);
+        wide.moments[j] = in.moments[i];
+        if (denoise::guideCovers(in.params, &in.guide[4 * i]))
+        {
+          sum += denoise::rawVarianceOfMean(in.params, &in.noisy[4 * i], in.moments[i]);
+          ++covered;
+        }
+      }
+    // Is this accumulation in the fade's band, where counting the background would change the picture?
+    const float fadeCovered = denoise::fade(in.params, sum / covered);
+    const float fadeAll = denoise::fade(in.params, sum / (double(wideWidth) * height));
+    fadeBandSeen = fadeBandSeen || std::fabs(fadeCovered - fadeAll) > 0.05f;
+    std::vector<float> out(in.noisy.size()), wideOut(wide.noisy.size());
+    CpuDenoiser d;
+    d.denoise(pool(), in.params, in.noisy.data(), in.guide.data(), in.moments.data(), out.data());
+    d.denoise(pool(), wide.params, wide.noisy.data(), wide.guide.data(), wide.moments.data(), wideOut.data());
+    double worst = 0.0;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        for (int c = 0; c < 4; ++c)
+          worst = std::max(worst, double(std::fabs(out[4 * (size_t(y) * width + x) + c] -
+                                                   wideOut[4 * (size_t(y) * wideWidth + x) + c])));
+    std::printf("  %d frames: fade %.2f (over every pixel of the wide frame it would be %.2f); max difference %.2e\n",
+      frames, fadeCovered, fadeAll, worst);
+    EXPECT_TRUE(worst <= 1e-5);
+  }
+  EXPECT_TRUE(fadeBandSeen); // the case exercises the difference
+}
+
 NV_TEST(cpu_denoiser_equals_the_double_precision_reference)
 {
   for (int frames : { 1, 8, 40 }) // one frame: the spatial variance; several: the moments; 40: step 4 fades
