@@ -31,6 +31,7 @@
 #pragma once
 
 #include "HostDevice.h"
+#include "Volume.h" // finiteValue
 
 #include <algorithm>
 #include <cmath>
@@ -62,15 +63,6 @@ namespace denoise
 NV_HD float luminance(float r, float g, float b)
 {
   return 0.2126f * r + 0.7152f * g + 0.0722f * b;
-}
-
-NV_HD bool finiteValue(float v)
-{
-#if defined(__CUDA_ARCH__)
-  return isfinite(v);
-#else
-  return std::isfinite(v);
-#endif
 }
 
 NV_HD bool finite4(const float* v)

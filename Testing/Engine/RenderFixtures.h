@@ -273,6 +273,26 @@ inline nv::RenderRequest blobRequest(const nv::Model& m, nv::RenderPath path, nv
 // ---------------------------------------------------------------------------------------------------------
 // Images
 
+/// The blob on an n^3 grid with an untrained model of its extent and value range: path-tracing tests render the
+/// grid itself through the Decode path (RenderRequest::grid), so that only the renderer is measured.
+struct BlobGridScene
+{
+  explicit BlobGridScene(int n)
+    : data(blobVolume(n))
+    , grid(viewOf(data, n, n, n))
+    , model(smallRenderConfig())
+  {
+    model.initialize(1);
+    for (int a = 0; a < 3; ++a)
+      model.source.dims[a] = n;
+    model.source.valueMin = grid.valueMin;
+    model.source.valueMax = grid.valueMax;
+  }
+  std::vector<float> data;
+  nv::VolumeView grid;
+  nv::Model model;
+};
+
 inline bool allFinite(const std::vector<float>& v)
 {
   for (float x : v)

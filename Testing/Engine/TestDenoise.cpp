@@ -32,32 +32,15 @@ ThreadPool& pool()
   return p;
 }
 
-struct Scene
+BlobGridScene& scene()
 {
-  std::vector<float> data = blobVolume(kGrid);
-  VolumeView grid = viewOf(data, kGrid, kGrid, kGrid);
-  Model model = makeModel();
-
-  Model makeModel() const
-  {
-    Model m(smallRenderConfig());
-    m.initialize(1);
-    for (int a = 0; a < 3; ++a)
-      m.source.dims[a] = kGrid;
-    m.source.valueMin = grid.valueMin;
-    m.source.valueMax = grid.valueMax;
-    return m;
-  }
-};
-Scene& scene()
-{
-  static Scene s;
+  static BlobGridScene s(kGrid);
   return s;
 }
 
 RenderRequest sceneRequest()
 {
-  const Scene& s = scene();
+  const BlobGridScene& s = scene();
   RenderRequest q = blobRequest(s.model, RenderPath::Decode, ShadingMode::PathTraceNee, kSize, kSize);
   const RenderRequest defaults;
   q.sunAngle = defaults.sunAngle;

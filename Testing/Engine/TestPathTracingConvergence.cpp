@@ -30,26 +30,9 @@ ThreadPool& pool()
   return p;
 }
 
-struct Scene
+BlobGridScene& scene()
 {
-  std::vector<float> data = blobVolume(kGrid);
-  VolumeView grid = viewOf(data, kGrid, kGrid, kGrid);
-  Model model = makeModel();
-
-  Model makeModel() const
-  {
-    Model m(smallRenderConfig());
-    m.initialize(1);
-    for (int a = 0; a < 3; ++a)
-      m.source.dims[a] = kGrid;
-    m.source.valueMin = grid.valueMin;
-    m.source.valueMax = grid.valueMax;
-    return m;
-  }
-};
-Scene& scene()
-{
-  static Scene s;
+  static BlobGridScene s(kGrid);
   return s;
 }
 
@@ -57,7 +40,7 @@ Scene& scene()
 /// for its direction (from the upper right of the camera, as the view's key light is).
 RenderRequest sceneRequest(ShadingMode mode)
 {
-  const Scene& s = scene();
+  const BlobGridScene& s = scene();
   RenderRequest q = blobRequest(s.model, RenderPath::Decode, mode, kSize, kSize);
   const RenderRequest defaults;
   q.sunAngle = defaults.sunAngle;
