@@ -56,6 +56,19 @@ inline bool fieldStillServes(uint64_t fieldVersion, std::chrono::steady_clock::t
     std::chrono::duration<double, std::milli>(request.liveRefreshMilliseconds);
 }
 
+/// The request whose picture guides the path-tracing denoiser (RenderRequest::denoise): the same view, field and
+/// transfer function, ray-marched by emission-absorption (noise-free colour and alpha), one sample per pixel.
+inline RenderRequest denoiserGuideRequest(const RenderRequest& request)
+{
+  RenderRequest guide = request;
+  guide.shading = ShadingMode::RayMarch;
+  guide.blend = BlendMode::Composite;
+  guide.samplesPerPixel = 1;
+  guide.accumulate = false;
+  guide.denoise = false;
+  return guide;
+}
+
 /// Default K of Sample Streaming: the K sweep on an H100 (stent, 1280 x 720, ray marching; results/gpu_render_*)
 /// gave 8.3 / 4.7 / 3.0 / 2.4 / 2.1 / 1.2 / 1.3 ms for K = 1 / 2 / 4 / 8 / 16 / 32 / 64.
 constexpr int kDefaultStreamingSamples = 32;

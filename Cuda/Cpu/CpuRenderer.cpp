@@ -227,12 +227,7 @@ bool CpuRenderer::prepareGuide(const Model& model, uint64_t version, const Rende
     return true;
   const Clock::time_point t0 = Clock::now();
   // The emission-absorption picture of the same request and field: noise-free, the denoiser's colour and alpha.
-  RenderRequest gq = q;
-  gq.shading = ShadingMode::RayMarch;
-  gq.blend = BlendMode::Composite;
-  gq.samplesPerPixel = 1;
-  gq.accumulate = false;
-  gq.denoise = false;
+  const RenderRequest gq = denoiserGuideRequest(q);
   Frame g{ makeRenderSetup(gq, model.source) };
   g.grid = f.grid;
   g.lattice = f.lattice;

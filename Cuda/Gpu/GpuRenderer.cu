@@ -406,12 +406,7 @@ void GpuRenderer::prepareGuide(const Model& model, uint64_t version, const Rende
   collectGpuFigures(); // a deferred render's counters, before the guide's trace reuses them
   const auto t0 = std::chrono::steady_clock::now();
   // The emission-absorption picture of the same request: noise-free, the denoiser's colour and alpha.
-  RenderRequest gq = q;
-  gq.shading = ShadingMode::RayMarch;
-  gq.blend = BlendMode::Composite;
-  gq.samplesPerPixel = 1;
-  gq.accumulate = false;
-  gq.denoise = false;
+  const RenderRequest gq = denoiserGuideRequest(q);
   const RenderSetup gs = makeRenderSetup(gq, model.source);
   ray::Params GP = gs.params;
   prepareScene(model, version, gq, gs, GP);
