@@ -37,14 +37,8 @@ double seconds(std::chrono::steady_clock::time_point t0)
 
 RenderRequest sceneRequest(const Scene& s, ShadingMode mode, int size)
 {
-  RenderRequest q = blobRequest(s.model, RenderPath::Decode, mode, size, size);
-  const RenderRequest defaults;
-  q.sunAngle = defaults.sunAngle;
-  q.maxBounces = defaults.maxBounces;
-  q.ambient = defaults.ambient;
-  q.diffuse = defaults.diffuse;
+  RenderRequest q = gridPathTracingRequest(s.model, s.grid, mode, size, size);
   q.transfer = s.transfer;
-  q.grid = &s.grid;
   return q;
 }
 

@@ -273,6 +273,22 @@ inline nv::RenderRequest blobRequest(const nv::Model& m, nv::RenderPath path, nv
 // ---------------------------------------------------------------------------------------------------------
 // Images
 
+/// The blob request for path tracing the grid itself (RenderRequest::grid, Decode path) with the request's default
+/// light (sky, sun, sun angle, bounces, phase) but for the blob's light direction.
+inline nv::RenderRequest gridPathTracingRequest(const nv::Model& m, const nv::VolumeView& grid, nv::ShadingMode mode,
+  int w, int h)
+{
+  nv::RenderRequest q = blobRequest(m, nv::RenderPath::Decode, mode, w, h);
+  const nv::RenderRequest defaults;
+  q.sunAngle = defaults.sunAngle;
+  q.maxBounces = defaults.maxBounces;
+  q.ambient = defaults.ambient;
+  q.diffuse = defaults.diffuse;
+  q.anisotropy = defaults.anisotropy;
+  q.grid = &grid;
+  return q;
+}
+
 /// The blob on an n^3 grid with an untrained model of its extent and value range: path-tracing tests render the
 /// grid itself through the Decode path (RenderRequest::grid), so that only the renderer is measured.
 struct BlobGridScene

@@ -40,15 +40,7 @@ BlobGridScene& scene()
 
 RenderRequest sceneRequest()
 {
-  const BlobGridScene& s = scene();
-  RenderRequest q = blobRequest(s.model, RenderPath::Decode, ShadingMode::PathTraceNee, kSize, kSize);
-  const RenderRequest defaults;
-  q.sunAngle = defaults.sunAngle;
-  q.maxBounces = defaults.maxBounces;
-  q.ambient = defaults.ambient;
-  q.diffuse = defaults.diffuse;
-  q.grid = &s.grid;
-  return q;
+  return gridPathTracingRequest(scene().model, scene().grid, ShadingMode::PathTraceNee, kSize, kSize);
 }
 
 /// `paths` paths per pixel accumulated over renders of `perRender`; raw or denoised; `seed` of the random streams.

@@ -40,16 +40,7 @@ BlobGridScene& scene()
 /// for its direction (from the upper right of the camera, as the view's key light is).
 RenderRequest sceneRequest(ShadingMode mode)
 {
-  const BlobGridScene& s = scene();
-  RenderRequest q = blobRequest(s.model, RenderPath::Decode, mode, kSize, kSize);
-  const RenderRequest defaults;
-  q.sunAngle = defaults.sunAngle;
-  q.maxBounces = defaults.maxBounces;
-  q.ambient = defaults.ambient;
-  q.diffuse = defaults.diffuse;
-  q.anisotropy = defaults.anisotropy;
-  q.grid = &s.grid;
-  return q;
+  return gridPathTracingRequest(scene().model, scene().grid, mode, kSize, kSize);
 }
 
 /// `spp` paths per pixel, accumulated over renders of at most kFrameSpp.
