@@ -313,19 +313,32 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
 //------------------------------------------------------------------------------
 void vtkNeuralVolumeMapper::PaceInteractiveFrame()
 {
+  // Slots on a steady cadence (slot k = first + k periods): a frame that comes a little late takes its slot anyway
+  // and the next keeps the cadence, so a turning view averages the full rate instead of losing each late frame's
+  // delay; a frame later than a whole slot (the view was still) starts a new cadence.
   vtkInternals& in = *this->Internals;
   const auto now = std::chrono::steady_clock::now();
-  if (this->MaximumInteractiveFrameRate > 0.0 && in.LastInteractiveFrame.time_since_epoch().count() != 0)
+  if (this->MaximumInteractiveFrameRate <= 0.0)
   {
-    const auto slot = in.LastInteractiveFrame +
-      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(1.0 / this->MaximumInteractiveFrameRate));
-    if (now < slot)
-    {
-      std::this_thread::sleep_until(slot);
-    }
+    in.NextInteractiveSlot = {};
+    return;
   }
-  in.LastInteractiveFrame = std::chrono::steady_clock::now();
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+    std::chrono::duration<double>(1.0 / this->MaximumInteractiveFrameRate));
+  const bool cadence = in.NextInteractiveSlot.time_since_epoch().count() != 0;
+  if (cadence && now < in.NextInteractiveSlot)
+  {
+    std::this_thread::sleep_until(in.NextInteractiveSlot);
+    in.NextInteractiveSlot += period;
+  }
+  else if (cadence && now < in.NextInteractiveSlot + period)
+  {
+    in.NextInteractiveSlot += period;
+  }
+  else
+  {
+    in.NextInteractiveSlot = now + period;
+  }
 }
 
 //------------------------------------------------------------------------------

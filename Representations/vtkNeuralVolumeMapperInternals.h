@@ -104,7 +104,7 @@ struct vtkNeuralVolumeMapper::vtkInternals
 
   // The last frame: where its time went (GetLastFrameTimings) and how its image reached the view.
   double Timings[vtkNeuralVolumeMapper::FrameTimingCount] = {};
-  std::chrono::steady_clock::time_point LastInteractiveFrame; ///< start of the last interactive frame (pacing)
+  std::chrono::steady_clock::time_point NextInteractiveSlot; ///< when the next interactive frame may start (pacing)
   std::string DisplayPath = "none";
   std::string InteropRefused; ///< why CUDA-OpenGL interop is not possible in this view ("" until it was refused)
 };

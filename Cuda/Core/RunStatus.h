@@ -1,5 +1,5 @@
 // NeuralVolume engine: what a training run (TrainingRun.h) reports while it trains: its state, its status (steps,
-// time, loss, PSNR, notes and warnings) and one log row per step.
+// time, loss, PSNR, notes and warnings) and the rows of its log (one per step, thinned on long runs: TrainingLog.h).
 #pragma once
 
 #include <cstdint>

@@ -214,7 +214,6 @@ void TrainingRun::snapshot(double probePsnr)
       return; // a network on its way to diverging: not a rollback point
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->GoodStep = this->Current.Steps;
-  this->GoodRows = this->Rows.size();
   if (this->Limits.KeepBest && std::isfinite(probePsnr) && probePsnr > this->BestPsnr)
   {
     this->Best = this->Candidate;
@@ -237,7 +236,7 @@ bool TrainingRun::rollBack(int64_t failedStep, double loss)
     << this->GoodStep << " and lowered the learning rate to " << this->Config.optimizer.learningRate;
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->Trainer = std::move(trainer);
-  this->Rows.resize(this->GoodRows);
+  this->Log.truncateAfter(this->GoodStep);
   this->Current.Steps = this->GoodStep;
   this->ScheduleStart = this->GoodStep;
   this->Current.Warnings.push_back(s.str());
@@ -394,7 +393,7 @@ RunStatus TrainingRun::status() const
 std::vector<LogRow> TrainingRun::log() const
 {
   std::lock_guard<std::mutex> lock(this->Mutex);
-  return this->Rows;
+  return this->Log.rows();
 }
 
 } // namespace nv

@@ -16,6 +16,7 @@
 #include "NetworkSession.h"
 #include "RunStatus.h"
 #include "TrainingData.h"
+#include "TrainingLog.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -158,7 +159,6 @@ private:
   Model Good;              ///< the last snapshot whose steps all had finite losses
   Model Candidate;         ///< the buffer the next snapshot is copied into (swapped with Good)
   int64_t GoodStep = -1;       ///< its step (-1: none yet)
-  size_t GoodRows = 0;         ///< log rows up to it
   int Rollbacks = 0;
   int64_t ScheduleStart = 0;   ///< the step the current trainer started at (its learning-rate schedule restarts)
   Model Best;              ///< the network of the best probe so far
@@ -177,7 +177,7 @@ private:
   mutable std::mutex Mutex;
   std::condition_variable Changed;
   RunStatus Current;
-  std::vector<LogRow> Rows;
+  TrainingLog Log;             ///< one row per step, thinned past TrainingLog::kMaxRows
   bool PauseRequested = false;
   bool StopRequested = false;
   bool Quit = false;

@@ -222,7 +222,7 @@ bool TrainingRun::logChunk(PhaseLoop& loop, bool& probeNow)
     row.Loss = loop.losses[static_cast<size_t>(k)];
     row.ElapsedSeconds = start + elapsed * static_cast<double>(k + 1) / static_cast<double>(loop.count);
     row.PSNR = std::numeric_limits<double>::quiet_NaN();
-    this->Rows.push_back(row);
+    this->Log.append(row, k + 1 == loop.count);
   }
   this->Current.Steps = loop.step + loop.count - 1;
   this->Current.Seconds = start + elapsed;
@@ -245,7 +245,7 @@ bool TrainingRun::probeOrPublish(PhaseLoop& loop, bool probeNow)
       this->snapshot(psnr);
     }
     std::lock_guard<std::mutex> lock(this->Mutex);
-    this->Rows.back().PSNR = psnr;
+    this->Log.setLastPsnr(psnr);
     this->Current.Psnr = psnr;
     if (this->PhaseTargetPsnr > 0.0 && psnr >= this->PhaseTargetPsnr)
     {
