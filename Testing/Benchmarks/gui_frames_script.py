@@ -1,17 +1,25 @@
 """The frame rate of the real ParaView GUI while the user turns the view (issue 24), run inside `paraview`
-(gui_frames.sh starts it: paraview --dr --script=gui_frames_script.py). An xdotool process drags the mouse across the
-render view as fast as it can (Testing/ParaView/GuiLatencyDriver.py); the render window's EndEvent counts the frames
-the GUI drew meanwhile. Neural Compress trains in the background the whole time: its steps per second with the view
-still (the live picture refreshed by the GUI's own timer) and during each drag give the training's share.
+(gui_frames.sh starts it: paraview --dr --script=gui_frames_script.py). An xdotool process presses the mouse in the
+render view and moves it every 4 ms from one process (Testing/ParaView/GuiLatencyDriver.py `stream`: input always
+waiting, so the GUI's own drawing sets the rate); the render window's StartEvent/EndEvent time every frame drawn between
+the press and the release the GUI handled. Neural Compress trains in the background the whole time: its steps per
+second with the view still (the live picture refreshed by the GUI's own timer) and during each drag give the training's
+share.
 
-Phases, at each view size (layout preview mode, 1280x720; the view gets what the window holds, recorded): still view, then a drag with each Neural
-Volume render path (Decode, Sample Streaming, In-Shader), then a drag over stock Volume of the original field, then
-one over the empty view (nothing shown: the GUI's own ceiling on this display, xdotool's event rate included).
+Per drag: frames per second over the drag (frames between the handled press and release, over that time), the median
+and 90th percentile gap between frames, the median time inside the render window's Render (ParaView's frame, the
+mapper's paced wait included) and outside it (Qt, the event loop, the X server), and the mapper's own timings of the
+last frame. Phases, at each view size (layout preview mode, 1280x720; the view gets what the window holds,
+recorded): still view, then a drag with each Neural Volume render path (Decode, Sample Streaming, In-Shader), the
+same paths with the representation's frame pacing off (MaximumInteractiveFrameRate 0), a drag over stock Volume of
+the original field, then one over the empty view (nothing shown: the GUI's own ceiling on this display).
 Environment: NV_PLUGIN, NV_TEST_OUTPUT (gui_frames.json goes there), NV_TEST_DIR (Testing/ParaView), NV_GUI_DEVICE
 (CUDA or CPU), NV_GUI_SMALL=1 (a quick run: 32^3, small views, short drags), NV_DATA_DIR (the stent when present),
-NV_HOST_PYTHON (the Python that runs the xdotool driver). Every figure is wall time in the GUI's process."""
+NV_HOST_PYTHON (the Python that runs the xdotool driver), NV_GUI_SIZES (e.g. 1280x720,1920x1080), NV_GUI_SAMPLE=1 (thread_sampler.py on the GUI thread
+during each drag: the share of time it runs and the system calls it waits in). Every figure is wall time in the GUI's process."""
 import json
 import os
+import signal
 import statistics
 import subprocess
 import sys
@@ -22,17 +30,28 @@ import nvtest  # noqa: E402
 
 from paraview.simple import *  # noqa: E402,F401,F403
 
-log = nvtest.log
+def log(msg):
+    """To the process's own stderr (gui_frames.log): through ParaView's output window each message would pop its
+    dialog up over the view."""
+    sys.__stderr__.write(str(msg) + "\n")
+    sys.__stderr__.flush()
 OUT = nvtest.output_dir()
 DRIVER = os.path.join(os.environ["NV_TEST_DIR"], "GuiLatencyDriver.py")
+SAMPLER = os.path.join(os.path.dirname(os.environ["NV_TEST_DIR"]), "Benchmarks", "thread_sampler.py")
+SAMPLE = os.environ.get("NV_GUI_SAMPLE") == "1"  # sample the GUI thread's state during each drag
+PERF = os.environ.get("NV_GUI_PERF")  # a perf binary: profile the GUI thread during each drag (perf record -t)
 PYTHON = os.environ.get("NV_HOST_PYTHON", "/usr/bin/python3")
 DEVICE = os.environ.get("NV_GUI_DEVICE", "CUDA")
 SMALL = os.environ.get("NV_GUI_SMALL") == "1"
-# (the GUI's main window holds a 1280x720 view at most on the device machine's Xvfb: larger previews are clipped)
-SIZES = [(320, 180)] if SMALL else [(1280, 720)]
+# (the main window is first made 2400 x 1500 (GuiLatencyDriver.py resize), room for a 1920 x 1080 preview)
+SIZES = [(320, 180), (1600, 900)] if SMALL else [(1280, 720), (1920, 1080)]
+if os.environ.get("NV_GUI_SIZES"):  # e.g. "1280x720,1920x1080"
+    SIZES = [tuple(int(v) for v in size.split("x")) for size in os.environ["NV_GUI_SIZES"].split(",")]
 STILL_SECONDS = 1.0 if SMALL else 3.0
-DRAG_STEPS = 20 if SMALL else 200
-PATHS = ["Decode", "Sample Streaming", "In-Shader", "stock Volume", "empty view"]
+DRAG_STEPS = 60 if SMALL else 600
+MOVE_PERIOD = 0.004
+NEURAL = ["Decode", "Sample Streaming", "In-Shader"]
+PATHS = NEURAL + [p + " (unpaced)" for p in NEURAL] + ["stock Volume", "empty view"]
 
 nvtest.load_plugin(globals(), scripted=False)
 stent = os.path.join(os.environ.get("NV_DATA_DIR", ""), "stent", "stent_128x128x256_int16.nhdr")
@@ -60,13 +79,21 @@ Render(view)
 interactor = view.GetInteractor()
 window = view.GetRenderWindow()
 
-frames, handled, ticks = [], [], []
+frames, starts, handled, ticks, buttons = [], [], [], [], []
 state = {"phase": "starting", "since": time.time(), "driver": None, "offset": None, "size": 0, "path": 0,
          "results": {"data": data_name, "device": DEVICE, "sizes": {}}}
 
 
 def on_frame(caller, event):
     frames.append(time.time())
+
+
+def on_frame_start(caller, event):
+    starts.append(time.time())
+
+
+def on_button(caller, event):
+    buttons.append((time.time(), event))
 
 
 def on_move(caller, event):
@@ -90,7 +117,7 @@ def start_size():
     layout.PreviewMode = list(size)
     Render(view)
     state.update(phase="calibrate", since=time.time(), driver=None, view=list(view.ViewSize))
-    log("view %r (asked %r)" % (state["view"], size))
+    log("asked for a %r view" % (size,))
 
 
 def start_still():
@@ -106,24 +133,84 @@ def start_drag():
         Hide(nc, view)
         Hide(source, view)
     else:
-        neural.RenderPath = path
+        neural.RenderPath = path.replace(" (unpaced)", "")
+        neural.MaximumInteractiveFrameRate = 0 if "unpaced" in path else 60
     Render(view)
     width, height = state["view"]
     ox, oy = state["offset"]
     x0, y0 = int(width * 0.2), int(height * 0.5)
     dx = max(1, int(width * 0.6 / DRAG_STEPS))
-    proc, _ = driver(["drag", x0 + ox, (height - 1 - y0) + oy, DRAG_STEPS, dx, 0.0], "drag")
+    proc, _ = driver(["stream", x0 + ox, (height - 1 - y0) + oy, DRAG_STEPS, dx, MOVE_PERIOD], "drag")
+    if SAMPLE:
+        state["sampler"] = subprocess.Popen([PYTHON, SAMPLER, str(os.getpid()), str(os.getpid()), sample_path()])
+    if PERF:
+        state["perf"] = subprocess.Popen([PERF, "record", "-F", "1999", "-t", str(os.getpid()), "-o",
+                                          sample_path().replace(".json", ".perf")], stdout=subprocess.DEVNULL,
+                                         stderr=subprocess.DEVNULL)
     state.update(phase="dragging", driver=proc, since=time.time(), steps=steps_trained(), frames=len(frames),
-                 handled=len(handled))
+                 handled=len(handled), buttons=len(buttons))
+
+
+def percentile(values, q):
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] if ordered else None
+
+
+def drag_span(now):
+    """(press, release) of this drag as the GUI handled them; release None while it is still in the queue."""
+    events = buttons[state["buttons"]:]
+    press = next((t for t, e in events if e == "LeftButtonPressEvent"), None)
+    release = next((t for t, e in events if e == "LeftButtonReleaseEvent" and press is not None and t > press), None)
+    return (press if press is not None else state["since"]), release
+
+
+def drag_figures(now):
+    """Frames drawn between the press and the release the GUI handled (the still render after it excluded)."""
+    press, release = drag_span(now)
+    release = release if release is not None else now
+    ends = [t for t in frames[state["frames"]:] if press < t <= release]
+    begins = [t for t in starts if press < t <= release]
+    inside = [b - a for a, b in zip(begins, ends) if b >= a]
+    gaps = [b - a for a, b in zip(ends, ends[1:])]
+    outside = [b - a for a, b in zip(ends, begins[1:]) if b >= a]
+    ms = lambda v: round(1000 * v, 2) if v is not None else None  # noqa: E731
+    seconds = release - press
+    return {"seconds": round(seconds, 3), "frames": len(ends),
+            "fps": round((len(ends) - 1) / (ends[-1] - ends[0]), 1) if len(ends) > 1 else 0.0,
+            "frame_gap_median_ms": ms(statistics.median(gaps)) if gaps else None,
+            "frame_gap_p90_ms": ms(percentile(gaps, 0.9)),
+            "inside_render_median_ms": ms(statistics.median(inside)) if inside else None,
+            "outside_render_median_ms": ms(statistics.median(outside)) if outside else None,
+            "events_handled": len([h for h in handled[state["handled"]:] if press < h[0] <= release])}
+
+
+def sample_path():
+    return os.path.join(OUT, "gui_sample_%d_%d.json" % (state["size"], state["path"]))
+
+
+def perf_report(path):
+    """The GUI thread's samples by library (top 12), then by library and function (top 15): perf report."""
+    def report(sort):
+        text = subprocess.run([PERF, "report", "--stdio", "--sort", sort, "-i", path], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True, timeout=120).stdout
+        with open("%s.%s.txt" % (path, sort.replace(",", "_")), "w") as f:
+            f.write(text)
+        return [line.strip() for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    return report("dso")[:12] + report("dso,sym")[:15]
 
 
 def finish_drag(now):
     seconds = now - state["since"]
-    drawn = frames[state["frames"]:]
-    gaps = [b - a for a, b in zip(drawn, drawn[1:])]
-    entry = {"seconds": round(seconds, 3), "frames": len(drawn), "fps": round(len(drawn) / seconds, 1),
-             "frame_gap_median_ms": round(1000 * statistics.median(gaps), 2) if gaps else None,
-             "events_handled": len(handled) - state["handled"]}
+    entry = drag_figures(now)
+    if SAMPLE and state.get("sampler"):
+        state["sampler"].terminate()
+        state["sampler"].wait(timeout=10)
+        with open(sample_path()) as f:
+            entry["main_thread"] = json.load(f)
+    if PERF and state.get("perf"):
+        state["perf"].send_signal(signal.SIGINT)
+        state["perf"].wait(timeout=30)
+        entry["perf_report"] = perf_report(sample_path().replace(".json", ".perf"))
     size_entry = state["results"]["sizes"][str(SIZES[state["size"]])]
     if PATHS[state["path"]] not in ("stock Volume", "empty view"):
         # (with stock Volume shown the filter's output is hidden: nothing reports the training's steps)
@@ -137,6 +224,8 @@ def finish_drag(now):
         Hide(source, view)
         Show(nc, view)
         Render(view)
+    if entry["events_handled"] == 0:
+        entry = {"error": "the drag missed the view (no move handled between press and release)"}
     size_entry[PATHS[state["path"]]] = entry
     log("%r %s: %r" % (SIZES[state["size"]], PATHS[state["path"]], entry))
 
@@ -155,14 +244,17 @@ def on_timer(caller, event):
     phase = state["phase"]
     if phase == "calibrate":
         if state["driver"] is None:
-            proc, path = driver(["find"], "find")
-            state.update(driver=proc, sent=path)
-        elif state["driver"].poll() is not None and handled:
-            t, x, y = handled[-1]
+            proc, path = driver(["scan"], "find")
+            state.update(driver=proc, sent=path, handled=len(handled))
+        elif state["driver"].poll() is not None and len(handled) > state["handled"]:
+            t, x, y = handled[state["handled"]]  # the first move the view handled, and the last one sent before it
             with open(state["sent"]) as f:
-                _, sx, sy = f.read().split()[-3:]
+                sent = [line.split() for line in f if line.strip()]
+            _, sx, sy = [row for row in sent if float(row[0]) <= t][-1]
+            state["view"] = list(view.ViewSize)  # (the layout has settled by now)
             height = view.ViewSize[1]
             state["offset"] = (int(sx) - x, int(sy) - (height - 1 - y))
+            log("calibration: the %r view handled (%d, %d) after the move to (%s, %s)" % (state["view"], x, y, sx, sy))
             state["driver"] = None
             start_still()
         elif now - state["since"] > 30.0:
@@ -176,7 +268,8 @@ def on_timer(caller, event):
         log("%r still view: %r" % (SIZES[state["size"]], still))
         state["path"] = 0
         start_drag()
-    elif phase == "dragging" and state["driver"].poll() is not None:
+    elif phase == "dragging" and state["driver"].poll() is not None and (
+            drag_span(now)[1] is not None or now - state["since"] > 60.0):
         finish_drag(now)
         state["path"] += 1
         if state["path"] < len(PATHS):
@@ -190,6 +283,9 @@ def on_timer(caller, event):
 
 
 window.AddObserver("EndEvent", on_frame)
+window.AddObserver("StartEvent", on_frame_start)
+interactor.AddObserver("LeftButtonPressEvent", on_button, 10.0)
+interactor.AddObserver("LeftButtonReleaseEvent", on_button, 10.0)
 interactor.AddObserver("MouseMoveEvent", on_move, 10.0)
 interactor.AddObserver("TimerEvent", on_timer)
 interactor.CreateRepeatingTimer(20)

@@ -1,7 +1,7 @@
 """Markdown tables from gpu_paraview_frames.py's JSON files (issue 24): per view size, Render() of an empty view, of
 stock Volume and of each Neural Volume path (CUDA-OpenGL interop, still and interactive; the host path), the engine's
 GPU time, and the frame's overhead beyond the empty view and the engine's GPU time, split into the engine call's own
-(launch, synchronisation) and ParaView's outside the Neural Volume mapper; the path-tracing still (denoised and raw) in single passes' time and PSNR against 1024 paths;
+(launch, synchronisation) and ParaView's outside the Neural Volume mapper; the path-tracing still (denoised and raw) in single passes' time and PSNR against 2048 paths and the converged picture;
 training beside a turning view.   usage: summarize_gpu_frames.py FRAMES.json..."""
 import json
 import re
@@ -31,15 +31,21 @@ def rows(data):
 
 
 def pt_rows():
-    """Path tracing + NEE still (Decode): time in single passes and PSNR against the raw 1024-path picture."""
-    yield "| data | view | paths | denoised: ms (passes of one) | PSNR | raw: ms (passes of one) | PSNR |"
-    yield "|---|---|---|---|---|---|---|"
+    """Path tracing + NEE still (Decode): time in single passes and PSNR against the raw 2048-path picture (and against
+    the converged one: the reference's own noise, measured from its two halves, taken out)."""
+    yield ("| data | view | paths | denoised: ms (passes of one) | PSNR vs 2048 | vs converged | raw: ms (passes of "
+           "one) | PSNR vs 2048 | vs converged |")
+    yield "|---|---|---|---|---|---|---|---|---|"
+    fmt = lambda v: "%.1f" % v if v is not None else "--"  # noqa: E731
     for name, size, pt in PT_ROWS:
+        yield "| %s | %s | 2048 (reference) | | %s vs converged | | | | |" % (
+            name, size, fmt(pt.get("reference_psnr_vs_truth")))
         for target in (1, 4, 8, 16, 32, 64):
             d, w = pt["%d_denoised" % target], pt["%d_raw" % target]
-            yield ("| %s | %s | %d | %.1f (%.1f) | %.1f | %.1f (%.1f) | %.1f |"
-                   % (name, size, target, d["ms"], d["passes_of_one"], d["psnr_vs_reference"], w["ms"],
-                      w["passes_of_one"], w["psnr_vs_reference"]))
+            yield ("| %s | %s | %d | %.1f (%.1f) | %s | %s | %.1f (%.1f) | %s | %s |"
+                   % (name, size, target, d["ms"], d["passes_of_one"], fmt(d["psnr_vs_reference"]),
+                      fmt(d.get("psnr_vs_truth")), w["ms"], w["passes_of_one"], fmt(w["psnr_vs_reference"]),
+                      fmt(w.get("psnr_vs_truth"))))
 
 print("| data | view | Neural Volume path | empty view | stock Volume | Neural Volume Render() | engine GPU | overhead "
       "beyond empty + engine GPU | of it: engine call | of it: outside the mapper |")

@@ -1,7 +1,12 @@
 """Real input for GuiLatencyScript.py: moves and drags the X pointer with xdotool, logging when each event was sent
 ("time x y" per line; the event is in the X server's queue when xdotool returns).
   find                       one move to the middle of the largest window
-  drag X Y STEPS DX PAUSE    press at (X, Y), STEPS moves of DX pixels PAUSE seconds apart, release"""
+  scan                       moves over a grid of points of the largest window, 0.3 s apart, each logged before
+                             it is sent (the GUI's first handled move then says where its view lies)
+  resize W H                 make the largest ParaView window W x H pixels (room for a larger view)
+  drag X Y STEPS DX PAUSE    press at (X, Y), STEPS moves of DX pixels PAUSE seconds apart, release
+  stream X Y STEPS DX PERIOD press at (X, Y), then STEPS moves of DX pixels every PERIOD seconds from one xdotool
+                             process (a steady input faster than the GUI draws: no process start per move), release"""
 import argparse
 import subprocess
 import time
@@ -14,25 +19,59 @@ def xdotool(*args):
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--log", required=True)
-parser.add_argument("mode", choices=["find", "drag"])
+parser.add_argument("mode", choices=["find", "scan", "resize", "drag", "stream"])
 parser.add_argument("args", nargs="*", type=float)
 a = parser.parse_args()
+
+
+def main_window():
+    """The ParaView main window, the largest visible one: (x, y, width, height, id)."""
+    best = None
+    for wid in xdotool("search", "--onlyvisible", "--name", "ParaView").split():
+        geometry = xdotool("getwindowgeometry", "--shell", wid)
+        g = dict(line.split("=") for line in geometry.split())
+        area = int(g["WIDTH"]) * int(g["HEIGHT"])
+        if best is None or area > best[0]:
+            best = (area, int(g["X"]), int(g["Y"]), int(g["WIDTH"]), int(g["HEIGHT"]), wid)
+    return best[1:]
+
+
 with open(a.log, "w") as log:
-    if a.mode == "find":
-        # The ParaView main window: the largest visible one.
-        best = None
-        for wid in xdotool("search", "--onlyvisible", "--name", "ParaView").split():
-            geometry = xdotool("getwindowgeometry", "--shell", wid)
-            g = dict(line.split("=") for line in geometry.split())
-            area = int(g["WIDTH"]) * int(g["HEIGHT"])
-            if best is None or area > best[0]:
-                best = (area, int(g["X"]), int(g["Y"]), int(g["WIDTH"]), int(g["HEIGHT"]))
-        _, x, y, w, h = best
+    if a.mode in ("find", "scan", "resize"):
+        x, y, w, h, wid = main_window()
+        if a.mode != "find":
+            xdotool("windowraise", wid)  # above ParaView's Output Messages dialog, which pops up over it
+        if a.mode == "resize":
+            xdotool("windowmove", wid, 0, 0)
+            xdotool("windowsize", wid, int(a.args[0]), int(a.args[1]))
+            log.write("%.6f %d %d\n" % (time.time(), int(a.args[0]), int(a.args[1])))
+            raise SystemExit(0)
+        if a.mode == "scan":
+            for fy in (0.5, 0.4, 0.6, 0.3, 0.7):
+                for fx in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.15, 0.8):
+                    sx, sy = x + int(w * fx), y + int(h * fy)
+                    log.write("%.6f %d %d\n" % (time.time(), sx, sy))
+                    log.flush()
+                    xdotool("mousemove", sx, sy)
+                    time.sleep(0.3)
+            raise SystemExit(0)
         sx, sy = x + w // 2, y + h // 2
         xdotool("mousemove", sx, sy)
         time.sleep(0.2)
         xdotool("mousemove", sx + 1, sy)
         log.write("%.6f %d %d\n" % (time.time(), sx + 1, sy))
+    elif a.mode == "stream":
+        x, y, steps, dx, period = a.args
+        x, y = int(x), int(y)
+        xdotool("windowraise", main_window()[4])
+        xdotool("mousemove", x, y)
+        time.sleep(0.3)
+        chain = ["mousedown", 1]
+        for k in range(1, int(steps) + 1):
+            chain += ["mousemove", x + int(dx) * k, y, "sleep", period]
+        log.write("%.6f %d %d\n" % (time.time(), x, y))
+        xdotool(*(chain + ["mouseup", 1]))
+        log.write("%.6f %d %d\n" % (time.time(), x + int(dx) * int(steps), y))
     else:
         x, y, steps, dx, pause = a.args
         x, y = int(x), int(y)
