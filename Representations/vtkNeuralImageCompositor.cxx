@@ -109,6 +109,16 @@ void vtkNeuralImageCompositor::Clear()
 }
 
 //------------------------------------------------------------------------------
+vtkTextureObject* vtkNeuralImageCompositor::Texture() const
+{
+  return this->Slots[this->Current].Texture;
+}
+
+std::unique_ptr<nv::GlImageTarget>& vtkNeuralImageCompositor::Target()
+{
+  return this->Slots[this->Current].Target;
+}
+
 bool vtkNeuralImageCompositor::PrepareTexture(vtkWindow* window)
 {
   auto* context = vtkOpenGLRenderWindow::SafeDownCast(window);
@@ -116,17 +126,40 @@ bool vtkNeuralImageCompositor::PrepareTexture(vtkWindow* window)
   {
     return false;
   }
-  if (!this->Texture)
+  ++this->Uses;
+  int chosen = -1;
+  for (int k = 0; k < kTextureSlots && chosen < 0; ++k)
   {
-    this->Texture = vtkSmartPointer<vtkTextureObject>::New();
+    vtkTextureObject* texture = this->Slots[k].Texture;
+    if (texture && texture->GetHandle() != 0 && texture->GetContext() == context &&
+      static_cast<int>(texture->GetWidth()) == this->Width && static_cast<int>(texture->GetHeight()) == this->Height)
+    {
+      chosen = k;
+    }
   }
-  vtkTextureObject* texture = this->Texture;
-  if (texture->GetHandle() != 0 && texture->GetContext() == context &&
-    static_cast<int>(texture->GetWidth()) == this->Width && static_cast<int>(texture->GetHeight()) == this->Height)
+  if (chosen >= 0)
   {
+    this->Current = chosen;
+    this->Slots[chosen].LastUse = this->Uses;
     return true;
   }
-  this->Target.reset(); // registered with the texture that is replaced
+  chosen = 0;
+  for (int k = 1; k < kTextureSlots; ++k)
+  {
+    if (this->Slots[k].LastUse < this->Slots[chosen].LastUse)
+    {
+      chosen = k;
+    }
+  }
+  TextureSlot& slot = this->Slots[chosen];
+  this->Current = chosen;
+  slot.LastUse = this->Uses;
+  slot.Target.reset(); // registered with the texture that is replaced
+  if (!slot.Texture)
+  {
+    slot.Texture = vtkSmartPointer<vtkTextureObject>::New();
+  }
+  vtkTextureObject* texture = slot.Texture;
   texture->SetContext(context);
   texture->SetMinificationFilter(vtkTextureObject::Linear);
   texture->SetMagnificationFilter(vtkTextureObject::Linear);
@@ -152,15 +185,16 @@ bool vtkNeuralImageCompositor::SetDeviceImage(
   }
   try
   {
-    if (!this->Target || this->Target->texture() != this->Texture->GetHandle())
+    std::unique_ptr<nv::GlImageTarget>& target = this->Target();
+    if (!target || target->texture() != this->Texture()->GetHandle())
     {
-      this->Target = nv::GlImageTarget::create(this->Texture->GetHandle(), width, height);
+      target = nv::GlImageTarget::create(this->Texture()->GetHandle(), width, height);
     }
-    this->Target->write(deviceRgba, ready);
+    target->write(deviceRgba, ready);
   }
   catch (const std::exception& e)
   {
-    this->Target.reset();
+    this->Target().reset();
     why = e.what();
     return false;
   }
@@ -172,9 +206,9 @@ bool vtkNeuralImageCompositor::SetDeviceImage(
 
 const std::vector<float>& vtkNeuralImageCompositor::GetImage()
 {
-  if (this->OnDevice && this->Texture && this->Texture->GetContext())
+  if (this->OnDevice && this->Texture() && this->Texture()->GetContext())
   {
-    this->Texture->GetContext()->MakeCurrent();
+    this->Texture()->GetContext()->MakeCurrent();
     this->ReadBack();
   }
   return this->Image;
@@ -182,13 +216,13 @@ const std::vector<float>& vtkNeuralImageCompositor::GetImage()
 
 void vtkNeuralImageCompositor::ReadBack()
 {
-  if (!this->OnDevice || !this->Target)
+  if (!this->OnDevice || !this->Target())
   {
     return;
   }
   try
   {
-    this->Target->read(this->Image);
+    this->Target()->read(this->Image);
   }
   catch (const std::exception&)
   {
@@ -205,7 +239,8 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   {
     return;
   }
-  const bool lostTexture = !this->Texture || this->Texture->GetHandle() == 0 || this->Texture->GetContext() != window;
+  const bool lostTexture =
+    !this->Texture() || this->Texture()->GetHandle() == 0 || this->Texture()->GetContext() != window;
   if (this->OnDevice && lostTexture)
   {
     this->ReadBack(); // a new context: the picture comes back from the old texture to the host
@@ -219,11 +254,11 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
       return;
     }
     // In place: the texture keeps its storage while the image size does not change.
-    this->Texture->Activate();
+    this->Texture()->Activate();
     vtkOpenGLState* uploadState = window->GetState();
     uploadState->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, this->Width, this->Height, GL_RGBA, GL_FLOAT, this->Image.data());
-    this->Texture->Deactivate();
+    this->Texture()->Deactivate();
     this->Uploaded = true;
     this->UploadMilliseconds = MillisecondsSince(start);
   }
@@ -245,7 +280,8 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   state->vtkglDisable(GL_DEPTH_TEST);
   state->vtkglDepthMask(GL_FALSE);
 
-  this->Texture->Activate();
+  vtkTextureObject* texture = this->Texture();
+  texture->Activate();
   if (!this->Quad)
   {
     std::string fs = vtkOpenGLRenderUtilities::GetFullScreenQuadFragmentShaderTemplate();
@@ -261,10 +297,10 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   }
   if (this->Quad->Program)
   {
-    this->Quad->Program->SetUniformi("image", this->Texture->GetTextureUnit());
+    this->Quad->Program->SetUniformi("image", texture->GetTextureUnit());
     this->Quad->Render();
   }
-  this->Texture->Deactivate();
+  texture->Deactivate();
   this->DrawMilliseconds = MillisecondsSince(drawStart);
 }
 
@@ -308,10 +344,13 @@ void vtkNeuralImageCompositor::DrawProgress(vtkRenderer* ren, double fraction)
 void vtkNeuralImageCompositor::ReleaseGraphicsResources(vtkWindow* window)
 {
   this->ReadBack(); // the host keeps a GPU picture for the next context
-  this->Target.reset(); // unregistered while its texture still exists
-  if (this->Texture)
+  for (TextureSlot& slot : this->Slots)
   {
-    this->Texture->ReleaseGraphicsResources(window);
+    slot.Target.reset(); // unregistered while its texture still exists
+    if (slot.Texture)
+    {
+      slot.Texture->ReleaseGraphicsResources(window);
+    }
   }
   this->Quad.reset();
   this->Uploaded = false;

@@ -11,6 +11,7 @@
 
 #include <memory>
 #include <string>
+#include <cstdint>
 #include <vector>
 
 namespace nv
@@ -64,14 +65,29 @@ public:
   void ReleaseGraphicsResources(vtkWindow* window);
 
 private:
-  /// The texture (RGBA32F) of the current image's size in `window`'s context, allocated when missing or resized.
+  /// The texture (RGBA32F) of the current image's size in `window`'s context: the slot that has it, else the least
+  /// recently used slot reallocated at that size.
   bool PrepareTexture(vtkWindow* window);
   /// A GPU image copied from the texture to Image (the texture's context current).
   void ReadBack();
 
-  vtkSmartPointer<vtkTextureObject> Texture;
+  /// A texture and its CUDA registration. Two slots: a turning view alternates between the interactive image size
+  /// (InteractiveImageScale) and the still one, and registering a texture with CUDA costs ~25 ms on the H100 -- each
+  /// size keeps its own.
+  struct TextureSlot
+  {
+    vtkSmartPointer<vtkTextureObject> Texture;
+    std::unique_ptr<nv::GlImageTarget> Target; ///< the texture registered with CUDA (SetDeviceImage)
+    uint64_t LastUse = 0;
+  };
+  static constexpr int kTextureSlots = 2;
+  TextureSlot Slots[kTextureSlots];
+  int Current = 0;    ///< the slot of the current image
+  uint64_t Uses = 0;  ///< PrepareTexture calls (the slots' clock)
+  vtkTextureObject* Texture() const;
+  std::unique_ptr<nv::GlImageTarget>& Target();
+
   std::unique_ptr<vtkOpenGLQuadHelper> Quad;
-  std::unique_ptr<nv::GlImageTarget> Target; ///< the texture registered with CUDA (SetDeviceImage)
   std::vector<float> Image;
   int Width = 0;
   int Height = 0;

@@ -185,7 +185,9 @@ log("  camera change: Render() %.3f s, level %d, abandoned %d, cancelled engine 
 check(abandoned == 1, "the camera change abandoned the refinement")
 check(cancelled == 1, "... and cancelled the engine render in flight")
 check(0.0 <= stop_ms < ABANDON_MAX_MS, "... which stopped within %g ms (%.2f ms)" % (ABANDON_MAX_MS, stop_ms))
-check(moved_s < FIRST_PICTURE_MAX_S and m.level == 0, "the new camera's first picture at once (%.3f s)" % moved_s)
+# (a coarse level of the new view: the first, or the second when it came within the same frame budget)
+check(moved_s < FIRST_PICTURE_MAX_S and m.level <= 1 and not m.final,
+      "the new camera's first picture at once (%.3f s, level %d of %d)" % (moved_s, m.level, m.levels))
 refine("In-Shader + shadows, new camera")
 moved = framebuffer()
 reference = blocking_render()
