@@ -59,6 +59,19 @@ struct SelectedInput
 
 namespace
 {
+/// The filter's particle properties (particle inputs; ignored by the others).
+nvi::ParticleSettings ParticleSettingsOf(vtkNeuralCompress* filter)
+{
+  nvi::ParticleSettings s;
+  s.Field = filter->GetParticleField();
+  s.Kernel = filter->GetParticleKernel();
+  s.Radius = filter->GetParticleRadius();
+  s.RadiusArray = filter->GetParticleRadiusArray() ? filter->GetParticleRadiusArray() : "";
+  s.VectorMode = filter->GetVectorMode();
+  s.VectorComponent = filter->GetVectorComponent();
+  return s;
+}
+
 /// Automatic sampling dimensions under a TimeBudget: resampling takes at most this share of it, probing at most
 /// kProbeBudgetShare (both measured on the input).
 constexpr double kResampleBudgetShare = 0.25;
@@ -288,7 +301,9 @@ bool vtkNeuralCompress::PrepareField(
   {
     return false;
   }
-  if (input.Outside && settings.Sampling == SAMPLING_PROBE &&
+  // Particles always train from the bank: their field is evaluated at random points, never interpolated in an image.
+  const bool probe = settings.Sampling == SAMPLING_PROBE || nvi::IsParticleSet(request.Object);
+  if (input.Outside && probe &&
     (!stage("probing points inside the cells") || !this->ProbeTrainingPoints(request.Object, field, *prepared.Data)))
   {
     return false;
@@ -329,6 +344,7 @@ bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double t
   {
     return false;
   }
+  in.Resampler.SetParticleSettings(ParticleSettingsOf(this));
   if (!in.Resampler.Resample(
         inputObject, name, assoc, dims, input.Resampled, outsideCount, problem, request.Source, request.InputMTime))
   {
@@ -357,6 +373,7 @@ bool vtkNeuralCompress::FitResamplingToBudget(
   for (int a = 0; a < 3; ++a)
     trial[a] = dims[a] > 1 ? std::max(2, int(dims[a] * scale)) : 1;
   nvi::InputResampler probe;
+  probe.SetParticleSettings(ParticleSettingsOf(this));
   vtkSmartPointer<vtkImageData> image;
   int64_t outside = 0;
   std::string problem;
