@@ -55,15 +55,23 @@ std::vector<ParticleRecord> ParticleField::Gather(const ParticleInput& input)
       this->Bounds[2 * a] = std::min(this->Bounds[2 * a], input.Xyz[3 * i + a]);
       this->Bounds[2 * a + 1] = std::max(this->Bounds[2 * a + 1], input.Xyz[3 * i + a]);
     }
+  // Records in units of the box's largest extent (or of the largest radius for particles at one point), so that
+  // 1 / R^3 stays within float's range whatever the data's units (centimetres of a galaxy: 1e24).
+  double largest = std::max({ this->Bounds[1] - this->Bounds[0], this->Bounds[3] - this->Bounds[2],
+    this->Bounds[5] - this->Bounds[4] });
+  for (size_t k = 0; largest == 0.0 && input.Radii && k < used.size(); ++k)
+    largest = std::max(largest, input.Radii[used[k]]);
+  largest = largest > 0.0 ? largest : this->Options.Radius;
+  this->Scale = largest > 0.0 && std::isfinite(largest) ? 1.0 / largest : 1.0;
   std::vector<ParticleRecord> records(used.size());
   for (size_t k = 0; k < used.size(); ++k)
   {
     const int64_t i = used[k];
     ParticleRecord& r = records[k];
-    r.x = float(input.Xyz[3 * i] - this->Bounds[0]);
-    r.y = float(input.Xyz[3 * i + 1] - this->Bounds[2]);
-    r.z = float(input.Xyz[3 * i + 2] - this->Bounds[4]);
-    r.radius = input.Radii ? float(input.Radii[i]) : 0.0f;
+    r.x = float((input.Xyz[3 * i] - this->Bounds[0]) * this->Scale);
+    r.y = float((input.Xyz[3 * i + 1] - this->Bounds[2]) * this->Scale);
+    r.z = float((input.Xyz[3 * i + 2] - this->Bounds[4]) * this->Scale);
+    r.radius = input.Radii ? float(input.Radii[i] * this->Scale) : 0.0f;
     r.value = float(input.Values[i]);
   }
   return records;
@@ -75,12 +83,13 @@ ParticleField::ParticleField(const ParticleInput& input, const ParticleOptions& 
   if (!(options.Radius >= 0.0 && std::isfinite(options.Radius)))
     NV_THROW("the particle radius must be >= 0 (0: automatic), not " + std::to_string(options.Radius));
   std::vector<ParticleRecord> records = this->Gather(input);
-  const double extent[3] = { this->Bounds[1] - this->Bounds[0], this->Bounds[3] - this->Bounds[2],
-    this->Bounds[5] - this->Bounds[4] };
-  this->Spacing = meanParticleSpacing(records, extent);
+  const double extent[3] = { (this->Bounds[1] - this->Bounds[0]) * this->Scale,
+    (this->Bounds[3] - this->Bounds[2]) * this->Scale, (this->Bounds[5] - this->Bounds[4]) * this->Scale };
+  const double spacing = meanParticleSpacing(records, extent); // in the records' units
+  this->Spacing = spacing / this->Scale;
   if (!input.Radii)
   {
-    double radius = options.Radius;
+    double radius = options.Radius * this->Scale;
     if (radius == 0.0)
     {
       if (!(this->Spacing > 0.0))
@@ -90,7 +99,7 @@ ParticleField::ParticleField(const ParticleInput& input, const ParticleOptions& 
           << this->Bounds[2] << ", " << this->Bounds[4] << "): no spacing to choose a radius from and no volume";
         NV_THROW(s.str());
       }
-      radius = kAutoRadiusSpacings * this->Spacing;
+      radius = kAutoRadiusSpacings * spacing;
       this->AutomaticRadius = true;
     }
     for (ParticleRecord& r : records)
@@ -99,23 +108,25 @@ ParticleField::ParticleField(const ParticleInput& input, const ParticleOptions& 
   this->MinRadius = std::numeric_limits<double>::max();
   for (ParticleRecord& r : records)
   {
-    this->MaxRadius = std::max(this->MaxRadius, double(r.radius));
-    this->MinRadius = std::min(this->MinRadius, double(r.radius));
+    this->ScaledMaxRadius = std::max(this->ScaledMaxRadius, double(r.radius));
+    this->MinRadius = std::min(this->MinRadius, double(r.radius) / this->Scale);
     r.invRadius3 = float(1.0 / (double(r.radius) * r.radius * r.radius));
   }
+  this->MaxRadius = this->ScaledMaxRadius / this->Scale;
   // Cells of the largest radius: a query visits the 3^3 cells around its point (at most one cell per particle).
   const double hi[3] = { extent[0], extent[1], extent[2] };
   const double lo[3] = { 0.0, 0.0, 0.0 };
   const int64_t maxCells = std::max<int64_t>(int64_t(records.size()), 4096);
-  this->Grid.reset(new ParticleGrid(std::move(records), lo, hi, this->MaxRadius, maxCells));
+  this->Grid.reset(new ParticleGrid(std::move(records), lo, hi, this->ScaledMaxRadius, maxCells));
 }
 
 bool ParticleField::evaluate(const double x[3], double& value) const
 {
-  const double u[3] = { x[0] - this->Bounds[0], x[1] - this->Bounds[2], x[2] - this->Bounds[4] };
+  const double u[3] = { (x[0] - this->Bounds[0]) * this->Scale, (x[1] - this->Bounds[2]) * this->Scale,
+    (x[2] - this->Bounds[4]) * this->Scale };
   double sumWeight = 0.0, sumWeighted = 0.0;
   const ParticleKernel kernel = this->Options.Kernel;
-  this->Grid->forEachNear(u, this->MaxRadius, [&](const ParticleRecord& r) {
+  this->Grid->forEachNear(u, this->ScaledMaxRadius, [&](const ParticleRecord& r) {
     const double dx = u[0] - r.x, dy = u[1] - r.y, dz = u[2] - r.z;
     const double d2 = dx * dx + dy * dy + dz * dz, r2 = double(r.radius) * r.radius;
     if (d2 >= r2)
@@ -126,7 +137,9 @@ bool ParticleField::evaluate(const double x[3], double& value) const
   });
   if (!(sumWeight > 0.0))
     return false;
-  value = this->Options.Mode == ParticleFieldMode::Density ? sumWeighted : sumWeighted / sumWeight;
+  // Density: the records' 1 / R^3 are in box units; Scale^3 turns them into the data's.
+  value = this->Options.Mode == ParticleFieldMode::Density ? sumWeighted * this->Scale * this->Scale * this->Scale
+                                                           : sumWeighted / sumWeight;
   return true;
 }
 
@@ -144,8 +157,8 @@ int64_t ParticleField::evaluateMany(const double* xyz, int64_t count, double* va
     order.resize(size_t(count));
     for (int64_t i = 0; i < count; ++i)
     {
-      const double u[3] = { xyz[3 * i] - this->Bounds[0], xyz[3 * i + 1] - this->Bounds[2],
-        xyz[3 * i + 2] - this->Bounds[4] };
+      const double u[3] = { (xyz[3 * i] - this->Bounds[0]) * this->Scale,
+        (xyz[3 * i + 1] - this->Bounds[2]) * this->Scale, (xyz[3 * i + 2] - this->Bounds[4]) * this->Scale };
       order[size_t(i)] = { this->Grid->cellIndex(u), i };
     }
     std::sort(order.begin(), order.end());

@@ -82,6 +82,8 @@ private:
   ParticleCounts Counts;
   double Bounds[6] = { 0, 0, 0, 0, 0, 0 };
   double Spacing = 0.0, MaxRadius = 0.0, MinRadius = 0.0;
+  double Scale = 1.0;           ///< world -> the records' units (1 / the box's largest extent)
+  double ScaledMaxRadius = 0.0; ///< MaxRadius in the records' units
   bool AutomaticRadius = false;
   std::unique_ptr<ParticleGrid> Grid;
 };

@@ -127,7 +127,7 @@ for kernel, label in (("cubic", "Cubic Spline"), ("gaussian", "Gaussian")):
                                                                                                 mine.size))
     # The cubic spline is continuous at the support's edge: within 2e-5 (float32 positions and values). The truncated
     # Gaussian jumps there (to e^-4.5 of its peak), so a particle at the edge that float rounding puts inside for one
-    # and outside for the other changes a sum: within 1e-3 (measured 3.7e-4), the median within 2e-6.
+    # and outside for the other changes a sum: within 1e-3 (measured 1.5e-4), the median within 2e-6.
     tolerance = 2e-5 if kernel == "cubic" else 1e-3
     check(err < tolerance and median < 2e-6, "%s: the reconstruction matches VTK's within %g of the range (max %.2e, "
           "median %.2e)" % (label, tolerance, err, median))
