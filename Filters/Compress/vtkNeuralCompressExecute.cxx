@@ -124,6 +124,8 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
   nvi::Settings settings = this->CurrentSettings();
   if (request.IsImage)
     settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
+  else if (nvi::IsParticleSet(request.Object))
+    settings.Sampling = SAMPLING_PROBE; // particles always train from the bank (their field at random points)
   if (request.OutOfCorePath.empty())
     settings.MemoryBudgetMiB = 0.0; // inputs in memory: no budget decides their training
   const nvi::InputIdentity identity = this->IdentityOf(request, settings.Canonical(), time);
@@ -301,9 +303,7 @@ bool vtkNeuralCompress::PrepareField(
   {
     return false;
   }
-  // Particles always train from the bank: their field is evaluated at random points, never interpolated in an image.
-  const bool probe = settings.Sampling == SAMPLING_PROBE || nvi::IsParticleSet(request.Object);
-  if (input.Outside && probe &&
+  if (input.Outside && settings.Sampling == SAMPLING_PROBE &&
     (!stage("probing points inside the cells") || !this->ProbeTrainingPoints(request.Object, field, *prepared.Data)))
   {
     return false;
