@@ -340,7 +340,10 @@ bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double t
   }
   const bool automatic = std::all_of(
     this->SamplingDimensions, this->SamplingDimensions + 3, [](int d) { return d <= 0; });
-  if (automatic && timeBudget > 0.0 && !this->FitResamplingToBudget(request, timeBudget, dims, input))
+  // Particles: their automatic image is evaluated in seconds (the trial would time the locator's setup as if it
+  // were per sample); the bank is sized to the budget from the evaluation's measured cost (ProbeTrainingPoints).
+  if (automatic && timeBudget > 0.0 && !nvi::IsParticleSet(inputObject) &&
+    !this->FitResamplingToBudget(request, timeBudget, dims, input))
   {
     return false;
   }

