@@ -133,6 +133,35 @@ for kernel, label in (("cubic", "Cubic Spline"), ("gaussian", "Gaussian")):
           "median %.2e)" % (label, tolerance, err, median))
     Delete(field)
 
+# The density (sum m_i W_i) against vtkSPHInterpolator with a mass array and a density array of ones, interpolating
+# the ones: sum (m_j / 1) 1 W_j, in absolute units (both cubic splines integrate to one).
+masses = (0.5 + np.random.default_rng(5).random(N)) / N
+DENSITY_PD = poly_of(P, {"m": masses, "one": np.ones(N)})
+field = NeuralParticleField(Input=producer(DENSITY_PD), SelectInputScalars=["POINTS", "m"], ParticleField="Density",
+                            ParticleRadius=RADIUS, SamplingDimensions=[48, 48, 48])
+field.UpdatePipeline()
+ours = servermanager.Fetch(field)
+mine = vtk_to_numpy(ours.GetPointData().GetArray("m")).astype(np.float64)
+k = vtkSPHCubicKernel()
+k.SetSpatialStep(RADIUS / 2.0)
+k.SetDimension(3)
+interp = vtkSPHInterpolator()
+interp.SetKernel(k)
+interp.SetMassArrayName("m")
+interp.SetDensityArrayName("one")
+interp.SetInputData(grid_like(ours))
+interp.SetSourceData(DENSITY_PD)
+interp.SetNullPointsStrategyToMaskPoints()
+interp.Update()
+ref = vtk_to_numpy(interp.GetOutput().GetPointData().GetArray("one")).astype(np.float64)
+valid = vtk_to_numpy(interp.GetOutput().GetPointData().GetArray(interp.GetValidPointsMaskArrayName())) != 0
+both = valid & np.isfinite(mine)
+err = np.abs(mine[both] - ref[both]).max() / ref[both].max()
+log("density vs vtkSPHInterpolator (mass / density arrays): max %.3f, max |diff| %.2e of the max, %d differ in "
+    "emptiness" % (ref[both].max(), err, int((valid != np.isfinite(mine)).sum())))
+check(err < 2e-5 and int((valid != np.isfinite(mine)).sum()) == 0, "density: VTK's sum m W within 2e-5 (%.2e)" % err)
+Delete(field)
+
 # 2. Training on the Probe bank; the figures at the particles and against VTK's grid.
 with nvtest.captured_messages() as text:
     nc = NeuralCompress(Input=SRC, SelectInputScalars=["POINTS", "f"], ParticleRadius=RADIUS, **COMMON)
