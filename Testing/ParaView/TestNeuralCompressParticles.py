@@ -2,7 +2,8 @@
 truncated to a ball (r < 0.45 around (0.5, 0.5, 0.5)) with values from an analytic function.
 1. The engine's reconstruction (Neural Particle Field: the code Neural Compress trains on) against VTK's own
    vtkSPHInterpolator (cubic spline, Shepard normalisation) and vtkPointInterpolator (Gaussian kernel, normalised
-   weights) on a 48^3 grid: the same values and the same empty points.
+   weights) on a 48^3 grid: the same values and the same empty points; the Density field against vtkSPHInterpolator
+   with a mass array (sum m W, absolute units).
 2. Training (Probe bank, 300 steps, CPU, Deterministic): the network against the reconstruction at the particles
    (NeuralPSNR), against the analytic function at the particles, and against vtkSPHInterpolator's grid; the decoded
    field is NaN outside the support.
