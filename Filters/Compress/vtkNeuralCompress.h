@@ -241,6 +241,32 @@ public:
   vtkGetMacro(ProbePoints, int);
   ///@}
 
+  enum ParticleFieldModes
+  {
+    PARTICLES_INTERPOLATE = 0, ///< sum_i f_i W_i / sum_i W_i (normalised, SPH/Shepard style)
+    PARTICLES_DENSITY = 1      ///< sum_i f_i W_i (f_i a mass: its density)
+  };
+  enum ParticleKernels
+  {
+    KERNEL_GAUSSIAN = 0,
+    KERNEL_CUBIC_SPLINE = 1,
+    KERNEL_WENDLAND_C2 = 2
+  };
+  ///@{
+  /// Particle inputs (poly data of vertices or points only, unstructured grids of vertex cells): the field the
+  /// particles define (Cuda/Particles/ParticleField.h), the smoothing kernel, the support radius of every particle
+  /// (0 = automatic: twice the mean particle spacing) or the point array of per-particle radii (empty: the
+  /// constant). Outside every particle's support the field is empty. Ignored for other inputs.
+  vtkSetClampMacro(ParticleField, int, PARTICLES_INTERPOLATE, PARTICLES_DENSITY);
+  vtkGetMacro(ParticleField, int);
+  vtkSetClampMacro(ParticleKernel, int, KERNEL_GAUSSIAN, KERNEL_WENDLAND_C2);
+  vtkGetMacro(ParticleKernel, int);
+  vtkSetMacro(ParticleRadius, double);
+  vtkGetMacro(ParticleRadius, double);
+  vtkSetStdStringFromCharMacro(ParticleRadiusArray);
+  vtkGetCharFromStdStringMacro(ParticleRadiusArray);
+  ///@}
+
   ///@{
   /// Out-of-core inputs (the Neural Out-of-Core Reader's output): host memory in MiB that the file's samples may take
   /// (the random block buffer, the PSNR probe and a streamed pass's slabs); 0 = automatic (a quarter of what the
@@ -397,6 +423,10 @@ protected:
   int Sampling = SAMPLING_RESAMPLE;
   int ProbePoints = 0;
   double MemoryBudget = 0.0;
+  int ParticleField = PARTICLES_INTERPOLATE;
+  int ParticleKernel = KERNEL_CUBIC_SPLINE;
+  double ParticleRadius = 0.0;
+  std::string ParticleRadiusArray;
   int PSNRInterval = 100;
   double TargetPSNR = 0.0;
   int OutputMode = OUTPUT_NETWORK_ONLY;

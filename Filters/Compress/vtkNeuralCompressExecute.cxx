@@ -59,6 +59,19 @@ struct SelectedInput
 
 namespace
 {
+/// The filter's particle properties (particle inputs; ignored by the others).
+nvi::ParticleSettings ParticleSettingsOf(vtkNeuralCompress* filter)
+{
+  nvi::ParticleSettings s;
+  s.Field = filter->GetParticleField();
+  s.Kernel = filter->GetParticleKernel();
+  s.Radius = filter->GetParticleRadius();
+  s.RadiusArray = filter->GetParticleRadiusArray() ? filter->GetParticleRadiusArray() : "";
+  s.VectorMode = filter->GetVectorMode();
+  s.VectorComponent = filter->GetVectorComponent();
+  return s;
+}
+
 /// Automatic sampling dimensions under a TimeBudget: resampling takes at most this share of it, probing at most
 /// kProbeBudgetShare (both measured on the input).
 constexpr double kResampleBudgetShare = 0.25;
@@ -111,6 +124,8 @@ bool vtkNeuralCompress::Execute(vtkDataObject* inputObject, vtkInformationVector
   nvi::Settings settings = this->CurrentSettings();
   if (request.IsImage)
     settings.Sampling = settings.ProbePoints = 0; // images are their own samples: Sampling does not apply
+  else if (nvi::IsParticleSet(request.Object))
+    settings.Sampling = SAMPLING_PROBE; // particles always train from the bank (their field at random points)
   if (request.OutOfCorePath.empty())
     settings.MemoryBudgetMiB = 0.0; // inputs in memory: no budget decides their training
   const nvi::InputIdentity identity = this->IdentityOf(request, settings.Canonical(), time);
@@ -325,10 +340,14 @@ bool vtkNeuralCompress::ResampleInput(const nvi::InputRequest& request, double t
   }
   const bool automatic = std::all_of(
     this->SamplingDimensions, this->SamplingDimensions + 3, [](int d) { return d <= 0; });
-  if (automatic && timeBudget > 0.0 && !this->FitResamplingToBudget(request, timeBudget, dims, input))
+  // Particles: their automatic image is evaluated in seconds (the trial would time the locator's setup as if it
+  // were per sample); the bank is sized to the budget from the evaluation's measured cost (ProbeTrainingPoints).
+  if (automatic && timeBudget > 0.0 && !nvi::IsParticleSet(inputObject) &&
+    !this->FitResamplingToBudget(request, timeBudget, dims, input))
   {
     return false;
   }
+  in.Resampler.SetParticleSettings(ParticleSettingsOf(this));
   if (!in.Resampler.Resample(
         inputObject, name, assoc, dims, input.Resampled, outsideCount, problem, request.Source, request.InputMTime))
   {
@@ -357,6 +376,7 @@ bool vtkNeuralCompress::FitResamplingToBudget(
   for (int a = 0; a < 3; ++a)
     trial[a] = dims[a] > 1 ? std::max(2, int(dims[a] * scale)) : 1;
   nvi::InputResampler probe;
+  probe.SetParticleSettings(ParticleSettingsOf(this));
   vtkSmartPointer<vtkImageData> image;
   int64_t outside = 0;
   std::string problem;

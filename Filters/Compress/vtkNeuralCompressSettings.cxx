@@ -45,6 +45,10 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
   s.MemoryBudgetMiB = this->MemoryBudget;
+  s.ParticleField = this->ParticleField;
+  s.ParticleKernel = this->ParticleKernel;
+  s.ParticleRadius = this->ParticleRadius;
+  s.ParticleRadiusArray = this->ParticleRadiusArray;
   return s;
 }
 
@@ -69,6 +73,9 @@ std::string Settings::Canonical() const
     s << " last"; // the default keeps the v1 string too
   if (MemoryBudgetMiB != 0.0)
     s << " memory " << MemoryBudgetMiB; // out-of-core inputs only (others train with 0)
+  if (ParticleField != 0 || ParticleKernel != 1 || ParticleRadius != 0.0 || !ParticleRadiusArray.empty())
+    s << " particles " << ParticleField << ' ' << ParticleKernel << ' ' << ParticleRadius << " [" << ParticleRadiusArray
+      << ']'; // the defaults keep the v1 string
   return s.str();
 }
 

@@ -28,6 +28,10 @@ struct Settings
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
   bool KeepBest = true;
   double MemoryBudgetMiB = 0.0; ///< out-of-core inputs (vtkNeuralOutOfCoreInput.h); 0: automatic
+  /// Particle inputs (vtkNeuralCompressParticles.h).
+  int ParticleField = 0, ParticleKernel = 1;
+  double ParticleRadius = 0.0;
+  std::string ParticleRadiusArray;
   /// Every field, for the training key.
   std::string Canonical() const;
 };

@@ -254,6 +254,8 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
     problem = "no input";
     return false;
   }
+  if (IsParticleSet(input))
+    return ResolveParticleDimensions(input, name, association, requested, dims, problem);
   const std::vector<vtkDataSet*> leaves = Leaves(input);
   int64_t samples = 0;
   double bounds[6];
@@ -342,53 +344,65 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
     return false;
   }
   if (this->Image && this->Input == source && this->InputMTime == sourceMTime && this->Name == name &&
-    this->Association == association && std::equal(dimsIn, dimsIn + 3, this->Dims))
+    this->Association == association && std::equal(dimsIn, dimsIn + 3, this->Dims) &&
+    this->ResampledParticles == this->Particles)
   {
     image = this->Image;
     outside = this->Outside;
     return true;
   }
   this->Image = nullptr;
+  this->ParticleSet = nullptr;
   int dims[3];
   if (!ResolveSamplingDimensions(input, name, association, dimsIn, dims, problem))
     return false;
-
-  // Only the selected array (and the ghost arrays AMR blanking needs) is probed.
-  vtkNew<vtkPassSelectedArrays> pass;
-  pass->SetInputDataObject(input);
-  pass->GetArraySelection(association)->EnableArray(name.c_str());
-  vtkNew<vtkResampleToImage> resample;
-  resample->SetInputConnection(pass->GetOutputPort());
-  resample->SetUseInputBounds(true);
-  resample->SetSamplingDimensions(dims);
-  const auto started = std::chrono::steady_clock::now();
-  resample->Update();
-  this->PerSample = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() /
-    (double(dims[0]) * dims[1] * dims[2]);
-  vtkImageData* out = resample->GetOutput();
-  vtkDataArray* values = out ? out->GetPointData()->GetArray(name.c_str()) : nullptr;
-  vtkDataArray* mask = out ? out->GetPointData()->GetArray(resample->GetMaskArrayName()) : nullptr;
-  if (!values || !mask || mask->GetNumberOfTuples() != values->GetNumberOfTuples())
-  {
-    problem = "resampling the input to an image gave no '" + name + "' values";
-    return false;
-  }
-
+  vtkSmartPointer<vtkImageData> img;
   int64_t out0 = 0;
-  vtkSmartPointer<vtkDataArray> field = MaskedCopy(values, mask, name, out0);
-  if (out0 == values->GetNumberOfTuples())
+  if (IsParticleSet(input))
   {
-    problem = "no sample of the " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
-      std::to_string(dims[2]) + " resampling lies inside a cell of the input";
-    return false;
+    if (!this->ResampleParticles(input, name, association, dims, problem))
+      return false;
+    img = this->Image;
+    out0 = this->Outside;
   }
-  auto img = vtkSmartPointer<vtkImageData>::New();
-  img->SetOrigin(out->GetOrigin());
-  img->SetSpacing(out->GetSpacing());
-  img->SetExtent(out->GetExtent());
-  img->GetPointData()->AddArray(field);
+  else
+  {
+    // Only the selected array (and the ghost arrays AMR blanking needs) is probed.
+    vtkNew<vtkPassSelectedArrays> pass;
+    pass->SetInputDataObject(input);
+    pass->GetArraySelection(association)->EnableArray(name.c_str());
+    vtkNew<vtkResampleToImage> resample;
+    resample->SetInputConnection(pass->GetOutputPort());
+    resample->SetUseInputBounds(true);
+    resample->SetSamplingDimensions(dims);
+    const auto started = std::chrono::steady_clock::now();
+    resample->Update();
+    this->PerSample = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() /
+      (double(dims[0]) * dims[1] * dims[2]);
+    vtkImageData* out = resample->GetOutput();
+    vtkDataArray* values = out ? out->GetPointData()->GetArray(name.c_str()) : nullptr;
+    vtkDataArray* mask = out ? out->GetPointData()->GetArray(resample->GetMaskArrayName()) : nullptr;
+    if (!values || !mask || mask->GetNumberOfTuples() != values->GetNumberOfTuples())
+    {
+      problem = "resampling the input to an image gave no '" + name + "' values";
+      return false;
+    }
 
-  this->Text = ResampleDescription(input, Leaves(input), name, association, dims, out0);
+    vtkSmartPointer<vtkDataArray> field = MaskedCopy(values, mask, name, out0);
+    if (out0 == values->GetNumberOfTuples())
+    {
+      problem = "no sample of the " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+        std::to_string(dims[2]) + " resampling lies inside a cell of the input";
+      return false;
+    }
+    img = vtkSmartPointer<vtkImageData>::New();
+    img->SetOrigin(out->GetOrigin());
+    img->SetSpacing(out->GetSpacing());
+    img->SetExtent(out->GetExtent());
+    img->GetPointData()->AddArray(field);
+    this->Text = ResampleDescription(input, Leaves(input), name, association, dims, out0);
+  }
+  this->ResampledParticles = this->Particles;
   this->Input = source;
   this->InputMTime = sourceMTime;
   this->Source = input;
@@ -410,6 +424,8 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
     return nullptr;
   if (this->Cached && this->SamplesMode == vectorMode && this->SamplesComponent == component)
     return this->Cached;
+  if (this->ParticleSet)
+    return this->Cached = this->ParticleSamples(); // the settings' vector mode made the field
   const bool cells = this->Association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
   // Cells hidden by a finer AMR level or duplicated as ghosts are not the source's own samples.
   const unsigned char skipCell = vtkDataSetAttributes::DUPLICATECELL | vtkDataSetAttributes::HIDDENCELL |
@@ -555,6 +571,8 @@ std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t 
   if (this->Bank && this->BankCount == count && this->BankSeed == seed && this->BankMode == vectorMode &&
     this->BankComponent == component)
     return this->Bank;
+  if (this->ParticleSet)
+    return this->ProbeParticles(count, seed, vectorMode, component, problem);
   const auto t0 = std::chrono::steady_clock::now();
   // The image's box: the bank's points are normalised to it as the network's inputs are.
   vtkNew<vtkPoints> points;

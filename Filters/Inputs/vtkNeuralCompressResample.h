@@ -6,6 +6,7 @@
 #ifndef vtkNeuralCompressResample_h
 #define vtkNeuralCompressResample_h
 
+#include "vtkNeuralCompressParticles.h"
 #include "vtkSmartPointer.h"
 #include "vtkType.h"
 
@@ -82,10 +83,20 @@ public:
   std::shared_ptr<const ProbedBank> Probe(int64_t count, uint64_t seed, int vectorMode, int component,
     std::string& problem);
 
+  /// Particle sets (vtkNeuralCompressParticles.h): how their field is reconstructed; part of the cache key.
+  void SetParticleSettings(const ParticleSettings& settings) { this->Particles = settings; }
+
   /// A one-line description of the last resampled input ("vtkUnstructuredGrid, 7472 cells -> 64 x 64 x 113").
   const std::string& Description() const { return this->Text; }
 
 private:
+  // Particle sets (defined in vtkNeuralCompressParticles.cxx): the image, the particles' own samples, the bank.
+  bool ResampleParticles(vtkDataObject* input, const std::string& name, int association, const int dims[3],
+    std::string& problem);
+  std::shared_ptr<const SourceSamples> ParticleSamples();
+  std::shared_ptr<const ProbedBank> ProbeParticles(
+    int64_t count, uint64_t seed, int vectorMode, int component, std::string& problem);
+
   const void* Input = nullptr;
   vtkMTimeType InputMTime = 0;
   vtkSmartPointer<vtkDataObject> Source; ///< the object resampled (its cells are probed by Probe)
@@ -103,6 +114,9 @@ private:
   uint64_t BankSeed = 0;
   int BankMode = -1, BankComponent = -1;
   std::string Text;
+  ParticleSettings Particles, ResampledParticles;
+  std::shared_ptr<const nv::ParticleField> ParticleSet; ///< the last input's, when it is a particle set
+  int64_t ParticleBytes = 0;
 };
 
 } // namespace vtkNeuralCompressInternals

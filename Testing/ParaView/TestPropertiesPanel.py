@@ -23,7 +23,7 @@ check, log = nvtest.check, nvtest.log
 pxm = servermanager.ProxyManager().SMProxyManager
 
 PROXIES = [("filters", "NeuralCompress"), ("sources", "NeuralVolumeReader"), ("writers", "NeuralVolumeWriter"),
-           ("representations", "NeuralVolumeRepresentation")]
+           ("representations", "NeuralVolumeRepresentation"), ("filters", "NeuralParticleField")]
 if pxm.GetPrototypeProxy("sources", "NeuralVDBReader") is not None:  # built with OpenVDB
     PROXIES += [("sources", "NeuralVDBReader"), ("writers", "NeuralVDBWriter")]
 PROPERTY_TAGS = ("IntVectorProperty", "DoubleVectorProperty", "IdTypeVectorProperty", "StringVectorProperty",
@@ -106,7 +106,8 @@ for i in range(nc_proto.GetNumberOfPropertyGroups()):
 check(list(groups) == ["Data", "Size", "Training", "Advanced"], "filter groups: %r" % list(groups))
 EXPECTED_GROUPS = {
     "Data": ["SelectInputScalars", "VectorMode", "VectorComponent", "OutputMode", "OutputResolution", "Sampling",
-             "SamplingDimensions", "ProbePoints", "MemoryBudget"],
+             "SamplingDimensions", "ProbePoints", "MemoryBudget", "ParticleField", "ParticleKernel", "ParticleRadius",
+             "ParticleRadiusArray"],
     "Size": ["TargetCompressionRatio", "Log2TableSize", "StoragePrecision", "Levels", "FeaturesPerLevel",
              "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
     "Advanced": ["BatchSize", "LearningRate", "LearningRateSchedule", "Loss", "Seed", "PSNRInterval",
