@@ -34,7 +34,7 @@ namespace
 constexpr int64_t kBufferEighths = 5, kProbeEighths = 1, kSlabEighths = 1, kChunkEighths = 1;
 constexpr int64_t kProbeSamples = 65536;
 constexpr int kMinBlocksPerStep = 16;
-constexpr int64_t kRowReadsPerStep = 8192;
+constexpr int64_t kRowReadsPerStep = 32768;
 constexpr double kBlocksPerBatchSample = 32.0;
 constexpr int kReaderThreads = 4;
 
@@ -74,9 +74,10 @@ int BlockCellsFor(int64_t bufferBytes, int batchSize)
 }
 
 /// Slots the readers fill while the others are drawn from: twice the blocks replaced per step, which cost about
-/// kRowReadsPerStep row reads (a block is (blockCells + 1)^2 rows: 8192 reads take a few ms of a 2-core CPU beside its
-/// training step), at least kMinBlocksPerStep, never more than a quarter of the slots. Replacing many blocks a step
-/// matters as much as many blocks (a 32 MiB file under 2 MiB, 4^3-cell blocks: 64 a step 26.9 dB, 1024 a step 29.9 dB).
+/// kRowReadsPerStep row reads (a block is (blockCells + 1)^2 rows; the readers never hold a step up: what they have
+/// not read by then is swapped in later), at least kMinBlocksPerStep, never more than a quarter of the slots.
+/// Replacing many blocks a step matters as much as many blocks (a 32 MiB file under 2 MiB, 4^3-cell blocks: 64 a step
+/// 26.9 dB, 1024 a step 29.9 dB; the 2 GiB test's 3^3-cell blocks: 512 a step 32.8-33.4 dB, 2048 a step 33.7 dB).
 int64_t LoadingSlotsFor(int64_t bufferBytes, int blockCells)
 {
   const int64_t side = blockCells + 1;
