@@ -44,9 +44,11 @@ BlockBuffer::BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig
   if (slots < 2)
     NV_THROW("the out-of-core memory budget (" + std::to_string(config.memoryBudgetBytes) + " bytes) holds fewer than "
       "two blocks of " + std::to_string(slotBytes) + " bytes: raise MemoryBudget or lower the block size");
-  // A quarter of the slots (at most four per reader) are loading while the rest are drawn from; a volume whose
-  // blocks all fit is resident whole and nothing is replaced.
-  int64_t loading = std::max<int64_t>(1, std::min<int64_t>(slots / 4, 4 * std::max(1, config.readerThreads)));
+  // The loading slots asked for, else a quarter of the slots (at most four per reader), are loading while the rest
+  // are drawn from; a volume whose blocks all fit is resident whole and nothing is replaced.
+  int64_t loading = config.loadingSlots > 0
+    ? std::min<int64_t>(config.loadingSlots, slots - 1)
+    : std::max<int64_t>(1, std::min<int64_t>(slots / 4, 4 * std::max(1, config.readerThreads)));
   int64_t resident = slots - loading;
   if (resident >= this->BlockCount)
   {

@@ -28,6 +28,7 @@ struct BlockBufferConfig
   int64_t memoryBudgetBytes = int64_t(256) << 20; ///< every slot's samples (resident and loading)
   int blockCells = 32;    ///< cells per block edge; a block holds (blockCells + 1)^3 samples (its far faces shared)
   int readerThreads = 4;  ///< threads reading replacement blocks
+  int loadingSlots = 0;   ///< slots the readers fill while the others are drawn from (0: automatic)
   uint64_t seed = 1;      ///< which blocks are read, in which order
 };
 

@@ -14,10 +14,12 @@
 #include "Core/Volume.h"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 namespace nv
 {
+class VolumeBoxSource;
 
 struct VolumeFileLayout
 {
@@ -31,6 +33,9 @@ struct VolumeFileLayout
   double spacing[3] = { 1.0, 1.0, 1.0 };
   std::string arrayName;   ///< the field's name (the header's, else the file's stem)
   std::string format;      ///< "NRRD (detached header)", "NRRD", "BOV", "VTK XML image data"
+  /// Decodes boxes where the samples are not one raw block at dataOffset (VolumeBoxSource.h: an HDF5 chunked
+  /// dataset); null for the raw layouts, which VolumeFileReader reads with pread.
+  std::shared_ptr<const VolumeBoxSource> boxSource;
 
   int64_t samples() const { return dims[0] * dims[1] * dims[2]; }
   int64_t bytes() const { return samples() * static_cast<int64_t>(scalarSize(type)); }

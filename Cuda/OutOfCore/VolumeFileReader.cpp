@@ -1,6 +1,8 @@
 // NeuralVolume engine, out-of-core training: boxes of samples read from a volume file with pread (VolumeFileReader.h).
 #include "VolumeFileReader.h"
 
+#include "VolumeBoxSource.h"
+
 #include "Core/Error.h"
 
 #include <algorithm>
@@ -106,6 +108,12 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
     NV_CHECK(origin[axis] >= 0 && size[axis] >= 1 && origin[axis] + size[axis] <= this->Layout.dims[axis],
       "the box must lie inside the volume");
   const int64_t bytes = static_cast<int64_t>(scalarSize(this->Layout.type));
+  if (this->Layout.boxSource)
+  {
+    this->Layout.boxSource->readBox(origin, size, out); // chunks decoded by the source
+    this->BytesRead += size[0] * size[1] * size[2] * bytes;
+    return;
+  }
   const bool swap = bytes > 1 && this->Layout.bigEndian != hostIsBigEndian();
   std::vector<unsigned char> row(static_cast<size_t>(size[0] * bytes));
   const int64_t nx = this->Layout.dims[0], ny = this->Layout.dims[1];

@@ -73,6 +73,7 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   file->Layout = nvi::ReadOutOfCoreLayout(request.OutOfCorePath, request.OutOfCoreArray); // nv::Error: reported
   file->Reader = std::make_shared<nv::VolumeFileReader>(file->Layout);
   file->BudgetBytes = nvi::OutOfCoreBudgetBytes(settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason);
+  nvi::CheckOutOfCoreStorage(*file); // chunks the budget cannot decode: nv::Error, reported
   nvi::FieldInfo& field = prepared.Field;
   DescribeFile(file, this->OutputResolution, this->FinestResolution, this->BaseResolution, field);
   this->ReportOutputCap(field.Geometry);
@@ -100,7 +101,8 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
     background->SetStage("filling the block buffer");
   if (!carryOn())
     return false;
-  prepared.Data = nvi::OutOfCoreTrainingData(file, field.Stats, static_cast<uint64_t>(settings.Seed));
+  prepared.Data =
+    nvi::OutOfCoreTrainingData(file, field.Stats, static_cast<uint64_t>(settings.Seed), settings.BatchSize);
   field.Description = prepared.Data->Field.Description;
   prepared.TrainingSettings = settings;
   prepared.Key = nvi::OutOfCoreKey(*file, field, settings);

@@ -9,8 +9,13 @@
 #include <vector>
 
 #if NV_HAVE_HDF5
-#include <hdf5.h>
+#include "vtkNeuralHdf5Chunks.h"
+#include "vtkNeuralHdf5Handle.h"
+
+#include <cerrno>
+#include <cstring>
 #include <sys/stat.h>
+#include <unistd.h>
 #endif
 
 namespace vtkNeuralCompressInternals
@@ -30,48 +35,6 @@ std::string LowerExtension(const std::string& path)
 }
 
 #if NV_HAVE_HDF5
-/// Closes an HDF5 identifier when it goes out of scope.
-class Handle
-{
-public:
-  Handle(hid_t id, herr_t (*close)(hid_t))
-    : Id(id)
-    , Close(close)
-  {
-  }
-  ~Handle()
-  {
-    if (this->Id >= 0)
-      this->Close(this->Id);
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  hid_t get() const { return this->Id; }
-  bool valid() const { return this->Id >= 0; }
-
-private:
-  hid_t Id;
-  herr_t (*Close)(hid_t);
-};
-
-/// HDF5's automatic error printing off while it lives (the caller reports the reason), restored after.
-class SilentErrors
-{
-public:
-  SilentErrors()
-  {
-    H5Eget_auto2(H5E_DEFAULT, &this->Function, &this->Data);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~SilentErrors() { H5Eset_auto2(H5E_DEFAULT, this->Function, this->Data); }
-  SilentErrors(const SilentErrors&) = delete;
-  SilentErrors& operator=(const SilentErrors&) = delete;
-
-private:
-  H5E_auto2_t Function = nullptr;
-  void* Data = nullptr;
-};
-
 /// The engine's type of an HDF5 type, or false for those the reader does not stream.
 bool ScalarTypeOf(hid_t type, nv::ScalarType& scalar, bool& bigEndian)
 {
@@ -104,8 +67,8 @@ herr_t CollectDataset(hid_t root, const char* name, const H5O_info_t* info, void
 {
   if (info->type != H5O_TYPE_DATASET)
     return 0;
-  Handle dataset(H5Dopen2(root, name, H5P_DEFAULT), H5Dclose);
-  Handle space(dataset.valid() ? H5Dget_space(dataset.get()) : -1, H5Sclose);
+  Hdf5Handle dataset(H5Dopen2(root, name, H5P_DEFAULT), H5Dclose);
+  Hdf5Handle space(dataset.valid() ? H5Dget_space(dataset.get()) : -1, H5Sclose);
   if (space.valid() && H5Sget_simple_extent_ndims(space.get()) == 3)
     static_cast<std::vector<std::string>*>(data)->push_back(name);
   return 0;
@@ -116,49 +79,46 @@ bool Attribute3(hid_t dataset, const char* name, double values[3])
 {
   if (H5Aexists(dataset, name) <= 0)
     return false;
-  Handle attribute(H5Aopen(dataset, name, H5P_DEFAULT), H5Aclose);
-  Handle space(attribute.valid() ? H5Aget_space(attribute.get()) : -1, H5Sclose);
+  Hdf5Handle attribute(H5Aopen(dataset, name, H5P_DEFAULT), H5Aclose);
+  Hdf5Handle space(attribute.valid() ? H5Aget_space(attribute.get()) : -1, H5Sclose);
   if (!space.valid() || H5Sget_simple_extent_npoints(space.get()) != 3)
     return false;
   return H5Aread(attribute.get(), H5T_NATIVE_DOUBLE, values) >= 0;
 }
 
-/// The dataset's storage: contiguous, unfiltered, allocated; throws with the reason otherwise.
-void CheckStreamable(hid_t dataset, const std::string& where)
+/// The dataset's storage: contiguous and unfiltered (a raw block of the file: no box source), or chunked (a box source
+/// that decodes its chunks); throws with the reason otherwise.
+std::shared_ptr<const nv::VolumeBoxSource> StreamableStorage(
+  hid_t dataset, const std::string& path, const std::string& name, nv::ScalarType type, const std::string& where)
 {
-  Handle plist(H5Dget_create_plist(dataset), H5Pclose);
+  Hdf5Handle plist(H5Dget_create_plist(dataset), H5Pclose);
   const H5D_layout_t layout = H5Pget_layout(plist.get());
   if (layout == H5D_CHUNKED)
-  {
-    hsize_t chunk[3] = { 0, 0, 0 };
-    H5Pget_chunk(plist.get(), 3, chunk);
-    NV_THROW(where + "the dataset is chunked (chunks of " + std::to_string(chunk[2]) + " x " +
-      std::to_string(chunk[1]) + " x " + std::to_string(chunk[0]) + "): a chunked layout cannot be streamed yet; "
-      "repack it contiguous (h5repack -l CONTI)");
-  }
+    return OpenChunkedDataset(path, name, plist.get(), type, where);
   if (layout != H5D_CONTIGUOUS)
     NV_THROW(where + "the dataset is stored compact in the file's header: it cannot be streamed");
   if (H5Pget_nfilters(plist.get()) > 0)
     NV_THROW(where + "the dataset is filtered (compressed): it cannot be streamed; repack it without filters");
+  return nullptr;
 }
 
 nv::VolumeFileLayout LayoutOfDataset(hid_t file, const std::string& path, const std::string& name)
 {
   const std::string where = "'" + path + "', dataset '" + name + "': ";
-  Handle dataset(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose);
+  Hdf5Handle dataset(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose);
   if (!dataset.valid())
     NV_THROW(where + "no such dataset");
-  Handle space(H5Dget_space(dataset.get()), H5Sclose);
+  Hdf5Handle space(H5Dget_space(dataset.get()), H5Sclose);
   hsize_t dims[3] = { 0, 0, 0 };
   if (H5Sget_simple_extent_ndims(space.get()) != 3)
     NV_THROW(where + "the dataset is not 3-D");
   H5Sget_simple_extent_dims(space.get(), dims, nullptr);
   nv::VolumeFileLayout layout;
-  Handle type(H5Dget_type(dataset.get()), H5Tclose);
+  Hdf5Handle type(H5Dget_type(dataset.get()), H5Tclose);
   if (!ScalarTypeOf(type.get(), layout.type, layout.bigEndian))
     NV_THROW(where + "its sample type cannot be streamed (uint8, int16, uint16, int32, float32, float64 can)");
-  CheckStreamable(dataset.get(), where);
-  const haddr_t offset = H5Dget_offset(dataset.get());
+  layout.boxSource = StreamableStorage(dataset.get(), path, name, layout.type, where);
+  const haddr_t offset = layout.boxSource ? 0 : H5Dget_offset(dataset.get());
   if (offset == HADDR_UNDEF)
     NV_THROW(where + "the dataset has no storage in the file (never written)");
   layout.headerPath = path;
@@ -173,7 +133,10 @@ nv::VolumeFileLayout LayoutOfDataset(hid_t file, const std::string& path, const 
       NV_THROW(where + "its 'spacing' or 'origin' attribute is not positive and finite");
   const size_t slash = name.find_last_of('/');
   layout.arrayName = slash == std::string::npos ? name : name.substr(slash + 1);
-  layout.format = "HDF5 (contiguous dataset)";
+  layout.format = layout.boxSource ? "HDF5 (" + std::string(layout.boxSource->storage()) + ")"
+                                    : std::string("HDF5 (contiguous dataset)");
+  if (layout.boxSource)
+    return layout; // its chunks may be compressed or not all written (HDF5 reads those as the fill value)
   const hsize_t stored = H5Dget_storage_size(dataset.get());
   if (static_cast<int64_t>(stored) < layout.bytes())
     NV_THROW(where + "the dataset stores " + std::to_string(stored) + " bytes but its extent needs " +
@@ -192,12 +155,14 @@ bool IsHdf5Path(const std::string& path)
 nv::VolumeFileLayout ReadHdf5Layout(const std::string& path, const std::string& datasetPath)
 {
 #if NV_HAVE_HDF5
-  SilentErrors silent; // errors are reported as nv::Error, not printed by HDF5
+  Hdf5Section section; // one HDF5 call at a time; errors are reported as nv::Error, not printed by HDF5
+  if (::access(path.c_str(), R_OK) != 0)
+    NV_THROW("'" + path + "': cannot be read: " + std::strerror(errno));
   if (H5Fis_hdf5(path.c_str()) <= 0)
-    NV_THROW("'" + path + "': not an HDF5 file (or it cannot be read)");
-  Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    NV_THROW("'" + path + "': not an HDF5 file");
+  Hdf5Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid())
-    NV_THROW("'" + path + "': cannot open the HDF5 file");
+    NV_THROW("'" + path + "': the HDF5 file cannot be opened (" + Hdf5LastError() + ")");
   std::string name = datasetPath;
   if (name.empty())
   {
@@ -209,7 +174,8 @@ nv::VolumeFileLayout ReadHdf5Layout(const std::string& path, const std::string& 
   }
   nv::VolumeFileLayout layout = LayoutOfDataset(file.get(), path, name);
   struct stat info;
-  if (::stat(path.c_str(), &info) != 0 || int64_t(info.st_size) - layout.dataOffset < layout.bytes())
+  const bool raw = !layout.boxSource; // a chunked dataset's bytes may be compressed or unwritten
+  if (raw && (::stat(path.c_str(), &info) != 0 || int64_t(info.st_size) - layout.dataOffset < layout.bytes()))
     NV_THROW("'" + path + "', dataset '" + name + "': the dataset's " + std::to_string(layout.bytes()) +
       " bytes from byte " + std::to_string(layout.dataOffset) + " run past the end of the file (" +
       std::to_string(int64_t(info.st_size)) + " bytes): the file is truncated");

@@ -1,8 +1,9 @@
 // Private to NeuralVolume::Filters: where a 3-D HDF5 dataset's samples lie in its file (.h5, .hdf5), for the
 // out-of-core reader and Neural Compress (vtkNeuralOutOfCoreInput.h). A contiguous dataset without filters is a raw
-// block of the file (H5Dget_offset): the engine's VolumeFileReader streams it with pread like any raw layout. Chunked
-// or compact datasets, filters (compression), other types and ranks are refused with the reason. Built with the HDF5
-// library ParaView's VTK uses (NV_HAVE_HDF5); without it an .h5 file gives one error saying so.
+// block of the file (H5Dget_offset): the engine's VolumeFileReader streams it with pread like any raw layout. A chunked
+// dataset (compressed or not) is read by hyperslabs through the HDF5 library (vtkNeuralHdf5Chunks.h, the layout's
+// boxSource). Compact datasets, filters the library cannot decode, other types and ranks are refused with the reason.
+// Built with the HDF5 library ParaView's VTK uses (NV_HAVE_HDF5); without it an .h5 file gives one error saying so.
 #ifndef vtkNeuralHdf5Layout_h
 #define vtkNeuralHdf5Layout_h
 

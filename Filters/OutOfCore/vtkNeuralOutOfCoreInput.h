@@ -64,13 +64,18 @@ struct OutOfCoreFile
 int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason);
 constexpr double kAutomaticBudgetShare = 0.25;
 
+/// A chunked HDF5 dataset whose chunk decoding (VolumeBoxSource::workingBytes) exceeds the budget's share for it (an
+/// eighth): throws nv::Error with the figures and the advice. Nothing for raw layouts.
+void CheckOutOfCoreStorage(const OutOfCoreFile& file);
+
 /// Bytes of the slabs a streamed pass reads at once (a share of the budget; at least one plane).
 int64_t OutOfCoreSlabBytes(const OutOfCoreFile& file);
 
 /// The training data of the file: no field in memory (the view carries its dimensions, type and value range), a
-/// block buffer within the budget as the trainer's batch source, and a PSNR probe on random rows of the file.
+/// block buffer within the budget as the trainer's batch source (blocks small enough that the buffer holds several
+/// per sample of a batch of `batchSize`), and a PSNR probe on random rows of the file.
 std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
-  const std::shared_ptr<const OutOfCoreFile>& file, const nv::VolumeStats& stats, uint64_t seed);
+  const std::shared_ptr<const OutOfCoreFile>& file, const nv::VolumeStats& stats, uint64_t seed, int batchSize);
 
 /// The training key: the settings, the geometry, the file (path, size, modification time, layout) and the budget.
 uint64_t OutOfCoreKey(const OutOfCoreFile& file, const FieldInfo& field, const Settings& settings);

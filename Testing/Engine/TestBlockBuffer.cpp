@@ -76,6 +76,13 @@ NV_TEST(samples_sit_where_their_values_say)
   const nv::BlockBufferStats s = buffer.stats();
   EXPECT_TRUE(s.residentBlocks == 9 && s.loadingSlots == 3);
   EXPECT_TRUE(s.bufferBytes <= config.memoryBudgetBytes);
+  // Loading slots asked for: as many, within the same slots (at least one stays resident).
+  nv::BlockBufferConfig asked = config;
+  asked.loadingSlots = 5;
+  EXPECT_TRUE(nv::BlockBuffer(layout, asked).stats().loadingSlots == 5);
+  asked.loadingSlots = 40;
+  const nv::BlockBufferStats most = nv::BlockBuffer(layout, asked).stats();
+  EXPECT_TRUE(most.residentBlocks == 1 && most.loadingSlots == 11 && most.bufferBytes <= config.memoryBudgetBytes);
   std::vector<float> xyz(3 * 20000), values(20000);
   for (uint64_t step = 0; step < 20; ++step)
   {

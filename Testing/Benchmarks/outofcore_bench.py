@@ -1,0 +1,186 @@
+"""Issue 22's out-of-core benchmark (pvbatch, the plugin loaded; meant for the GPU machine, CPU works too): a procedural
+file larger than the budget (default 3456^3 uint8, 41 GB; ooc_procedural.py, a slab at a time, all cores), then
+
+  1. the disk's random-read bandwidth for the buffer's block size: the file dropped from the page cache
+     (posix_fadvise DONTNEED), random blocks read row by row with pread from 4 threads, as the block buffer reads;
+  2. Neural Compress out of core (MemoryBudget, default 8 GiB) for STEPS steps: the PSNR over wall time (its training
+     log: estimates every PSNRInterval steps, exact at the end), the steps/s, the buffer's read throughput (bytes read,
+     /proc/self/io rchar, less the two whole-file passes, over the training seconds) and its share of (1);
+  3. the same settings in memory, host-sampled (TrainingStrategy 2), on a 2 GB grid of the same function that fits
+     (default 1280^3 uint8), loaded by ParaView's NRRD reader: steps/s and the PSNR curve at the same steps;
+  4. peak RSS (VmHWM) of the process during (2), above its resident memory before.
+
+Writes JSON to --json. Example (the GPU machine, see README "Out-of-core files"):
+  NV_PLUGIN=.../NeuralVolume.so pvbatch Testing/Benchmarks/outofcore_bench.py --folder /tmp/ooc --json ooc.json
+"""
+import argparse
+import json
+import os
+import random
+import subprocess
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def status_kib(name):
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith(name + ":"))
+
+
+def bytes_read():
+    with open("/proc/self/io") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("rchar:"))
+
+
+def disk_random_read(raw, dims, item, edge, seconds, threads=4):
+    """MB/s of random (edge+1)^3 blocks read row by row, the file first dropped from the page cache."""
+    fd = os.open(raw, os.O_RDONLY)
+    os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    nx, ny, nz = dims
+    side = edge + 1
+    total = [0]
+    lock = threading.Lock()
+    deadline = time.time() + seconds
+
+    def reader(seed):
+        rng = random.Random(seed)
+        got = 0
+        while time.time() < deadline:
+            x, y, z = rng.randrange(nx - side), rng.randrange(ny - side), rng.randrange(nz - side)
+            for k in range(side):
+                for j in range(side):
+                    got += len(os.pread(fd, side * item, (((z + k) * ny + y + j) * nx + x) * item))
+        with lock:
+            total[0] += got
+    start = time.time()
+    workers = [threading.Thread(target=reader, args=(s,)) for s in range(threads)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    os.close(fd)
+    return total[0] / (time.time() - start) / 1e6
+
+
+def psnr_curve(log_table):
+    """[(elapsed s, step, PSNR)] from Neural Compress's training log (output port 1) where a PSNR was taken."""
+    columns = {log_table.GetColumnName(c): log_table.GetColumn(c) for c in range(log_table.GetNumberOfColumns())}
+    curve = []
+    for row in range(log_table.GetNumberOfRows()):
+        psnr = columns["PSNR"].GetValue(row)
+        if psnr == psnr:
+            curve.append((round(columns["ElapsedSeconds"].GetValue(row), 3), int(columns["Step"].GetValue(row)), psnr))
+    return curve
+
+
+def generate(python, path, dims, type_name):
+    """The generator in a process of its own (forking pvbatch for its workers is not safe)."""
+    start = time.time()
+    subprocess.run([python, os.path.join(HERE, "..", "ParaView", "ooc_procedural.py"), path] + [str(n) for n in dims] +
+                   ["--type", type_name, "--workers", str(os.cpu_count() or 1)], check=True)
+    return os.path.splitext(path)[0] + ".raw", time.time() - start
+
+
+def figure(data, name):
+    array = data.GetFieldData().GetArray(name)
+    return array.GetValue(0) if array is not None else None
+
+
+def train_out_of_core(path, budget_mib, settings, file_bytes):
+    """Neural Compress from the file within the budget: figures, curve, reads, peak memory."""
+    from paraview.simple import Delete
+    from paraview import servermanager
+    reader = globals()["NeuralOutOfCoreReader"](FileName=path)
+    nc = globals()["NeuralCompress"](Input=reader, MemoryBudget=budget_mib, TrainInBackground=0, **settings)
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+    rss_before, read_before, start = status_kib("VmRSS"), bytes_read(), time.time()
+    nc.UpdatePipeline()
+    out = servermanager.Fetch(nc)
+    result = {"wall_s": time.time() - start, "training_s": figure(out, "NeuralTrainingSeconds"),
+              "steps": figure(out, "NeuralSteps"), "psnr_exact": figure(out, "NeuralPSNR"),
+              "exact": figure(out, "NeuralPSNRExact"), "curve": psnr_curve(servermanager.Fetch(nc, idx=1)),
+              "bytes_read": bytes_read() - read_before,
+              "peak_rss_above_before_mib": (status_kib("VmHWM") - rss_before) / 1024.0,
+              "rss_before_mib": rss_before / 1024.0}
+    result["steps_per_s"] = result["steps"] / result["training_s"]
+    # The buffer's reads: all bytes read less the two whole-file passes (value range, exact PSNR); the probe's few
+    # rows are left in. Over the training seconds (the buffer's readers run while it trains).
+    result["buffer_read_mb_per_s"] = (result["bytes_read"] - 2 * file_bytes) / result["training_s"] / 1e6
+    Delete(nc)
+    Delete(reader)
+    return result
+
+
+def train_in_memory(path, settings):
+    """The same settings on a grid loaded by ParaView's NRRD reader, host-sampled."""
+    from paraview.simple import Delete, OpenDataFile
+    from paraview import servermanager
+    image = OpenDataFile(path)
+    image.UpdatePipeline()
+    memory = globals()["NeuralCompress"](Input=image, SelectInputScalars=["POINTS", image.PointData.keys()[0]],
+                                         TrainInBackground=0, TrainingStrategy=2, **settings)
+    memory.UpdatePipeline()
+    out = servermanager.Fetch(memory)
+    result = {"training_s": figure(out, "NeuralTrainingSeconds"), "steps": figure(out, "NeuralSteps"),
+              "psnr": figure(out, "NeuralPSNR"), "curve": psnr_curve(servermanager.Fetch(memory, idx=1))}
+    result["steps_per_s"] = result["steps"] / result["training_s"]
+    Delete(memory)
+    Delete(image)
+    return result
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--folder", default="/tmp/ooc-bench")
+    parser.add_argument("--dims", type=int, nargs=3, default=[3456, 3456, 3456])
+    parser.add_argument("--crop", type=int, nargs=3, default=[1280, 1280, 1280])
+    parser.add_argument("--type", default="uint8")
+    parser.add_argument("--budget-mib", type=float, default=8192)
+    parser.add_argument("--steps", type=int, default=10000)
+    parser.add_argument("--device", default="CUDA")
+    parser.add_argument("--batch", type=int, default=65536)
+    parser.add_argument("--disk-seconds", type=float, default=20)
+    parser.add_argument("--keep", action="store_true", help="keep the generated files")
+    parser.add_argument("--python", default="python3", help="a Python with numpy for the generator")
+    parser.add_argument("--json", default="outofcore_bench.json")
+    args = parser.parse_args()
+
+    from paraview.simple import LoadPlugin
+    LoadPlugin(os.environ["NV_PLUGIN"], remote=False, ns=globals())
+    os.makedirs(args.folder, exist_ok=True)
+    result = {"dims": args.dims, "crop": args.crop, "type": args.type, "budget_mib": args.budget_mib,
+              "steps": args.steps, "device": args.device, "batch": args.batch}
+    item = {"uint8": 1, "int16": 2, "float32": 4, "float64": 8}[args.type]
+    large = os.path.join(args.folder, "large.nhdr")
+    raw, result["generate_s"] = generate(args.python, large, args.dims, args.type)
+    result["file_bytes"] = os.path.getsize(raw)
+    settings = dict(TrainingSteps=args.steps, BatchSize=args.batch, Device=args.device, TimeBudget=0, Seed=5,
+                    PSNRInterval=250, OutputMode="Network only")
+    result["ooc"] = train_out_of_core(large, args.budget_mib, settings, result["file_bytes"])
+    # The block edge the buffer chose (vtkNeuralOutOfCoreInput.cxx, BlockCellsFor: 5/8 of the budget, 32 blocks a
+    # batch sample): the disk's bandwidth for that block size.
+    buffer_bytes = args.budget_mib * 2 ** 20 * 5 / 8
+    edge = next((e for e in range(32, 2, -1) if buffer_bytes / ((e + 1) ** 3 * 4) >= 32 * args.batch), 2)
+    result["disk_random_read_mb_per_s"] = disk_random_read(raw, args.dims, item, edge, args.disk_seconds)
+    result["disk_block_cells"] = edge
+    result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / result["disk_random_read_mb_per_s"]
+    crop = os.path.join(args.folder, "crop.nhdr")
+    crop_raw, _ = generate(args.python, crop, args.crop, args.type)
+    result["memory"] = train_in_memory(crop, settings)
+    result["ooc_step_rate_share"] = result["ooc"]["steps_per_s"] / result["memory"]["steps_per_s"]
+    if not args.keep:
+        for path in (large, raw, crop, crop_raw):
+            os.remove(path)
+    with open(args.json, "w") as f:
+        json.dump(result, f, indent=1)
+    print(json.dumps({k: v for k, v in result.items() if k not in ("ooc", "memory")}, indent=1))
+    print(json.dumps({k: v for k, v in result["ooc"].items() if k != "curve"}, indent=1))
+    print(json.dumps({k: v for k, v in result["memory"].items() if k != "curve"}, indent=1))
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    main()
