@@ -424,6 +424,9 @@ private:
     vtkTable* metrics, double time);
   /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).
   vtkNeuralCompressInternals::PieceSums MeasureCurrentPiece();
+  /// ExecutePiece (a collective): every rank's networks to rank 0, which adds them to GetTrainedNetworks (a state
+  /// saved from the client then holds every rank's network; on loading, each rank finds its own by its key).
+  void GatherPeerNetworks();
   /// What this execution reads from the pipeline (the input, its selected array or the name of the one to
   /// resample); false after reporting an error.
   bool RequestInput(vtkDataObject* inputObject, vtkInformationVector** inputVector,

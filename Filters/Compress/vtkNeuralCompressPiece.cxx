@@ -14,11 +14,15 @@
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkMultiProcessController.h"
+#include "vtkMultiProcessStream.h"
 #include "vtkNew.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkTable.h"
 
 #include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
 
 //------------------------------------------------------------------------------
 nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
@@ -37,6 +41,34 @@ nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
     in.Piece.Whole(), job->Field.Cells, bytesPerSample, static_cast<double>(final->Figures.ModelBytes));
   in.MeasuredRecord = final.get();
   return in.MeasuredSums;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::GatherPeerNetworks()
+{
+  vtkInternals& in = *this->Internals;
+  vtkMultiProcessController* c = nvi::DistributedController();
+  if (!c)
+    return;
+  std::vector<const nvi::NetworkRecord*> records;
+  for (const nvi::NetworkRecord* r : in.Cache.All())
+  {
+    if (r->Figures.State != "Interrupted")
+      records.push_back(r);
+  }
+  // ";key:base64;..." of this rank (EncodeNetworks' text without its "nvnet1" header).
+  const std::string own = nvi::EncodeNetworks(records).substr(std::strlen("nvnet1"));
+  vtkMultiProcessStream send;
+  send << own;
+  std::vector<vtkMultiProcessStream> all;
+  c->Gather(send, all, 0);
+  in.PeerNetworksText.clear();
+  for (size_t r = 1; r < all.size(); ++r)
+  {
+    std::string peer;
+    all[r] >> peer;
+    in.PeerNetworksText += peer;
+  }
 }
 
 //------------------------------------------------------------------------------
@@ -88,8 +120,9 @@ void vtkNeuralCompress::ExecutePiece(
     nvi::InitializeMetrics(metrics);
   }
   sums.Failed = hasPiece && !executed ? 1.0 : 0.0;
-  // Every rank, every execution: the whole field's figures.
+  // Every rank, every execution: the whole field's figures, and the other ranks' networks to rank 0 for a saved state.
   const nvi::GlobalFigures global = nvi::ReduceFigures(sums);
+  this->GatherPeerNetworks();
   if (!executed)
     return;
   vtkMultiProcessController* c = nvi::DistributedController();

@@ -33,6 +33,7 @@ struct vtkNeuralCompress::vtkInternals
   nvi::ImagePiece Piece; ///< MPI, image input: this rank's piece (vtkNeuralCompressPartition.h)
   const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
   nvi::PieceSums MeasuredSums;
+  std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)
   std::map<uint64_t, nvi::NetworkBytes> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;

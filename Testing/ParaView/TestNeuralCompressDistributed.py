@@ -9,6 +9,7 @@ pvbatch (this script with --serial-reference <folder>, a subprocess) and checks:
 - the composited picture against the serial one >= 35 dB, and the pixels along the piece boundaries (a camera with
   the boundary planes edge-on) no worse than 1.5x the mean error of the rest;
 - an opaque slice through the volume still hides what lies behind it (picture vs serial >= 35 dB);
+- a saved state's TrainedNetworks holds every rank's network, and each rank restores its own without training;
 - each rank's peak memory grows with its piece: the largest rank's growth <= MEMORY_SHARE[ranks] x the serial
   run's growth + MEMORY_OVERHEAD.
 """
@@ -209,6 +210,26 @@ def check_pieces_and_figures(nc, ranks):
     return extents, psnr, model_bytes
 
 
+def check_restore(nc, wavelet, ranks, psnr):
+    """A saved state's TrainedNetworks (read from rank 0 by the client) holds every rank's network; a filter given it
+    restores each rank's own network without a training step, with the same global figures."""
+    check, log = nvtest.check, nvtest.log
+    nc.UpdatePropertyInformation()
+    text = nc.GetPropertyValue("TrainedNetworksInfo")
+    entries = text.count(";") if text.startswith("nvnet1") else -1
+    check(entries == ranks, "TrainedNetworks holds the %d ranks' networks (%d entries, %d characters)"
+          % (ranks, entries, len(text)))
+    restored = NeuralCompress(Input=wavelet, **dict(SETTINGS, TrainedNetworks=text))
+    restored.UpdatePipeline()
+    for r in range(ranks):
+        piece = servermanager.Fetch(restored, r)
+        check(nvtest.field_value(piece, "NeuralRestored") == 1 and nvtest.field_value(piece, "NeuralPSNR") == psnr,
+              "rank %d restored its network from the state without training (restored %s, PSNR %s dB)"
+              % (r, nvtest.field_value(piece, "NeuralRestored"), nvtest.field_value(piece, "NeuralPSNR")))
+    log("restored %d networks from a %d-character TrainedNetworks" % (ranks, len(text)))
+    Delete(restored)
+
+
 def band_mask(extents, shape):
     """Pixels within BAND_PIXELS of the image's centre row (planes z = const edge-on) and centre column (y = const)
     where the pieces split that axis."""
@@ -278,6 +299,7 @@ def mpi_run():
           % (model_bytes, ranks, reference["model_bytes"]))
     log("global PSNR %.3f dB at %d ranks, serial %.3f dB" % (psnr, ranks, reference["psnr"]))
     check(psnr >= reference["psnr"] - 1.0, "per-rank networks are no worse than 1 dB below the serial network")
+    check_restore(nc, wavelet, ranks, psnr)
     tag = "mpi%d" % ranks
     pictures(nc, wavelet, out_dir, tag)
     check_pictures(extents, tag)
