@@ -20,6 +20,7 @@
 #include "vtkTable.h"
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -56,6 +57,15 @@ void vtkNeuralCompress::GatherPeerNetworks()
     if (r->Figures.State != "Interrupted")
       records.push_back(r);
   }
+  // Only when some rank's networks changed since the last gather (the same decision on every rank).
+  uint64_t signature = records.size();
+  for (const nvi::NetworkRecord* r : records)
+    signature = signature * 1099511628211ull ^ r->Key ^ reinterpret_cast<uintptr_t>(r->Bytes.get());
+  int changed = signature != in.GatheredSignature ? 1 : 0, anyChanged = changed;
+  c->AllReduce(&changed, &anyChanged, 1, vtkCommunicator::MAX_OP);
+  in.GatheredSignature = signature;
+  if (!anyChanged)
+    return;
   // ";key:base64;..." of this rank (EncodeNetworks' text without its "nvnet1" header).
   const std::string own = nvi::EncodeNetworks(records).substr(std::strlen("nvnet1"));
   vtkMultiProcessStream send;

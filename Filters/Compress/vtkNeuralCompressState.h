@@ -34,6 +34,7 @@ struct vtkNeuralCompress::vtkInternals
   const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
   nvi::PieceSums MeasuredSums;
   std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)
+  uint64_t GatheredSignature = 0; ///< this rank's networks at the last GatherPeerNetworks
   std::map<uint64_t, nvi::NetworkBytes> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;
