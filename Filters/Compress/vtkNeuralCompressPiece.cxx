@@ -19,10 +19,12 @@
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkTable.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 //------------------------------------------------------------------------------
@@ -93,6 +95,7 @@ void vtkNeuralCompress::ExecutePiece(
     local->GetExtent(whole);
   bool executed = false;
   nvi::PieceSums sums;
+  const int ranksHere = nvi::RanksOnThisHost(); // every rank (a collective the first time)
   const bool hasPiece = in.Piece.Select(local, whole);
   if (hasPiece)
   {
@@ -106,6 +109,10 @@ void vtkNeuralCompress::ExecutePiece(
     // executions of one rank alone (a background run's refresh) could not take part in that.
     const bool background = this->TrainInBackground;
     this->TrainInBackground = false;
+    // Threads = 0 (automatic): the host's cores shared among the ranks on it.
+    const int threads = this->Threads;
+    if (threads == 0)
+      this->Threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / ranksHere);
     try
     {
       executed = this->Execute(in.Piece.Training(), vectors, output, log, metrics, time, false);
@@ -115,6 +122,7 @@ void vtkNeuralCompress::ExecutePiece(
       vtkErrorMacro("Neural Compress: unexpected failure. The output is empty.");
     }
     this->TrainInBackground = background;
+    this->Threads = threads;
     if (executed)
     {
       in.Piece.CropOutput(output);

@@ -14,6 +14,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <vector>
+
+#include <unistd.h> // gethostname
 
 namespace vtkNeuralCompressInternals
 {
@@ -58,6 +62,26 @@ bool Intersect(const int a[6], const int b[6], int out[6])
 bool PerRankNetworks(vtkDataObject* input)
 {
   return DistributedController() && vtkImageData::SafeDownCast(input);
+}
+
+int RanksOnThisHost()
+{
+  static int ranks = 0;
+  if (ranks > 0)
+    return ranks;
+  vtkMultiProcessController* c = DistributedController();
+  if (!c)
+    return 1;
+  constexpr int kNameLength = 256;
+  char name[kNameLength] = {};
+  gethostname(name, kNameLength - 1);
+  std::vector<char> all(static_cast<size_t>(kNameLength) * c->GetNumberOfProcesses());
+  c->AllGather(name, all.data(), kNameLength);
+  ranks = 0;
+  for (int r = 0; r < c->GetNumberOfProcesses(); ++r)
+    ranks += std::strncmp(all.data() + static_cast<size_t>(r) * kNameLength, name, kNameLength) == 0 ? 1 : 0;
+  ranks = std::max(ranks, 1);
+  return ranks;
 }
 
 void ImagePiece::RequestPaddedPiece(vtkInformation* inInfo)

@@ -34,6 +34,10 @@ constexpr int kPieceGhostLayers = 3;
 /// True under MPI (more than one process) for an image input: one network per rank (this header).
 bool PerRankNetworks(vtkDataObject* input);
 
+/// The ranks running on this rank's host (1 without MPI): a collective the first time (every rank calls it in the
+/// same execution), then cached. Threads = 0 (automatic) under MPI shares the host's cores among them.
+int RanksOnThisHost();
+
 /// A rank's piece of an image input: the extent it owns and the padded image its network trains on.
 class ImagePiece
 {
