@@ -1,5 +1,6 @@
 """A parallel pvserver (`mpiexec -n 2 pvserver`) driven by a pvpython client (issue 23): Neural Compress trains one
-network per rank on a Wavelet [0,47]^3 (each rank its own piece, the same global PSNR on both), the Neural Volume
+network per rank on a Wavelet [0,47]^3 (each rank its own piece, the same global PSNR on both and in the client's
+data information), the Neural Volume
 composited by the server matches the built-in session's serial picture (>= 35 dB), and a saved state loaded again
 restores both ranks' networks without training (the same global PSNR).
 
@@ -90,6 +91,11 @@ def remote_run():
               "each rank holds its piece, the global PSNR is the same on both (%s, %s)"
               % ([p.GetExtent() for p in pieces], psnrs))
         psnr = psnrs[0]
+        # The client's Information panel: the field-data range of NeuralPSNR over the ranks is that one value.
+        array = nc.GetDataInformation().GetFieldDataInformation().GetArrayInformation("NeuralPSNR")
+        value_range = list(array.GetComponentRange(0)) if array else None
+        check(value_range == [psnr, psnr], "the client's data information shows the global PSNR %s (range %s)"
+              % (psnr, value_range))
         picture(nc, os.path.join(out_dir, "ParallelServer.png"))
         state = os.path.join(out_dir, "ParallelServer.pvsm")
         SaveState(state)
