@@ -4,6 +4,8 @@
 
 #include "vtkCamera.h"
 #include "vtkColorTransferFunction.h"
+#include "vtkDataArray.h"
+#include "vtkFieldData.h"
 #include "vtkImageData.h"
 #include "vtkLight.h"
 #include "vtkLightCollection.h"
@@ -110,6 +112,32 @@ bool WorldToUnit(vtkVolume* volume, vtkImageData* image, const nv::SourceInfo& s
       }
     }
   return true;
+}
+
+void PieceClipBox(vtkImageData* image, const nv::SourceInfo& source, double clip[6])
+{
+  for (int a = 0; a < 3; ++a)
+  {
+    clip[2 * a] = 0.0;
+    clip[2 * a + 1] = 1.0;
+  }
+  vtkDataArray* piece =
+    image ? vtkDataArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("NeuralPieceBounds")) : nullptr;
+  if (!piece || piece->GetNumberOfValues() != 6)
+    return;
+  for (int a = 0; a < 3; ++a)
+  {
+    const double lo = source.bounds[2 * a], hi = source.bounds[2 * a + 1];
+    if (!(hi > lo))
+      continue; // one sample on this axis: the whole (one-voxel) box
+    const double u0 = (piece->GetComponent(2 * a, 0) - lo) / (hi - lo);
+    const double u1 = (piece->GetComponent(2 * a + 1, 0) - lo) / (hi - lo);
+    if (std::isfinite(u0) && std::isfinite(u1) && u0 < u1 && u1 > 0.0 && u0 < 1.0)
+    {
+      clip[2 * a] = std::max(0.0, u0);
+      clip[2 * a + 1] = std::min(1.0, u1);
+    }
+  }
 }
 
 void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::TransferFunction& tf)

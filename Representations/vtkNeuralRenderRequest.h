@@ -24,6 +24,11 @@ void ViewProjection(vtkRenderer* ren, double out[16]);
 bool WorldToUnit(vtkVolume* volume, vtkImageData* image, const nv::SourceInfo& source, double out[16],
   std::string& message);
 
+/// The box rays march in network coordinates: [0,1]^3, or under MPI (a network trained on a rank's piece with
+/// ghost layers around it) the piece's own bounds -- field data NeuralPieceBounds, in the image's index-aligned
+/// frame -- so that neighbouring ranks' pictures meet without overlap.
+void PieceClipBox(vtkImageData* image, const nv::SourceInfo& source, double clip[6]);
+
 /// The colour and scalar opacity functions of component 0 sampled into `entries` uniform entries over the union
 /// of their ranges, with the property's scalar opacity unit distance.
 void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::TransferFunction& tf);

@@ -37,6 +37,7 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
   {
     return message;
   }
+  vtkNeuralRenderRequest::PieceClipBox(image, session.model().source, q.clipBox);
 
   message = this->RequestTransferFunction(vol, q);
   if (!message.empty())

@@ -234,8 +234,10 @@ int vtkNeuralVolumeRepresentation::RequestData(
   {
     vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
     this->RepresentedData = WithNetworkRange(image);
-    // Under MPI, Neural Compress gives its whole output (and the network) to rank 0 and an empty image to the
-    // other ranks: an empty piece has nothing to draw and is no error.
+    // Under MPI a rank may hold an empty piece (Neural Compress of an input that is not an image gives its whole
+    // output to rank 0; an image piece that a rank does not get): nothing to draw and no error. An image's pieces
+    // each carry their rank's network and its piece bounds (NeuralPieceBounds): the mapper clips its rays to them and
+    // ParaView composites the ranks in visibility order from the pieces' bounds.
     vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
     const bool emptyPiece = image && image->GetNumberOfPoints() == 0 && controller &&
       controller->GetNumberOfProcesses() > 1;

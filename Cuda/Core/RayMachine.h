@@ -169,7 +169,7 @@ NV_HD void startSegment(const Params& P, Ray& r, V3 p, V3 w)
   r.worldDirection = w;
   r.direction = dirToUnit(P, w);
   float t0, t1;
-  boxInterval(p, r.direction, t0, t1);
+  boxInterval(P, p, r.direction, t0, t1);
   r.distance = 0.0f;
   r.segmentEnd = fmaxf_(t1, 0.0f);
 }

@@ -100,6 +100,7 @@ struct Params
   int width, height;
   float clipToWorld[16]; ///< inverse view-projection, row-major
   float worldToUnit[12]; ///< rows of the affine map world -> network coordinates
+  float box[6];          ///< the box rays march in network coordinates (RenderRequest::clipBox)
   float dt;              ///< world distance between samples of a primary ray
   float dtShadow;        ///< world distance between samples of a shadow ray (ray marching with shadows)
   float termination;     ///< early ray termination opacity (>= 1: off)

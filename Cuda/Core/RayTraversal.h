@@ -79,17 +79,18 @@ NV_HD V3 unproject(const Params& P, float x, float y, float z)
     (m[8] * x + m[9] * y + m[10] * z + m[11]) * iw };
 }
 
-/// [t0, t1] of o + t d inside [0,1]^3 (t0 > t1: no intersection).
-NV_HD void boxInterval(V3 o, V3 d, float& t0, float& t1)
+/// [t0, t1] of o + t d inside the marched box P.box (t0 > t1: no intersection).
+NV_HD void boxInterval(const Params& P, V3 o, V3 d, float& t0, float& t1)
 {
   const float oo[3] = { o.x, o.y, o.z }, dd[3] = { d.x, d.y, d.z };
   t0 = -3.0e38f;
   t1 = 3.0e38f;
   for (int a = 0; a < 3; ++a)
   {
+    const float lo = P.box[2 * a], hi = P.box[2 * a + 1];
     if (dd[a] == 0.0f)
     {
-      if (oo[a] < 0.0f || oo[a] > 1.0f)
+      if (oo[a] < lo || oo[a] > hi)
       {
         t0 = 1.0f;
         t1 = 0.0f;
@@ -98,7 +99,7 @@ NV_HD void boxInterval(V3 o, V3 d, float& t0, float& t1)
       continue;
     }
     const float inv = 1.0f / dd[a];
-    float a0 = (0.0f - oo[a]) * inv, a1 = (1.0f - oo[a]) * inv;
+    float a0 = (lo - oo[a]) * inv, a1 = (hi - oo[a]) * inv;
     if (a0 > a1)
     {
       const float s = a0;
@@ -307,7 +308,7 @@ NV_HD void initRay(const Params& P, int px, int py, Ray& r, uint32_t sample = 0)
   r.direction = dirToUnit(P, dirW);
   r.worldDirection = dirW;
   float t0, t1;
-  boxInterval(r.origin, r.direction, t0, t1);
+  boxInterval(P, r.origin, r.direction, t0, t1);
   t0 = fmaxf_(t0, 0.0f);
   t1 = fminf_(t1, tFar);
   if (!(t0 < t1))
@@ -347,7 +348,7 @@ NV_HD void startShadow(const Params& P, Ray& r, V3 p, V3 w)
   r.shadowOrigin = p;
   r.shadowDirection = dirToUnit(P, w);
   float t0, t1;
-  boxInterval(p, r.shadowDirection, t0, t1);
+  boxInterval(P, p, r.shadowDirection, t0, t1);
   r.shadowEnd = fmaxf_(t1, 0.0f);
   r.shadowTransmittance = 1.0f;
   r.shadowSampleIndex = 0;

@@ -79,6 +79,8 @@ struct RenderRequest
   int height = 0;
   double viewProjection[16] = {}; ///< world -> clip, row-major, OpenGL conventions (NDC z in [-1, 1])
   double worldToUnit[16] = {};    ///< world -> network coordinates [0,1]^3, row-major affine
+  double clipBox[6] = { 0, 1, 0, 1, 0, 1 }; ///< the part of [0,1]^3 rays march (network coordinates; MPI: a rank's
+                                  ///< own piece of a network trained with ghost layers around it)
   TransferFunction transfer;
   RenderPath path = RenderPath::InShader;
   ShadingMode shading = ShadingMode::RayMarch;

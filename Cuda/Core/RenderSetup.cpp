@@ -226,6 +226,13 @@ void validate(const RenderRequest& q)
     os << "the live refresh interval must be >= 0 ms (is " << q.liveRefreshMilliseconds << "); ";
   if (q.grid && (!q.grid->data || q.grid->count() < 1))
     os << "the reference grid is empty; ";
+  for (int a = 0; a < 3; ++a)
+    if (!finite(q.clipBox + 2 * a, 2) || !(q.clipBox[2 * a] < q.clipBox[2 * a + 1]) || q.clipBox[2 * a + 1] <= 0.0 ||
+      q.clipBox[2 * a] >= 1.0)
+    {
+      os << "the clip box must be a non-empty box that overlaps [0,1]^3; ";
+      break;
+    }
   double inv[16];
   if (finite(q.viewProjection, 16) && !invert4(q.viewProjection, inv))
     os << "the view-projection matrix is singular; ";
@@ -245,6 +252,7 @@ uint64_t renderKey(const RenderRequest& q)
   h.add(q.height);
   h.add(q.viewProjection, sizeof(q.viewProjection));
   h.add(q.worldToUnit, sizeof(q.worldToUnit));
+  h.add(q.clipBox, sizeof(q.clipBox));
   h.add(tf.rgba.data(), tf.rgba.size() * sizeof(float));
   h.add(tf.valueMin);
   h.add(tf.valueMax);
@@ -294,6 +302,12 @@ void setCamera(const RenderRequest& q, ray::Params& P)
     P.clipToWorld[i] = static_cast<float>(inv[i]);
   for (int i = 0; i < 12; ++i)
     P.worldToUnit[i] = static_cast<float>(q.worldToUnit[i]);
+  for (int a = 0; a < 3; ++a)
+  {
+    // The clip box within [0,1]^3 (validate() checked it).
+    P.box[2 * a] = static_cast<float>(std::max(0.0, q.clipBox[2 * a]));
+    P.box[2 * a + 1] = static_cast<float>(std::min(1.0, q.clipBox[2 * a + 1]));
+  }
 }
 
 /// The sample distance (one sample per voxel by default), the gradient's half-step, the bounds on a ray's work and

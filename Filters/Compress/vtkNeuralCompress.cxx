@@ -102,7 +102,11 @@ int vtkNeuralCompress::RequestUpdateExtent(
     inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
     inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
   }
-  nvi::RequestLocalPiece(inInfo); // MPI: this rank's piece of it, gathered to rank 0 in RequestData
+  vtkDataObject* input = inInfo ? inInfo->Get(vtkDataObject::DATA_OBJECT()) : nullptr;
+  if (nvi::PerRankNetworks(input))
+    nvi::ImagePiece::RequestPaddedPiece(inInfo); // MPI, image: this rank's piece and ghost layers, trained here
+  else
+    nvi::RequestLocalPiece(inInfo); // MPI: this rank's piece of it, gathered to rank 0 in RequestData
   return 1;
 }
 
@@ -130,7 +134,15 @@ int vtkNeuralCompress::RequestData(
     time = inputObject->GetInformation()->Get(vtkDataObject::DATA_TIME_STEP());
   }
 
-  // MPI: rank 0 trains on the whole input gathered from every rank; the others output an empty image.
+  if (nvi::PerRankNetworks(inputObject))
+  {
+    // MPI, image input: every rank trains its own piece's network (vtkNeuralCompressPartition.h).
+    this->ExecutePiece(vtkImageData::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output, log,
+      metrics, time);
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
+    return 1;
+  }
+  // MPI, other inputs: rank 0 trains on the whole input gathered from every rank; the others output an empty image.
   const nvi::DistributedRole role =
     this->Internals->Distributed.Gather(this, inputObject, inputVector[0]->GetInformationObject(0));
   if (role == nvi::DistributedRole::Satellite)

@@ -79,6 +79,7 @@ struct InputIdentity;
 struct PreparedField;
 struct Settings;
 struct SparseVoxels;
+struct PieceSums;
 }
 
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralCompress : public vtkDataObjectAlgorithm
@@ -446,6 +447,16 @@ private:
   /// steps (vtkNeuralCompressExecute.cxx) follow.
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
     vtkImageData* output, vtkTable* log, vtkTable* metrics, double time, bool background);
+  /// RequestData under MPI with an image input (vtkNeuralCompressPartition.h): this rank's network of its own piece
+  /// (trained blocking, no communication), the output cropped to the piece, then the global figures (one
+  /// all-reduce that every rank reaches). vtkNeuralCompressPiece.cxx.
+  void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
+    vtkTable* metrics, double time);
+  /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).
+  vtkNeuralCompressInternals::PieceSums MeasureCurrentPiece();
+  /// ExecutePiece (a collective): every rank's networks to rank 0, which adds them to GetTrainedNetworks (a state
+  /// saved from the client then holds every rank's network; on loading, each rank finds its own by its key).
+  void GatherPeerNetworks();
   /// What this execution reads from the pipeline (the input, its selected array or the name of the one to
   /// resample); false after reporting an error.
   bool RequestInput(vtkDataObject* inputObject, vtkInformationVector** inputVector,

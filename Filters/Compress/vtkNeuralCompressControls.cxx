@@ -217,7 +217,7 @@ const char* vtkNeuralCompress::GetTrainedNetworks()
     if (r->Figures.State != "Interrupted")
       records.push_back(r);
   }
-  in.TrainedNetworksText = nvi::EncodeNetworks(records);
+  in.TrainedNetworksText = nvi::EncodeNetworks(records) + in.PeerNetworksText; // MPI: the other ranks' too
   return in.TrainedNetworksText.c_str();
 }
 

@@ -4,6 +4,8 @@
 
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressDistributed.h"
+#include "vtkNeuralCompressGlobalFigures.h"
+#include "vtkNeuralCompressPartition.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressNetworkCache.h"
 #include "vtkNeuralCompressPreparation.h"
@@ -28,6 +30,11 @@ struct vtkNeuralCompress::vtkInternals
   nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
   nvi::DistributedInput Distributed; ///< MPI: the input gathered to rank 0 (vtkNeuralCompressDistributed.h)
+  nvi::ImagePiece Piece; ///< MPI, image input: this rank's piece (vtkNeuralCompressPartition.h)
+  const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
+  nvi::PieceSums MeasuredSums;
+  std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)
+  uint64_t GatheredSignature = 0; ///< this rank's networks at the last GatherPeerNetworks
   std::map<uint64_t, nvi::NetworkBytes> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;

@@ -1,15 +1,17 @@
-"""Neural Compress under MPI (`mpiexec -n 2 pvbatch`): every rank holds a piece of the input; the network is trained
-once, on rank 0, over the whole input gathered from both ranks, and rank 1 outputs an empty image.
+"""Neural Compress under MPI (`mpiexec -n 2 pvbatch`): every rank holds a piece of the input. An image input: every
+rank trains a network of its own piece (with ghost layers) and outputs that piece (no gather; the global figures are
+reduced over the ranks). Any other input: the network is trained once, on rank 0, over the whole input gathered from
+both ranks, and rank 1 outputs an empty image.
 
 Run by ctest as `mpiexec --allow-run-as-root --oversubscribe -n 2 pvbatch --force-offscreen-rendering <this>`. Rank 0
 first runs the same pipelines in a serial pvbatch (this script with --serial-reference <folder>, a subprocess) and
 compares:
-- a Wavelet [0,47]^3 split between the ranks: the output has the whole extent exactly once (data information, the
-  appended fetch, rank 0's and rank 1's outputs), exactly one network, a PSNR within 0.5 dB of the serial run, the
-  decoded field matches the Wavelet within that PSNR; ghost layers on the pieces (GhostCellsGenerator) and background
-  training (TrainInBackground, WaitForTraining: executions of rank 0 alone) give the same network;
+- a Wavelet [0,47]^3 split between the ranks: the output has the whole extent (data information), rank 0 holds
+  z 0..23 and rank 1 z 23..47, each with its own network; the global PSNR (the same on both ranks) within 0.5 dB of
+  the serial run and equal to numpy's over the decoded pieces (each sample counted once) within 0.05 dB; ghost layers
+  on the pieces (GhostCellsGenerator) and TrainInBackground (trained blocking under MPI) give the same networks;
 - no hang, an error and an empty output when the array is missing on rank 1's piece or rank 1 has no points;
-- a Neural Volume render of the distributed network matches the serial picture (drawn once, by rank 0);
+- a Neural Volume render of the two networks, composited by ParaView, matches the serial picture;
 - disk_out_ref (NV_DATA_DIR) redistributed over the ranks (RedistributeDataSet): one network, PSNR at its 8499
   points within 0.5 dB of the serial run and above 27 dB (TestNeuralCompressAnyDataset's threshold).
 """
@@ -41,9 +43,10 @@ WAVELET = dict(SelectInputScalars=["POINTS", "RTData"], Device="CPU", Seed=7, De
 DISK = dict(SelectInputScalars=["POINTS", "Temp"], Device="CPU", Seed=1, Deterministic=1, TrainingSteps=300,
             BatchSize=16384, Threads=2, Log2TableSize=14, TrainInBackground=0)
 PSNR_TOLERANCE = 0.5   # dB, MPI vs serial
-# Image PSNR of the MPI picture against the serial one (same network, same Decode path; only the compositing differs):
-# measured inf (identical pixels) on Mesa llvmpipe under Xvfb.
-PICTURE_DB = 40.0
+# Image PSNR of the MPI picture (two networks, each clipped to its piece, composited in visibility order) against the
+# serial one: measured 45.9 dB on Mesa llvmpipe under Xvfb.
+PICTURE_DB = 35.0
+PIECES = ([0, 47, 0, 47, 0, 23], [0, 47, 0, 47, 23, 47])  # vtkExtentTranslator's block split of the cells
 SIZE = [300, 300]
 BACKGROUND = [0.32, 0.34, 0.43]
 
@@ -152,7 +155,7 @@ def mpi_run():
     with open(os.path.join(out_dir, "serial.json")) as f:
         reference = json.load(f)
 
-    # 1. The Wavelet, split between the ranks.
+    # 1. The Wavelet, split between the ranks: one network per rank.
     wavelet = Wavelet(WholeExtent=WHOLE)
     started = time.time()
     nc = NeuralCompress(Input=wavelet, **WAVELET)
@@ -164,50 +167,49 @@ def mpi_run():
     check(0 < piece1.GetNumberOfPoints() < POINTS,
           "the input is distributed: rank 1 holds %d of the %d points" % (piece1.GetNumberOfPoints(), POINTS))
     info = nc.GetDataInformation()
-    check(info.GetNumberOfPoints() == POINTS and list(info.GetExtent()) == WHOLE,
-          "data information: the whole extent once (%d points, extent %s)"
-          % (info.GetNumberOfPoints(), str(info.GetExtent())))
-    root = servermanager.Fetch(nc, 0)
-    check(root.IsA("vtkImageData") and list(root.GetExtent()) == WHOLE, "rank 0 holds the whole image (%s)"
-          % str(root.GetExtent() if root.IsA("vtkImageData") else root.GetClassName()))
-    check(network_count(root) == 1, "rank 0's output carries exactly one network")
-    satellite = servermanager.Fetch(nc, 1)
-    check(satellite.GetNumberOfPoints() == 0 and network_count(satellite) == 0,
-          "rank 1's output is empty (%d points, %d networks)"
-          % (satellite.GetNumberOfPoints(), network_count(satellite)))
-    appended = servermanager.Fetch(nc)
-    check(appended.GetNumberOfPoints() == POINTS and network_count(appended) == 1,
-          "both ranks' outputs together: the whole extent exactly once (%d points), one network (%d)"
-          % (appended.GetNumberOfPoints(), network_count(appended)))
+    check(list(info.GetExtent()) == WHOLE, "data information: the whole extent (%s)" % str(info.GetExtent()))
+    outputs = [servermanager.Fetch(nc, r) for r in (0, 1)]
+    for r, out in enumerate(outputs):
+        check(out.IsA("vtkImageData") and list(out.GetExtent()) == PIECES[r] and network_count(out) == 1,
+              "rank %d holds its piece %s and one network (%s, %d)" % (r, PIECES[r], str(out.GetExtent()),
+                                                                      network_count(out)))
+    check(info.GetNumberOfPoints() == POINTS + 48 * 48, "data information: both pieces' points, the shared plane "
+          "z = 23 in each (%d)" % info.GetNumberOfPoints())
+    root = outputs[0]
     psnr = fd(root, "NeuralPSNR")
+    check(fd(outputs[1], "NeuralPSNR") == psnr and fd(outputs[1], "NeuralMaxError") == fd(root, "NeuralMaxError"),
+          "the global figures are the same on both ranks")
+    check(fd(root, "NeuralNetworks") == 2, "NeuralNetworks %s" % fd(root, "NeuralNetworks"))
     log("Wavelet PSNR: MPI %.3f dB, serial %.3f dB" % (psnr, reference["wavelet_psnr"]))
     check(abs(psnr - reference["wavelet_psnr"]) <= PSNR_TOLERANCE,
           "Wavelet PSNR %.3f dB within %.1f dB of the serial run's %.3f dB"
           % (psnr, PSNR_TOLERANCE, reference["wavelet_psnr"]))
     check(fd(root, "NeuralSteps") == WAVELET["TrainingSteps"], "trained %s steps" % fd(root, "NeuralSteps"))
-    log_table = servermanager.Fetch(nc, idx=1)
+    log_table = servermanager.Fetch(nc, 0, idx=1)
     check(log_table.GetNumberOfRows() == WAVELET["TrainingSteps"],
-          "the training log has one row per step (one training, not one per rank): %d rows"
-          % log_table.GetNumberOfRows())
-    # The decoded field against the Wavelet itself.
+          "rank 0's training log has one row per step: %d rows" % log_table.GetNumberOfRows())
+    # The decoded pieces against the Wavelet itself: each sample once (a shared plane belongs to the upper piece).
     original = wavelet_values()
-    decoded_array = root.GetPointData().GetArray("RTData")
-    if check(decoded_array is not None and decoded_array.GetNumberOfTuples() == POINTS,
-             "the decoded output covers the whole extent"):
-        decoded = vtk_to_numpy(decoded_array).astype(np.float64)
-        span = original.max() - original.min()
-        mse = float(np.mean(((decoded - original) / span) ** 2))
-        decoded_psnr = 10.0 * math.log10(1.0 / mse)
-        max_error = float(np.abs(decoded - original).max())
-        log("decoded vs Wavelet: PSNR %.3f dB, max error %.3f (filter: %.3f dB, %.3f)"
-            % (decoded_psnr, max_error, psnr, fd(root, "NeuralMaxError")))
-        check(abs(decoded_psnr - psnr) <= 0.1,
-              "the decoded field matches the Wavelet within the network's PSNR (%.3f vs %.3f dB)"
-              % (decoded_psnr, psnr))
-        check(max_error <= fd(root, "NeuralMaxError") * 1.001 + 1e-6,
-              "decoded max error %.3f within NeuralMaxError" % max_error)
+    decoded = []
+    for r, out in enumerate(outputs):
+        array = out.GetPointData().GetArray("RTData")
+        if not check(array is not None and array.GetNumberOfTuples() == out.GetNumberOfPoints(),
+                     "rank %d's decoded output covers its piece" % r):
+            return
+        values = vtk_to_numpy(array).astype(np.float64).reshape(-1, 48 * 48)
+        decoded.append(values[:-1] if r == 0 else values)
+    decoded = np.concatenate(decoded).ravel()
+    span = original.max() - original.min()
+    decoded_psnr = 10.0 * math.log10(1.0 / float(np.mean(((decoded - original) / span) ** 2)))
+    max_error = float(np.abs(decoded - original).max())
+    log("decoded vs Wavelet: PSNR %.3f dB, max error %.3f (filter: %.3f dB, %.3f)"
+        % (decoded_psnr, max_error, psnr, fd(root, "NeuralMaxError")))
+    check(abs(decoded_psnr - psnr) <= 0.05,
+          "the global PSNR is numpy's over the decoded pieces (%.3f vs %.3f dB)" % (decoded_psnr, psnr))
+    check(abs(max_error - fd(root, "NeuralMaxError")) <= 1e-3 * max_error,
+          "decoded max error %.3f is NeuralMaxError" % max_error)
 
-    # 1b. Ghost layers on the pieces: the stitching leaves them out (the same field, the same network).
+    # 1b. Ghost layers on the pieces: each rank trains on its padded piece all the same (the same networks).
     ghosts = GhostCellsGenerator(Input=wavelet)
     ghosts.BuildIfRequired = 0
     ng = NeuralCompress(Input=ghosts, **WAVELET)
@@ -216,12 +218,13 @@ def mpi_run():
     check(ghost_piece.GetPointData().GetArray("vtkGhostType") is not None,
           "GhostCellsGenerator: rank 1's piece (%d points) has ghost points" % ghost_piece.GetNumberOfPoints())
     g = servermanager.Fetch(ng, 0)
-    check(list(g.GetExtent()) == WHOLE and fd(g, "NeuralPSNR") == psnr,
-          "ghost layers on the pieces: the same whole image and network (%s dB)" % fd(g, "NeuralPSNR"))
+    check(list(g.GetExtent()) == PIECES[0] and fd(g, "NeuralPSNR") == psnr,
+          "ghost layers on the pieces: the same piece and networks (%s dB)" % fd(g, "NeuralPSNR"))
     Delete(ng)
     Delete(ghosts)
 
-    # 1c. Background training: rank 0 trains in its thread; WaitForTraining and the refresh execute on rank 0 alone.
+    # 1c. TrainInBackground under MPI with an image: every rank trains its piece within the execution (the global
+    # figures are reduced at its end), so the networks are the blocking ones.
     nb = NeuralCompress(Input=wavelet, **dict(WAVELET, TrainInBackground=1))
     nb.UpdatePipeline()
     nb.WaitForTraining()
@@ -230,14 +233,14 @@ def mpi_run():
     check(fd(b, "NeuralTrainingState") == "Finished" and fd(b, "NeuralPSNR") == psnr,
           "background training under MPI: state %s, PSNR %s dB (blocking: %s)"
           % (fd(b, "NeuralTrainingState"), fd(b, "NeuralPSNR"), psnr))
-    check(nb.GetDataInformation().GetNumberOfPoints() == POINTS, "background training: the whole extent once")
+    check(list(nb.GetDataInformation().GetExtent()) == WHOLE, "background training: the whole extent")
     Delete(nb)
 
     # 2. Errors: no hang, an error on rank 0 and no network.
     for label, script, expected in (
             ("array missing on rank 1", "if rank == 1: out.GetPointData().RemoveArray('RTData')\n",
-             "missing on the piece of rank 1"),
-            ("no points on rank 1", "if rank == 1: out.Initialize()\n", "cover 55296 of the 110592 points")):
+             "1 of the 2 ranks could not train their piece"),
+            ("no points on rank 1", "if rank == 1: out.Initialize()\n", "cover 52992 of the 110592 samples")):
         p = programmable(wavelet, script)
         bad = NeuralCompress(Input=p, **WAVELET)
         with nvtest.captured_messages() as messages:
@@ -249,7 +252,7 @@ def mpi_run():
         Delete(bad)
         Delete(p)
 
-    # 3. The Neural Volume of the distributed network: the serial picture (drawn once, by rank 0).
+    # 3. The Neural Volume of the two networks, composited: the serial picture.
     mpi_png = os.path.join(out_dir, "mpi.png")
     view, display = render_picture(nc, mpi_png)
     pixels = nvtest.read_png(mpi_png)

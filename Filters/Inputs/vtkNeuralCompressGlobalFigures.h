@@ -1,0 +1,71 @@
+// Neural Compress under MPI with one network per rank (private header; vtkNeuralCompressPartition.h): the whole
+// field's figures from every rank's sums. Each rank measures its network against its own samples -- the samples of
+// its owned piece, each sample of the whole field counted on exactly one rank (a shared boundary plane belongs to the
+// upper piece, the whole extent's last plane to the last) -- and one all-reduce gives every rank the same
+// NeuralPSNR (10 log10(span^2 count / sum of squared errors), span the whole field's value range), NeuralMaxError
+// (max), NeuralModelBytes (sum) and NeuralCompressionRatio (the whole field's bytes over the summed model bytes).
+#ifndef vtkNeuralCompressGlobalFigures_h
+#define vtkNeuralCompressGlobalFigures_h
+
+#include <cstdint>
+
+class vtkImageData;
+class vtkTable;
+
+namespace nv
+{
+class NetworkSession;
+struct VolumeView;
+}
+
+namespace vtkNeuralCompressInternals
+{
+
+/// One rank's contribution (all zero, Networks 0, for a rank without a network).
+struct PieceSums
+{
+  double SquaredError = 0.0; ///< source units squared
+  double Count = 0.0;        ///< finite source samples measured
+  double MaxError = 0.0;     ///< source units
+  double ValueMin = 0.0, ValueMax = 0.0; ///< of the samples measured (valid when Count > 0)
+  double NonFinite = 0.0;    ///< samples whose decoded value is NaN or Inf
+  double ModelBytes = 0.0;
+  double FieldBytes = 0.0;   ///< raw bytes of the samples measured, in the input's type
+  double Networks = 0.0;     ///< 1 when this rank has a network
+  double Samples = 0.0;      ///< samples this rank owns exclusively (finite or not)
+  double WholeSamples = 0.0; ///< samples of the whole extent (points, or cells of a cell array)
+  double Failed = 0.0;       ///< 1 when this rank held a piece but could not train it (it reported why)
+};
+
+/// The whole field's figures (the same on every rank).
+struct GlobalFigures
+{
+  double Psnr = 0.0;
+  double MaxError = 0.0;
+  double MaxErrorOfRange = 0.0;
+  double Ratio = 0.0;
+  double ModelBytes = 0.0;
+  double Count = 0.0;
+  int Networks = 0;
+  double Samples = 0.0, WholeSamples = 0.0; ///< owned by the ranks together, and of the whole extent
+  int Failed = 0;                           ///< ranks that held a piece and could not train it
+  double PiecePsnr = 0.0; ///< this rank's own samples against the whole field's range
+};
+
+/// This rank's sums: the session's network decoded over the exclusively owned samples of `view` (the field the
+/// network was trained on, sample (0,0,0) at point/cell index trainExtent[0,2,4]); `owned` and `whole` are point
+/// extents; `rawBytesPerSample` the input type's size.
+PieceSums MeasurePiece(nv::NetworkSession& session, const nv::VolumeView& view, const int trainExtent[6],
+  const int owned[6], const int whole[6], bool cells, double rawBytesPerSample, double modelBytes);
+
+/// The all-reduce (a collective: every rank calls it once per execution, with or without a network).
+GlobalFigures ReduceFigures(const PieceSums& local);
+
+/// The global figures into the output's field data (NeuralPSNR, NeuralMaxError, NeuralMaxErrorOfRange,
+/// NeuralCompressionRatio, NeuralModelBytes replaced; NeuralPiecePSNR this rank's own (PiecePsnr), NeuralNetworks the count) and
+/// the metrics table's last row.
+void WriteGlobalFigures(vtkImageData* output, vtkTable* metrics, const GlobalFigures& global);
+
+} // namespace vtkNeuralCompressInternals
+
+#endif

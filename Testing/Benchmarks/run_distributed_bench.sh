@@ -1,0 +1,17 @@
+#!/bin/sh
+# Strong and weak scaling of training throughput with one network per rank (issue 23) at 1 and 2 ranks (and 4 where
+# the machine has the cores: pass "1 2 4"). Usage: run_distributed_bench.sh <build dir> <out.jsonl> [ranks="1 2"]
+# [steps=300] [threads per rank=1]
+set -e
+build=$1; out=$2; ranks=${3:-"1 2"}; steps=${4:-300}; threads=${5:-1}
+plugin=$(find "$build" -name NeuralVolume.so | head -1)
+here=$(cd "$(dirname "$0")" && pwd)
+: > "$out"
+for mode in strong weak; do
+  for n in $ranks; do
+    OMPI_MCA_mpi_yield_when_idle=1 timeout 900 mpiexec --allow-run-as-root --oversubscribe -n "$n" \
+      pvbatch "$here/distributed_scaling.py" "$plugin" "$mode" "$steps" "$threads" 2>/dev/null |
+      sed -n 's/^RESULT //p' >> "$out"
+  done
+done
+cat "$out"
