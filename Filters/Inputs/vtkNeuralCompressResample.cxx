@@ -5,7 +5,6 @@
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
 #include "vtkCompositeDataIterator.h"
-#include "vtkCompositeDataProbeFilter.h"
 #include "vtkCompositeDataSet.h"
 #include "vtkDataArray.h"
 #include "vtkDataArraySelection.h"
@@ -24,7 +23,6 @@
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkResampleToImage.h"
-#include "vtkStaticCellLocator.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkUnstructuredGrid.h"
 
@@ -498,122 +496,6 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
   this->SamplesComponent = component;
   this->Cached = samples;
   return samples;
-}
-
-namespace
-{
-/// `count` seeded random points in the image's box: their world positions (`points`) and their positions normalised
-/// to the box as the network's inputs are (returned, interleaved; 0.5 on a flat axis).
-std::vector<float> RandomProbePoints(vtkImageData* image, int64_t count, uint64_t seed, vtkPoints* points)
-{
-  double lo[3], len[3];
-  int ext[6];
-  image->GetExtent(ext);
-  for (int a = 0; a < 3; ++a)
-  {
-    lo[a] = image->GetOrigin()[a] + ext[2 * a] * image->GetSpacing()[a];
-    len[a] = (ext[2 * a + 1] - ext[2 * a]) * image->GetSpacing()[a];
-  }
-  points->SetDataTypeToDouble();
-  points->SetNumberOfPoints(count);
-  std::vector<float> unit(size_t(3 * count));
-  for (int64_t i = 0; i < count; ++i)
-  {
-    float* u = &unit[size_t(3 * i)];
-    nv::randomPoint(seed, 0x50524F4245ull, uint64_t(i), u); // "PROBE": a stream of its own, not the training draws
-    double x[3];
-    for (int a = 0; a < 3; ++a)
-    {
-      if (!(len[a] > 0.0))
-        u[a] = 0.5f; // a flat axis: the network's input there is 0.5
-      x[a] = lo[a] + (len[a] > 0.0 ? double(u[a]) * len[a] : 0.0);
-    }
-    points->SetPoint(i, x);
-  }
-  return unit;
-}
-
-/// The probed points inside a cell with a finite value (magnitude or component as vectorMode says) go to `bank`.
-void FillProbedBank(vtkDataArray* values, vtkDataArray* mask, const std::vector<float>& unit, int64_t count,
-  int vectorMode, int component, ProbedBank& bank)
-{
-  const int nc = values->GetNumberOfComponents();
-  const int c = std::min(std::max(component, 0), nc - 1);
-  for (int64_t i = 0; i < count; ++i)
-  {
-    if (mask->GetComponent(i, 0) == 0.0)
-      continue;
-    double v = 0.0;
-    if (nc == 1 || vectorMode == 1)
-      v = values->GetComponent(i, nc == 1 ? 0 : c);
-    else
-    {
-      for (int q = 0; q < nc; ++q)
-        v += values->GetComponent(i, q) * values->GetComponent(i, q);
-      v = std::sqrt(v);
-    }
-    if (!std::isfinite(v))
-      continue;
-    bank.Xyz.insert(bank.Xyz.end(), &unit[size_t(3 * i)], &unit[size_t(3 * i)] + 3);
-    bank.Values.push_back(v);
-  }
-}
-} // namespace
-
-std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t seed, int vectorMode, int component,
-  std::string& problem)
-{
-  if (!this->Input || !this->Image)
-  {
-    problem = "no resampled input";
-    return nullptr;
-  }
-  if (this->Bank && this->BankCount == count && this->BankSeed == seed && this->BankMode == vectorMode &&
-    this->BankComponent == component)
-    return this->Bank;
-  if (this->ParticleSet)
-    return this->ProbeParticles(count, seed, vectorMode, component, problem);
-  const auto t0 = std::chrono::steady_clock::now();
-  // The image's box: the bank's points are normalised to it as the network's inputs are.
-  vtkNew<vtkPoints> points;
-  const std::vector<float> unit = RandomProbePoints(this->Image, count, seed, points);
-  vtkNew<vtkPolyData> where;
-  where->SetPoints(points);
-  vtkNew<vtkPassSelectedArrays> pass;
-  pass->SetInputDataObject(this->Source);
-  pass->GetArraySelection(this->Association)->EnableArray(this->Name.c_str());
-  vtkNew<vtkCompositeDataProbeFilter> probe;
-  probe->SetInputData(where);
-  probe->SetSourceConnection(pass->GetOutputPort());
-  vtkNew<vtkStaticCellLocator> locator;
-  probe->SetCellLocatorPrototype(locator);
-  probe->PassPointArraysOff();
-  probe->PassCellArraysOff();
-  probe->PassFieldArraysOff();
-  probe->Update();
-  vtkDataSet* out = vtkDataSet::SafeDownCast(probe->GetOutputDataObject(0));
-  vtkDataArray* values = out ? out->GetPointData()->GetArray(this->Name.c_str()) : nullptr;
-  vtkDataArray* mask = out ? out->GetPointData()->GetArray(probe->GetValidPointMaskArrayName()) : nullptr;
-  if (!values || !mask || values->GetNumberOfTuples() != count || mask->GetNumberOfTuples() != count)
-  {
-    problem = "probing the input gave no '" + this->Name + "' values";
-    return nullptr;
-  }
-  auto bank = std::make_shared<ProbedBank>();
-  bank->Probed = count;
-  FillProbedBank(values, mask, unit, count, vectorMode, component, *bank);
-  if (bank->Values.empty())
-  {
-    problem = "none of the " + std::to_string(count) + " probed points lies inside a cell of the input";
-    return nullptr;
-  }
-  bank->Seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  this->Bank = bank;
-  this->BankCount = count;
-  this->BankSeed = seed;
-  this->BankMode = vectorMode;
-  this->BankComponent = component;
-  return bank;
 }
 
 } // namespace vtkNeuralCompressInternals
