@@ -29,22 +29,6 @@ namespace vtkNeuralCompressInternals
 {
 namespace
 {
-std::vector<vtkDataSet*> ParticleLeaves(vtkDataObject* input)
-{
-  std::vector<vtkDataSet*> out;
-  if (auto* ds = vtkDataSet::SafeDownCast(input))
-    out.push_back(ds);
-  else if (auto* cd = vtkCompositeDataSet::SafeDownCast(input))
-  {
-    vtkSmartPointer<vtkCompositeDataIterator> it;
-    it.TakeReference(cd->NewIterator());
-    for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem())
-      if (auto* leaf = vtkDataSet::SafeDownCast(it->GetCurrentDataObject()))
-        out.push_back(leaf);
-  }
-  return out;
-}
-
 bool IsParticleLeaf(vtkDataSet* leaf)
 {
   if (auto* poly = vtkPolyData::SafeDownCast(leaf))
@@ -104,7 +88,7 @@ bool FiniteBounds(const std::vector<vtkDataSet*>& leaves, const std::string& nam
 bool IsParticleSet(vtkDataObject* input)
 {
   bool any = false;
-  for (vtkDataSet* leaf : ParticleLeaves(input))
+  for (vtkDataSet* leaf : InputLeaves(input))
   {
     if (leaf->GetNumberOfPoints() == 0)
       continue;
@@ -123,7 +107,7 @@ bool ResolveParticleDimensions(vtkDataObject* input, const std::string& name, in
     problem = "a particle set's field is a point array; '" + name + "' is not one";
     return false;
   }
-  const std::vector<vtkDataSet*> leaves = ParticleLeaves(input);
+  const std::vector<vtkDataSet*> leaves = InputLeaves(input);
   double bounds[6];
   int64_t count = 0;
   if (!FiniteBounds(leaves, name, bounds, count))
@@ -159,7 +143,7 @@ std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input
 {
   std::vector<double> xyz, values, radii;
   sourceBytes = 0;
-  for (vtkDataSet* leaf : ParticleLeaves(input))
+  for (vtkDataSet* leaf : InputLeaves(input))
   {
     vtkDataArray* array = leaf->GetPointData()->GetArray(name.c_str());
     if (!array || leaf->GetNumberOfPoints() == 0)
@@ -281,7 +265,7 @@ std::shared_ptr<const SourceSamples> InputResampler::ParticleSamples()
     1, (samples->Total + SourceSamples::kMaxSourceSamples - 1) / SourceSamples::kMaxSourceSamples);
   std::vector<double> xyz;
   int64_t k = 0;
-  for (vtkDataSet* leaf : ParticleLeaves(this->Source))
+  for (vtkDataSet* leaf : InputLeaves(this->Source))
   {
     if (!leaf->GetPointData()->GetArray(this->Name.c_str()))
       continue;
@@ -349,12 +333,7 @@ std::shared_ptr<const ProbedBank> InputResampler::ProbeParticles(
     problem = "none of the " + std::to_string(count) + " probed points lies within a particle's radius";
     return nullptr;
   }
-  this->Bank = bank; // cached as the cells' bank is (Probe's key)
-  this->BankCount = count;
-  this->BankSeed = seed;
-  this->BankMode = vectorMode;
-  this->BankComponent = component;
-  return bank;
+  return this->KeepBank(bank, count, seed, vectorMode, component);
 }
 
 } // namespace vtkNeuralCompressInternals

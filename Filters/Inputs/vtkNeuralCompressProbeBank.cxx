@@ -133,12 +133,18 @@ std::shared_ptr<const ProbedBank> InputResampler::Probe(int64_t count, uint64_t 
     return nullptr;
   }
   bank->Seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return this->KeepBank(bank, count, seed, vectorMode, component);
+}
+
+std::shared_ptr<const ProbedBank> InputResampler::KeepBank(
+  std::shared_ptr<const ProbedBank> bank, int64_t count, uint64_t seed, int vectorMode, int component)
+{
   this->Bank = bank;
   this->BankCount = count;
   this->BankSeed = seed;
   this->BankMode = vectorMode;
   this->BankComponent = component;
-  return bank;
+  return this->Bank;
 }
 
 } // namespace vtkNeuralCompressInternals

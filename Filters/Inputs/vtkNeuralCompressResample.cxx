@@ -44,8 +44,14 @@ namespace
 constexpr double kMinSamples = 32.0 * 32.0 * 32.0;
 constexpr double kMaxSamples = 256.0 * 256.0 * 256.0;
 
-/// The leaves of `input` (the dataset itself when it is not composite).
-std::vector<vtkDataSet*> Leaves(vtkDataObject* input)
+vtkDataArray* FieldArray(vtkDataSet* ds, const std::string& name, int association)
+{
+  return association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? ds->GetCellData()->GetArray(name.c_str())
+                                                                : ds->GetPointData()->GetArray(name.c_str());
+}
+} // namespace
+
+std::vector<vtkDataSet*> InputLeaves(vtkDataObject* input)
 {
   std::vector<vtkDataSet*> out;
   if (auto* ds = vtkDataSet::SafeDownCast(input))
@@ -67,17 +73,10 @@ std::vector<vtkDataSet*> Leaves(vtkDataObject* input)
   return out;
 }
 
-vtkDataArray* FieldArray(vtkDataSet* ds, const std::string& name, int association)
-{
-  return association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? ds->GetCellData()->GetArray(name.c_str())
-                                                                : ds->GetPointData()->GetArray(name.c_str());
-}
-} // namespace
-
 bool InputBounds(vtkDataObject* input, double bounds[6])
 {
   bool any = false;
-  for (vtkDataSet* leaf : Leaves(input))
+  for (vtkDataSet* leaf : InputLeaves(input))
   {
     if (leaf->GetNumberOfPoints() == 0)
       continue;
@@ -100,7 +99,7 @@ uint64_t InputStamp(vtkDataObject* input, const std::string& name, int associati
     for (int b = 0; b < 8; ++b)
       h = (h ^ ((v >> (8 * b)) & 0xffu)) * 1099511628211ull;
   };
-  for (vtkDataSet* leaf : Leaves(input))
+  for (vtkDataSet* leaf : InputLeaves(input))
   {
     mix(reinterpret_cast<uintptr_t>(leaf));
     vtkDataArray* array = FieldArray(leaf, name, association);
@@ -254,7 +253,7 @@ bool ResolveSamplingDimensions(vtkDataObject* input, const std::string& name, in
   }
   if (IsParticleSet(input))
     return ResolveParticleDimensions(input, name, association, requested, dims, problem);
-  const std::vector<vtkDataSet*> leaves = Leaves(input);
+  const std::vector<vtkDataSet*> leaves = InputLeaves(input);
   int64_t samples = 0;
   double bounds[6];
   if (!CountArraySamples(leaves, name, association, samples, problem) || !ValidBounds(input, bounds, problem))
@@ -398,7 +397,7 @@ bool InputResampler::Resample(vtkDataObject* input, const std::string& name, int
     img->SetSpacing(out->GetSpacing());
     img->SetExtent(out->GetExtent());
     img->GetPointData()->AddArray(field);
-    this->Text = ResampleDescription(input, Leaves(input), name, association, dims, out0);
+    this->Text = ResampleDescription(input, InputLeaves(input), name, association, dims, out0);
   }
   this->ResampledParticles = this->Particles;
   this->Input = source;
@@ -437,7 +436,7 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
     vtkUnsignedCharArray* ghost;
   };
   std::vector<Leaf> leaves;
-  for (vtkDataSet* leaf : Leaves(this->Source))
+  for (vtkDataSet* leaf : InputLeaves(this->Source))
   {
     vtkDataArray* a = FieldArray(leaf, this->Name, this->Association);
     if (!a)

@@ -17,11 +17,15 @@
 
 class vtkDataArray;
 class vtkDataObject;
+class vtkDataSet;
 class vtkImageData;
 
 namespace vtkNeuralCompressInternals
 {
 struct SourceSamples;
+
+/// The leaves of `input` (the dataset itself when it is not composite).
+std::vector<vtkDataSet*> InputLeaves(vtkDataObject* input);
 
 /// Probe sampling's bank: random points of the resampled image's box that lie inside the source's cells, with the
 /// scalar the network learns there.
@@ -96,6 +100,9 @@ private:
   std::shared_ptr<const SourceSamples> ParticleSamples();
   std::shared_ptr<const ProbedBank> ProbeParticles(
     int64_t count, uint64_t seed, int vectorMode, int component, std::string& problem);
+  /// A new bank kept as Probe's cache (its key: count, seed, vector mode, component); returns it.
+  std::shared_ptr<const ProbedBank> KeepBank(
+    std::shared_ptr<const ProbedBank> bank, int64_t count, uint64_t seed, int vectorMode, int component);
 
   const void* Input = nullptr;
   vtkMTimeType InputMTime = 0;
