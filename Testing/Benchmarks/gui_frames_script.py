@@ -43,8 +43,8 @@ PERF = os.environ.get("NV_GUI_PERF")  # a perf binary: profile the GUI thread du
 PYTHON = os.environ.get("NV_HOST_PYTHON", "/usr/bin/python3")
 DEVICE = os.environ.get("NV_GUI_DEVICE", "CUDA")
 SMALL = os.environ.get("NV_GUI_SMALL") == "1"
-# (the main window is first made 2400 x 1500 (GuiLatencyDriver.py resize), room for a 1920 x 1080 preview)
-SIZES = [(320, 180), (1600, 900)] if SMALL else [(1280, 720), (1920, 1080)]
+# (a 1920 x 1080 preview needs a main window of about 2400 x 1500: gui_frames.sh's NV_GUI_GEOMETRY)
+SIZES = [(320, 180)] if SMALL else [(1280, 720), (1920, 1080)]
 if os.environ.get("NV_GUI_SIZES"):  # e.g. "1280x720,1920x1080"
     SIZES = [tuple(int(v) for v in size.split("x")) for size in os.environ["NV_GUI_SIZES"].split(",")]
 STILL_SECONDS = 1.0 if SMALL else 3.0

@@ -27,7 +27,11 @@ for part in ${@:-frames state gui}; do
       echo "state restore rc=$?"; grep RESULT "$out/state_restore_gpu.log" | tail -3 ;;
     gui)
       if [ -n "${NV_PARAVIEW:-}" ]; then
-        NV_DATA_DIR=$NV_DATA_DIR bash "$bench/gui_frames.sh" "$NV_PLUGIN" "$out/gui" CUDA
+        # 1280x720 in ParaView's default window; 1920x1080 needs a larger one (its per-frame cost grows with it)
+        NV_DATA_DIR=$NV_DATA_DIR NV_GUI_SAMPLE=1 NV_GUI_SIZES=1280x720 bash "$bench/gui_frames.sh" "$NV_PLUGIN" \
+          "$out/gui" CUDA
+        NV_DATA_DIR=$NV_DATA_DIR NV_GUI_SAMPLE=1 NV_GUI_SIZES=1920x1080 NV_GUI_GEOMETRY=2400x1500+0+0 \
+          bash "$bench/gui_frames.sh" "$NV_PLUGIN" "$out/gui1080" CUDA
       else
         echo "gui: no GUI extras carried (.devcarry/gui-extras.tar.xz)"
       fi ;;

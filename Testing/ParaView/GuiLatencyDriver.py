@@ -3,7 +3,6 @@
   find                       one move to the middle of the largest window
   scan                       moves over a grid of points of the largest window, 0.3 s apart, each logged before
                              it is sent (the GUI's first handled move then says where its view lies)
-  resize W H                 make the largest ParaView window W x H pixels (room for a larger view)
   drag X Y STEPS DX PAUSE    press at (X, Y), STEPS moves of DX pixels PAUSE seconds apart, release
   stream X Y STEPS DX PERIOD press at (X, Y), then STEPS moves of DX pixels every PERIOD seconds from one xdotool
                              process (a steady input faster than the GUI draws: no process start per move), release"""
@@ -19,7 +18,7 @@ def xdotool(*args):
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--log", required=True)
-parser.add_argument("mode", choices=["find", "scan", "resize", "drag", "stream"])
+parser.add_argument("mode", choices=["find", "scan", "drag", "stream"])
 parser.add_argument("args", nargs="*", type=float)
 a = parser.parse_args()
 
@@ -37,15 +36,10 @@ def main_window():
 
 
 with open(a.log, "w") as log:
-    if a.mode in ("find", "scan", "resize"):
+    if a.mode in ("find", "scan"):
         x, y, w, h, wid = main_window()
         if a.mode != "find":
             xdotool("windowraise", wid)  # above ParaView's Output Messages dialog, which pops up over it
-        if a.mode == "resize":
-            xdotool("windowmove", wid, 0, 0)
-            xdotool("windowsize", wid, int(a.args[0]), int(a.args[1]))
-            log.write("%.6f %d %d\n" % (time.time(), int(a.args[0]), int(a.args[1])))
-            raise SystemExit(0)
         if a.mode == "scan":
             for fy in (0.5, 0.4, 0.6, 0.3, 0.7):
                 for fx in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.15, 0.8):
