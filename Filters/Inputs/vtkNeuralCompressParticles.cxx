@@ -15,7 +15,6 @@
 #include "vtkUnstructuredGrid.h"
 
 #include "Core/Error.h"
-#include "Core/HashGridMath.h"
 #include "Particles/ParticleField.h"
 
 #include <algorithm>
@@ -43,18 +42,6 @@ bool IsParticleLeaf(vtkDataSet* leaf)
     return true;
   }
   return false;
-}
-
-/// The scalar of tuple i: the magnitude (vectorMode 0) or a component (1) of a vector; the value of a scalar.
-double ScalarOf(vtkDataArray* array, vtkIdType i, int vectorMode, int component)
-{
-  const int nc = array->GetNumberOfComponents();
-  if (nc == 1 || vectorMode == 1)
-    return array->GetComponent(i, nc == 1 ? 0 : std::min(std::max(component, 0), nc - 1));
-  double sum = 0.0;
-  for (int c = 0; c < nc; ++c)
-    sum += array->GetComponent(i, c) * array->GetComponent(i, c);
-  return std::sqrt(sum);
 }
 
 /// The box of the finite positions of the leaves with point array `name`; false when there is none.
@@ -165,7 +152,7 @@ std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input
       double x[3];
       leaf->GetPoint(i, x);
       xyz.insert(xyz.end(), x, x + 3);
-      values.push_back(ScalarOf(array, i, settings.VectorMode, settings.VectorComponent));
+      values.push_back(TupleScalar(array, i, settings.VectorMode, settings.VectorComponent));
       if (radius)
         radii.push_back(radius->GetComponent(i, 0));
     }
@@ -296,6 +283,8 @@ std::shared_ptr<const ProbedBank> InputResampler::ProbeParticles(
   // within a particle's support form the bank.
   const auto started = std::chrono::steady_clock::now();
   const double* b = this->ParticleSet->bounds();
+  const double lo[3] = { b[0], b[2], b[4] };
+  const double len[3] = { b[1] - b[0], b[3] - b[2], b[5] - b[4] };
   auto bank = std::make_shared<ProbedBank>();
   bank->Probed = count;
   const int64_t chunk = int64_t(1) << 20;
@@ -307,17 +296,7 @@ std::shared_ptr<const ProbedBank> InputResampler::ProbeParticles(
     unit.resize(size_t(3 * n));
     xyz.resize(size_t(3 * n));
     values.resize(size_t(n));
-    for (int64_t i = 0; i < n; ++i)
-    {
-      float* u = &unit[size_t(3 * i)];
-      nv::randomPoint(seed, 0x50524F4245ull, uint64_t(first + i), u); // the Probe bank's stream
-      for (int a = 0; a < 3; ++a)
-      {
-        const double len = b[2 * a + 1] - b[2 * a];
-        u[a] = len > 0.0 ? u[a] : 0.5f; // a flat axis: the network's input there is 0.5
-        xyz[size_t(3 * i + a)] = b[2 * a] + (len > 0.0 ? double(u[a]) * len : 0.0);
-      }
-    }
+    RandomBoxPoints(lo, len, seed, first, n, unit.data(), xyz.data()); // the Probe bank's stream
     this->ParticleSet->evaluateMany(xyz.data(), n, values.data(), 0);
     for (int64_t i = 0; i < n; ++i)
     {

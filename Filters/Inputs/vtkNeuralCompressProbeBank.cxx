@@ -25,10 +25,26 @@
 namespace vtkNeuralCompressInternals
 {
 
+void RandomBoxPoints(const double lo[3], const double len[3], uint64_t seed, int64_t first, int64_t count,
+  float* unit, double* world)
+{
+  for (int64_t i = 0; i < count; ++i)
+  {
+    float* u = unit + 3 * i;
+    nv::randomPoint(seed, 0x50524F4245ull, uint64_t(first + i), u); // "PROBE": a stream of its own, not the training draws
+    for (int a = 0; a < 3; ++a)
+    {
+      if (!(len[a] > 0.0))
+        u[a] = 0.5f; // a flat axis: the network's input there is 0.5
+      world[3 * i + a] = lo[a] + (len[a] > 0.0 ? double(u[a]) * len[a] : 0.0);
+    }
+  }
+}
+
 namespace
 {
 /// `count` seeded random points in the image's box: their world positions (`points`) and their positions normalised
-/// to the box as the network's inputs are (returned, interleaved; 0.5 on a flat axis).
+/// to the box (returned, interleaved).
 std::vector<float> RandomProbePoints(vtkImageData* image, int64_t count, uint64_t seed, vtkPoints* points)
 {
   double lo[3], len[3];
@@ -39,22 +55,13 @@ std::vector<float> RandomProbePoints(vtkImageData* image, int64_t count, uint64_
     lo[a] = image->GetOrigin()[a] + ext[2 * a] * image->GetSpacing()[a];
     len[a] = (ext[2 * a + 1] - ext[2 * a]) * image->GetSpacing()[a];
   }
+  std::vector<float> unit(size_t(3 * count));
+  std::vector<double> world(size_t(3 * count));
+  RandomBoxPoints(lo, len, seed, 0, count, unit.data(), world.data());
   points->SetDataTypeToDouble();
   points->SetNumberOfPoints(count);
-  std::vector<float> unit(size_t(3 * count));
   for (int64_t i = 0; i < count; ++i)
-  {
-    float* u = &unit[size_t(3 * i)];
-    nv::randomPoint(seed, 0x50524F4245ull, uint64_t(i), u); // "PROBE": a stream of its own, not the training draws
-    double x[3];
-    for (int a = 0; a < 3; ++a)
-    {
-      if (!(len[a] > 0.0))
-        u[a] = 0.5f; // a flat axis: the network's input there is 0.5
-      x[a] = lo[a] + (len[a] > 0.0 ? double(u[a]) * len[a] : 0.0);
-    }
-    points->SetPoint(i, x);
-  }
+    points->SetPoint(i, &world[size_t(3 * i)]);
   return unit;
 }
 
@@ -62,21 +69,11 @@ std::vector<float> RandomProbePoints(vtkImageData* image, int64_t count, uint64_
 void FillProbedBank(vtkDataArray* values, vtkDataArray* mask, const std::vector<float>& unit, int64_t count,
   int vectorMode, int component, ProbedBank& bank)
 {
-  const int nc = values->GetNumberOfComponents();
-  const int c = std::min(std::max(component, 0), nc - 1);
   for (int64_t i = 0; i < count; ++i)
   {
     if (mask->GetComponent(i, 0) == 0.0)
       continue;
-    double v = 0.0;
-    if (nc == 1 || vectorMode == 1)
-      v = values->GetComponent(i, nc == 1 ? 0 : c);
-    else
-    {
-      for (int q = 0; q < nc; ++q)
-        v += values->GetComponent(i, q) * values->GetComponent(i, q);
-      v = std::sqrt(v);
-    }
+    const double v = TupleScalar(values, i, vectorMode, component);
     if (!std::isfinite(v))
       continue;
     bank.Xyz.insert(bank.Xyz.end(), &unit[size_t(3 * i)], &unit[size_t(3 * i)] + 3);

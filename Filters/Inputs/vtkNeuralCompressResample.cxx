@@ -73,6 +73,17 @@ std::vector<vtkDataSet*> InputLeaves(vtkDataObject* input)
   return out;
 }
 
+double TupleScalar(vtkDataArray* array, vtkIdType i, int vectorMode, int component)
+{
+  const int nc = array->GetNumberOfComponents();
+  if (nc == 1 || vectorMode == 1)
+    return array->GetComponent(i, nc == 1 ? 0 : std::min(std::max(component, 0), nc - 1));
+  double sum = 0.0;
+  for (int q = 0; q < nc; ++q)
+    sum += array->GetComponent(i, q) * array->GetComponent(i, q);
+  return std::sqrt(sum);
+}
+
 bool InputBounds(vtkDataObject* input, double bounds[6])
 {
   bool any = false;
@@ -455,8 +466,6 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
   int64_t k = 0;
   for (const Leaf& l : leaves)
   {
-    const int nc = l.array->GetNumberOfComponents();
-    const int c = std::min(std::max(component, 0), nc - 1);
     const vtkIdType n = l.array->GetNumberOfTuples();
     for (vtkIdType i = 0; i < n; ++i)
     {
@@ -478,17 +487,8 @@ std::shared_ptr<const SourceSamples> InputResampler::Samples(int vectorMode, int
       {
         l.dataSet->GetPoint(i, x);
       }
-      double v = 0.0;
-      if (nc == 1 || vectorMode == 1)
-        v = l.array->GetComponent(i, nc == 1 ? 0 : c);
-      else
-      {
-        for (int q = 0; q < nc; ++q)
-          v += l.array->GetComponent(i, q) * l.array->GetComponent(i, q);
-        v = std::sqrt(v);
-      }
       samples->Xyz.insert(samples->Xyz.end(), x, x + 3);
-      samples->Values.push_back(v);
+      samples->Values.push_back(TupleScalar(l.array, i, vectorMode, component));
     }
   }
   this->SamplesMode = vectorMode;

@@ -27,6 +27,15 @@ struct SourceSamples;
 /// The leaves of `input` (the dataset itself when it is not composite).
 std::vector<vtkDataSet*> InputLeaves(vtkDataObject* input);
 
+/// The scalar the network learns from tuple i of `array`: its value (one component), or of a vector its magnitude
+/// (vectorMode 0) or component `component` (vectorMode 1, clamped to the array's components).
+double TupleScalar(vtkDataArray* array, vtkIdType i, int vectorMode, int component);
+
+/// Probe points `first` .. `first + count - 1` of the bank's seeded stream in the box (lo, len): normalised to the box
+/// as the network's inputs are (`unit`, 0.5 on a flat axis) and in world coordinates (`world`), 3 values each.
+void RandomBoxPoints(const double lo[3], const double len[3], uint64_t seed, int64_t first, int64_t count,
+  float* unit, double* world);
+
 /// Probe sampling's bank: random points of the resampled image's box that lie inside the source's cells, with the
 /// scalar the network learns there.
 struct ProbedBank
