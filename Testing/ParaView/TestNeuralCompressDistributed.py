@@ -73,13 +73,7 @@ def memory(ranks):
 
 
 def wavelet_values():
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
-    src = vtkRTAnalyticSource()
-    src.SetWholeExtent(*WHOLE)
-    src.Update()
-    dims = [WHOLE[1] - WHOLE[0] + 1, WHOLE[3] - WHOLE[2] + 1, WHOLE[5] - WHOLE[4] + 1]
-    values = vtk_to_numpy(src.GetOutput().GetPointData().GetArray("RTData")).astype(np.float64)
-    return values.reshape(dims[2], dims[1], dims[0])
+    return nvtest.wavelet_values(WHOLE)
 
 
 def render(nc, path, edge=False, opaque_slice=None):

@@ -68,12 +68,7 @@ def network_count(data):
 
 
 def wavelet_values():
-    """RTData of the whole Wavelet in image order, computed here by VTK (no pipeline of the session)."""
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
-    src = vtkRTAnalyticSource()
-    src.SetWholeExtent(*WHOLE)
-    src.Update()
-    return vtk_to_numpy(src.GetOutput().GetPointData().GetArray("RTData")).astype(np.float64)
+    return nvtest.wavelet_values(WHOLE).ravel()
 
 
 def render_picture(nc, path):

@@ -252,6 +252,20 @@ def point_image(values, dims, name="f", vtk_type=None):
 
 # --- rendering helpers of the Neural Volume tests ------------------------------------------------
 
+def wavelet_values(whole):
+    """RTData of the Wavelet of extent `whole` in image order (z, y, x), float64, computed by VTK outside the session's
+    pipeline (the reference of the tests that split it over MPI ranks)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    src = vtkRTAnalyticSource()
+    src.SetWholeExtent(*whole)
+    src.Update()
+    dims = [whole[1] - whole[0] + 1, whole[3] - whole[2] + 1, whole[5] - whole[4] + 1]
+    values = vtk_to_numpy(src.GetOutput().GetPointData().GetArray("RTData")).astype(np.float64)
+    return values.reshape(dims[2], dims[1], dims[0])
+
+
 # A small network of the 64^3 Wavelet that trains in a few seconds on two cores (~38 dB).
 WAVELET_NETWORK = dict(TrainingSteps=300, BatchSize=16384, Levels=12, FeaturesPerLevel=2, NetworkWidth=32,
                        HiddenLayers=2, Loss="L2", TargetCompressionRatio=5, Threads=2, PSNRInterval=0)
