@@ -7,10 +7,13 @@ file larger than the budget (default 3456^3 uint8, 41 GB; ooc_procedural.py, a s
      log: estimates every PSNRInterval steps, exact at the end), the steps/s, the buffer's read throughput (bytes read,
      /proc/self/io rchar, less the two whole-file passes, over the training seconds) and its share of (1);
   3. the same settings in memory, host-sampled (TrainingStrategy 2), on a 2 GB grid of the same function that fits
-     (default 1280^3 uint8), loaded by ParaView's NRRD reader: steps/s and the PSNR curve at the same steps;
+     (default 1280^3 uint8), loaded by ParaView's NRRD reader: steps/s and the PSNR curve at the same steps; and that
+     2 GB grid out of core too (a 512 MiB budget): the PSNR gap at the same steps on the same data;
   4. peak RSS (VmHWM) of the process during (2), above its resident memory before.
 
-Writes JSON to --json. Example (the GPU machine, see README "Out-of-core files"):
+Each file is dropped from the page cache before it is trained from. --parts splits the work over calls (generate
+with plain Python first, then large, then crop, --keep until the last); the JSON gathers them. Writes JSON to --json.
+Example (the GPU machine, see README "Out-of-core files"):
   NV_PLUGIN=.../NeuralVolume.so pvbatch Testing/Benchmarks/outofcore_bench.py --folder /tmp/ooc --json ooc.json
 """
 import argparse
@@ -132,6 +135,22 @@ def train_in_memory(path, settings):
     return result
 
 
+def drop_from_page_cache(raw):
+    """Written pages flushed, then the file dropped from the page cache: training reads the disk, not memory."""
+    os.sync()
+    fd = os.open(raw, os.O_RDONLY)
+    os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    os.close(fd)
+
+
+def generated(python, path, dims, type_name, item):
+    """The file (generated unless already there, complete) and the seconds its generation took (0 if reused)."""
+    raw = os.path.splitext(path)[0] + ".raw"
+    if os.path.exists(path) and os.path.exists(raw) and os.path.getsize(raw) == dims[0] * dims[1] * dims[2] * item:
+        return raw, 0.0
+    return generate(python, path, dims, type_name)
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--folder", default="/tmp/ooc-bench")
@@ -139,46 +158,67 @@ def main():
     parser.add_argument("--crop", type=int, nargs=3, default=[1280, 1280, 1280])
     parser.add_argument("--type", default="uint8")
     parser.add_argument("--budget-mib", type=float, default=8192)
+    parser.add_argument("--crop-budget-mib", type=float, default=512,
+                        help="the budget of the crop's out-of-core run (a quarter of a 2 GB crop: out of core too)")
     parser.add_argument("--steps", type=int, default=10000)
     parser.add_argument("--device", default="CUDA")
     parser.add_argument("--batch", type=int, default=65536)
     parser.add_argument("--disk-seconds", type=float, default=20)
+    parser.add_argument("--parts", default="generate,large,crop",
+                        help="any of generate (the files, plain Python), large (out of core, the disk), crop (the crop "
+                             "in memory and out of core); the JSON gathers the parts run so far")
     parser.add_argument("--keep", action="store_true", help="keep the generated files")
     parser.add_argument("--python", default="python3", help="a Python with numpy for the generator")
     parser.add_argument("--json", default="outofcore_bench.json")
     args = parser.parse_args()
+    parts = set(args.parts.split(","))
 
-    from paraview.simple import LoadPlugin
-    LoadPlugin(os.environ["NV_PLUGIN"], remote=False, ns=globals())
+    if parts - {"generate"}:
+        from paraview.simple import LoadPlugin
+        LoadPlugin(os.environ["NV_PLUGIN"], remote=False, ns=globals())
     os.makedirs(args.folder, exist_ok=True)
-    result = {"dims": args.dims, "crop": args.crop, "type": args.type, "budget_mib": args.budget_mib,
-              "steps": args.steps, "device": args.device, "batch": args.batch}
+    result = {}
+    if os.path.exists(args.json):
+        with open(args.json) as f:
+            result = json.load(f)
+    result.update({"dims": args.dims, "crop": args.crop, "type": args.type, "budget_mib": args.budget_mib,
+                   "crop_budget_mib": args.crop_budget_mib, "steps": args.steps, "device": args.device,
+                   "batch": args.batch})
     item = {"uint8": 1, "int16": 2, "float32": 4, "float64": 8}[args.type]
-    large = os.path.join(args.folder, "large.nhdr")
-    raw, result["generate_s"] = generate(args.python, large, args.dims, args.type)
+    large, crop = os.path.join(args.folder, "large.nhdr"), os.path.join(args.folder, "crop.nhdr")
+    raw, generate_s = generated(args.python, large, args.dims, args.type, item)
+    crop_raw, crop_generate_s = generated(args.python, crop, args.crop, args.type, item)
+    result["generate_s"] = result.get("generate_s") or generate_s
     result["file_bytes"] = os.path.getsize(raw)
     settings = dict(TrainingSteps=args.steps, BatchSize=args.batch, Device=args.device, TimeBudget=0, Seed=5,
                     PSNRInterval=250, OutputMode="Network only")
-    result["ooc"] = train_out_of_core(large, args.budget_mib, settings, result["file_bytes"])
-    # The block edge the buffer chose (vtkNeuralOutOfCoreInput.cxx, BlockCellsFor: 5/8 of the budget, 32 blocks a
-    # batch sample): the disk's bandwidth for that block size.
-    buffer_bytes = args.budget_mib * 2 ** 20 * 5 / 8
-    edge = next((e for e in range(32, 2, -1) if buffer_bytes / ((e + 1) ** 3 * 4) >= 32 * args.batch), 2)
-    result["disk_random_read_mb_per_s"] = disk_random_read(raw, args.dims, item, edge, args.disk_seconds)
-    result["disk_block_cells"] = edge
-    result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / result["disk_random_read_mb_per_s"]
-    crop = os.path.join(args.folder, "crop.nhdr")
-    crop_raw, _ = generate(args.python, crop, args.crop, args.type)
-    result["memory"] = train_in_memory(crop, settings)
-    result["ooc_step_rate_share"] = result["ooc"]["steps_per_s"] / result["memory"]["steps_per_s"]
+    if "large" in parts:
+        drop_from_page_cache(raw)
+        result["ooc"] = train_out_of_core(large, args.budget_mib, settings, result["file_bytes"])
+        # The block edge the buffer chose (vtkNeuralOutOfCoreInput.cxx, BlockCellsFor: 5/8 of the budget, 32 blocks
+        # a batch sample): the disk's bandwidth for that block size.
+        buffer_bytes = args.budget_mib * 2 ** 20 * 5 / 8
+        edge = next((e for e in range(32, 2, -1) if buffer_bytes / ((e + 1) ** 3 * 4) >= 32 * args.batch), 2)
+        result["disk_random_read_mb_per_s"] = disk_random_read(raw, args.dims, item, edge, args.disk_seconds)
+        result["disk_block_cells"] = edge
+        result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / result["disk_random_read_mb_per_s"]
+    if "crop" in parts:
+        drop_from_page_cache(crop_raw)
+        result["crop_ooc"] = train_out_of_core(crop, args.crop_budget_mib, settings, os.path.getsize(crop_raw))
+        result["memory"] = train_in_memory(crop, settings)
+    if "ooc" in result and "memory" in result:
+        result["ooc_step_rate_share"] = result["ooc"]["steps_per_s"] / result["memory"]["steps_per_s"]
+    if "crop_ooc" in result and "memory" in result:
+        result["crop_psnr_gap_db"] = result["memory"]["psnr"] - result["crop_ooc"]["psnr_exact"]
     if not args.keep:
         for path in (large, raw, crop, crop_raw):
             os.remove(path)
     with open(args.json, "w") as f:
         json.dump(result, f, indent=1)
-    print(json.dumps({k: v for k, v in result.items() if k not in ("ooc", "memory")}, indent=1))
-    print(json.dumps({k: v for k, v in result["ooc"].items() if k != "curve"}, indent=1))
-    print(json.dumps({k: v for k, v in result["memory"].items() if k != "curve"}, indent=1))
+    print(json.dumps({k: v for k, v in result.items() if not isinstance(v, dict)}, indent=1))
+    for key in ("ooc", "crop_ooc", "memory"):
+        if key in result:
+            print(key, json.dumps({k: v for k, v in result[key].items() if k != "curve"}, indent=1))
     os._exit(0)
 
 

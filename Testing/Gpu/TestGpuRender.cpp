@@ -212,6 +212,46 @@ NV_TEST(gpu_draws_nothing_outside_the_domain)
     }
 }
 
+NV_TEST(gpu_clip_box_matches_cpu_and_draws_nothing_beyond_it)
+{
+  // RenderRequest::clipBox (MPI: a rank draws only its own block of a network trained with ghost layers): the box
+  // x < 0.5 on every GPU path and the five shading modes, viewed along -z. Pixels beyond the plane stay empty (alpha
+  // exactly 0, where the unclipped view draws) and the picture agrees with the CPU oracle's clipped one.
+  auto gpu = gpuSession(scene().model, false);
+  const Mat4 vp = orthoAlongZ();
+  for (int p = 0; p < 3; ++p)
+    for (int m = 0; m < 5; ++m)
+    {
+      const int w = m >= 3 ? 24 : 48, h = m >= 3 ? 20 : 40;
+      RenderRequest q = blobRequest(scene().model, RenderPath(p), ShadingMode(m), w, h);
+      q.samplesPerPixel = m >= 3 ? 256 : 1;
+      setCamera(q, vp);
+      RenderResult g0;
+      gpu->render(q, g0, Memory::Host);
+      q.clipBox[1] = 0.5;
+      RenderResult g, cpu;
+      gpu->render(q, g, Memory::Host);
+      oracle(p).render(scene().model, 13, q, cpu);
+      int64_t beyondLit = 0, beyondPlain = 0, beyondPixels = 0;
+      for (int py = 0; py < h; ++py)
+        for (int px = 0; px < w; ++px)
+        {
+          const double ux = (-1.2 + 2.4 * (px + 0.5) / w + 1.0) / 2.0;
+          if (ux <= 0.5 + 0.02)
+            continue;
+          const size_t k = 4 * (size_t(py) * w + px);
+          ++beyondPixels;
+          beyondLit += g.rgba[k + 3] != 0.0f ? 1 : 0;
+          beyondPlain += g0.rgba[k + 3] > 0.01f ? 1 : 0;
+        }
+      const double db = psnr(g.rgba, cpu.rgba);
+      std::printf("    %-9s %-9s clipped: %lld of %lld pixels beyond the plane lit (%lld unclipped); GPU vs CPU %.1f dB\n",
+        kPath[p], kMode[m], (long long)beyondLit, (long long)beyondPixels, (long long)beyondPlain, db);
+      EXPECT_TRUE(beyondPixels > 0 && beyondLit == 0 && beyondPlain > 0);
+      EXPECT_TRUE(allFinite(g.rgba) && db >= (m >= 3 ? 30.0 : 38.0));
+    }
+}
+
 NV_TEST(gpu_empty_cells_of_a_sparse_source_are_its_background)
 {
   // A sparse source's occupancy (the macrocells of the half x >= 0.5 hold the background, here the field's minimum:
