@@ -32,10 +32,17 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import tradeoff_codecs as tc  # noqa: E402
 import tradeoff_metrics as tm  # noqa: E402
 
 COLUMNS = ["date", "machine", "gpu", "commit", "volume", "dims", "source_bytes", "method", "setting", "steps", "ratio",
-           "compress_s", "decompress_s", "psnr", "max_error", "ssim"]
+           "compress_s", "decompress_s", "psnr", "max_error", "ssim", "target_ratio", "seed"]
+# Columns of this harness's later rows: CSVs written before them (results/tradeoff_2026-11-2*) still load.
+LATER_COLUMNS = ("target_ratio", "seed")
+MIN_TARGET = 1.0  # network ratios up to this are no target: the network is not smaller than the volume
+IMAGE_METRIC_MAX_VOXELS = 1 << 25  # above this (e.g. 512^3) the rendered-image SSIM is not computed (ssim empty)
+SZ3_METHODS = ["sz3-" + m for m in tc.SZ3_MODES]
+ZFP_METHODS = ["zfp-accuracy", "zfp-precision", "zfp-rate"]
 # Columns a method does not measure (the PyTorch reference prints PSNR and training time only).
 NOT_MEASURED = {"pytorch-ref": {"ratio", "decompress_s", "max_error", "ssim"}}
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -79,7 +86,7 @@ def context():
 
 def volume_row(ctx, path, original):
     nz, ny, nx = original.shape
-    return dict(ctx, volume=os.path.basename(path).split("_")[0].replace(".nhdr", ""), dims="%dx%dx%d" % (nx, ny, nz),
+    return dict(ctx, volume=volume_name(path), dims="%dx%dx%d" % (nx, ny, nz),
                 source_bytes=original.nbytes)
 
 
@@ -138,61 +145,82 @@ def run_neural(args, ctx, writer, volumes, device, tables, steps):
     os.rmdir(tmp)
 
 
+def volume_name(path):
+    return os.path.basename(path).split("_")[0].replace(".nhdr", "")
+
+
+def network_ratios(csv_paths, name, dims=None):
+    """The ratios of the neural rows of volume `name` (and `dims` when given) at their largest step count: the
+    targets of the SZ3 bisection. Ratios within 0.2% of each other count once; below MIN_TARGET none (the network
+    is larger than, or as large as, the volume: raw storage wins there)."""
+    rows = [r for p in csv_paths for r in csv.DictReader(open(p))
+            if r["method"].startswith("neural") and r["volume"] == name and (dims is None or r["dims"] == dims)]
+    last = {}
+    for r in rows:
+        key = (r["method"], r["setting"])
+        last[key] = max(last.get(key, 0), int(float(r["steps"])))
+    ratios = sorted(float(r["ratio"]) for r in rows if int(float(r["steps"])) == last[(r["method"], r["setting"])])
+    kept = []
+    for q in ratios:
+        if q > MIN_TARGET and (not kept or q > kept[-1] * 1.002):
+            kept.append(q)
+    return kept
+
+
 def run_compressors(args, ctx, writer, volumes):
-    import zfpy
-    from pysz import sz, szConfig, szErrorBoundMode
+    """ZFP in its three modes and SZ3 bisected to each target ratio in its ABS, REL and PSNR modes (tradeoff_codecs).
+    Returns {(volume, dims): targets}."""
+    searched = {}
     for path in volumes:
         original = tm.load_nhdr(path)
-        metric = tm.ImageMetric(original)
+        nz, ny, nx = original.shape
+        targets = sorted(set(args.targets + network_ratios(args.targets_from, volume_name(path),
+                                                           "%dx%dx%d" % (nx, ny, nz))))
+        metric = tm.ImageMetric(original) if original.size <= IMAGE_METRIC_MAX_VOXELS else None
         values = original.astype(np.float32)
         lo, hi = float(values.min()), float(values.max())
         rng = hi - lo if hi > lo else 1.0
-        bits = original.dtype.itemsize * 8
+        largest = max(targets + [max(args.ratios)])
+        searched[(volume_name(path), "%dx%dx%d" % (nx, ny, nz))] = targets
+        print("%s: targets %s" % (volume_name(path), ", ".join("%.4g" % t for t in targets) or "none"), flush=True)
 
-        def record(method, setting, stream_bytes, ct, dt, decoded):
+        def record(method, setting, encoded, target=""):
+            decoded, decode_s = encoded.decode()
             psnr, max_error = tm.errors(original, decoded)
             row = volume_row(ctx, path, original)
-            row.update(method=method, setting=setting, steps="", ratio=original.nbytes / stream_bytes, compress_s=ct,
-                       decompress_s=dt, psnr=psnr, max_error=max_error, ssim=metric(decoded))
+            row.update(method=method, setting=setting, steps="", ratio=original.nbytes / encoded.stream_bytes,
+                       compress_s=encoded.compress_s, decompress_s=decode_s, psnr=psnr, max_error=max_error,
+                       ssim=metric(decoded) if metric else "", target_ratio=target)
             writer.add(row)
 
-        for ratio in args.ratios:
-            rate = bits / ratio
-            if rate < 0.25:
-                # zfpy 1.0 overruns its buffer below about 9 bits per 4^3 block (a float block's header): skipped.
-                continue
-            t0 = time.perf_counter()
-            c = zfpy.compress_numpy(values, rate=rate)
-            t1 = time.perf_counter()
-            d = zfpy.decompress_numpy(c)
-            t2 = time.perf_counter()
-            record("zfp-rate", "%.4g bits" % rate, len(c), t1 - t0, t2 - t1, d)
-        for rel in args.bounds:
-            t0 = time.perf_counter()
-            c = zfpy.compress_numpy(values, tolerance=rel * rng)
-            t1 = time.perf_counter()
-            d = zfpy.decompress_numpy(c)
-            t2 = time.perf_counter()
-            record("zfp-accuracy", "%.0e" % rel, len(c), t1 - t0, t2 - t1, d)
-            conf = szConfig()
-            conf.errorBoundMode = szErrorBoundMode.ABS
-            conf.absErrorBound = rel * rng
-            t0 = time.perf_counter()
-            c, _ = sz.compress(values, conf)
-            t1 = time.perf_counter()
-            d, _ = sz.decompress(c, np.float32, values.shape)
-            t2 = time.perf_counter()
-            record("sz3-abs", "%.0e" % rel, c.nbytes, t1 - t0, t2 - t1, d.reshape(values.shape))
+        for setting, e in tc.zfp_accuracy(values, original.nbytes, rng, largest):
+            record("zfp-accuracy", setting, e)
+        for setting, e in tc.zfp_precision(values, original.nbytes, largest):
+            record("zfp-precision", setting, e)
+        bits = original.dtype.itemsize * 8
+        rate_targets = {bits / r: r for r in targets}
+        for setting, e in tc.zfp_rate(values, bits, args.ratios + targets):
+            rate = float(setting.split()[1])
+            record("zfp-rate", setting, e, next((t for b, t in rate_targets.items() if abs(b - rate) < 1e-3 * b), ""))
+        for mode in args.sz3_modes:
+            search = tc.Sz3Search(values, original.nbytes, rng, mode, coarse=original.size > IMAGE_METRIC_MAX_VOXELS)
+            for target in targets:
+                x = search.find(target)
+                record("sz3-" + mode, search.describe(x, target), search.encoded(x), target)
+    return searched
 
 
 def run_torch(args, ctx, writer, volumes, tables, steps):
-    """The paper's method in PyTorch (../shared/reference/quality_torch.py), run as it is."""
+    """The paper's method in PyTorch (../shared/reference/quality_torch.py), run as it is, once per seed of
+    --torch-seeds through torch_seeded.py (which only replaces the reference's torch.manual_seed(0) by the seed)."""
     ref = os.path.abspath(args.torch)
+    seeded = os.path.join(os.path.dirname(os.path.abspath(__file__)), "torch_seeded.py")
     for path in volumes:
         original = tm.load_nhdr(path)
-        for log2t in tables:
-            out = subprocess.run([sys.executable, os.path.join(ref, "quality_torch.py"), os.path.join(ref, "bench_torch.py"),
-                                  str(max(steps)), str(log2t), path], capture_output=True, text=True)
+        for log2t, seed in [(t, s) for t in tables for s in args.torch_seeds]:
+            out = subprocess.run([sys.executable, seeded, str(seed), os.path.join(ref, "quality_torch.py"),
+                                  os.path.join(ref, "bench_torch.py"), str(max(steps)), str(log2t), path],
+                                 capture_output=True, text=True)
             lines = [l for l in out.stdout.splitlines() if l.startswith("RESULT ")]
             if out.returncode != 0 or not lines:
                 raise SystemExit("quality_torch.py failed:\n" + out.stderr[-2000:])
@@ -201,7 +229,7 @@ def run_torch(args, ctx, writer, volumes, tables, steps):
                 row = volume_row(ctx, path, original)
                 # The same network as the engine's at this table size: the ratio is the engine's (stored fp16).
                 row.update(method="pytorch-ref", setting="2^%d" % log2t, steps=s, ratio="", compress_s=t,
-                           decompress_s="", psnr=p, max_error="", ssim="")
+                           decompress_s="", psnr=p, max_error="", ssim="", seed=seed)
                 writer.add(row)
 
 
@@ -211,13 +239,13 @@ def check(path):
     rows = list(csv.DictReader(open(path)))
     if not rows:
         raise SystemExit("check: %s has no rows" % path)
-    missing = [c for c in COLUMNS if c not in rows[0]]
+    missing = [c for c in COLUMNS if c not in rows[0] and c not in LATER_COLUMNS]
     if missing:
         raise SystemExit("check: missing columns " + ", ".join(missing))
     bad = []
     for i, r in enumerate(rows):
         for c in ("ratio", "compress_s", "decompress_s", "psnr", "max_error", "ssim", "source_bytes"):
-            if c in NOT_MEASURED.get(r["method"], ()):
+            if c in NOT_MEASURED.get(r["method"], ()) or (c == "ssim" and r[c] == "" and voxels(r) > IMAGE_METRIC_MAX_VOXELS):
                 continue
             try:
                 v = float(r[c])
@@ -234,6 +262,41 @@ def check(path):
     print("check: %d rows, %d volumes, methods %s: all columns present, all values finite" % (
         len(rows), len({r["volume"] for r in rows}), ", ".join(methods)))
     return rows
+
+
+def voxels(row):
+    return math.prod(int(v) for v in row["dims"].split("x"))
+
+
+def check_codecs(rows, want_targets, strict):
+    """Every volume has rows of the three ZFP modes and, for every target ratio, one row of each SZ3 mode; the ZFP
+    accuracy sweep passes the largest target; each SZ3 row's ratio within tc.TOLERANCE of its target. strict: a miss
+    fails; otherwise it is listed (SZ3's ratio can jump over a target: the row then says how far it landed). A row
+    marked "floor" (the target below SZ3's smallest ratio: a larger ratio, at SZ3's tightest bound) passes."""
+    bad, missed = [], []
+    for key, targets in want_targets.items():
+        rs = [r for r in rows if (r["volume"], r["dims"]) == key]
+        for m in ZFP_METHODS:
+            if not any(r["method"] == m for r in rs):
+                bad.append("%s: no %s row" % (key[0], m))
+        if targets and max([float(r["ratio"]) for r in rs if r["method"] == "zfp-accuracy"] + [0]) <= max(targets):
+            bad.append("%s: ZFP fixed-accuracy never passes %.4g:1" % (key[0], max(targets)))
+        for m in SZ3_METHODS:
+            for t in targets:
+                hit = [r for r in rs if r["method"] == m and r["target_ratio"] and
+                       abs(float(r["target_ratio"]) / t - 1) < 1e-4]
+                if not hit:
+                    bad.append("%s: no %s row for target %.4g" % (key[0], m, t))
+                elif abs(float(hit[0]["ratio"]) / t - 1) > tc.TOLERANCE and "floor" not in hit[0]["setting"]:
+                    missed.append("%s %s target %.4g: ratio %s (%+.1f%%)" % (
+                        key[0], m, t, hit[0]["ratio"], 100 * (float(hit[0]["ratio"]) / t - 1)))
+    if missed:
+        print("SZ3 bisection outside %.0f%% of its target:\n  %s" % (100 * tc.TOLERANCE, "\n  ".join(missed)))
+    if bad or (strict and missed):
+        raise SystemExit("check: codec rows wrong:\n  " + "\n  ".join(bad + (missed if strict else [])))
+    print("check: ZFP (%s) and SZ3 (%s) rows of %d volumes, %d SZ3 targets%s" % (
+        ", ".join(ZFP_METHODS), ", ".join(SZ3_METHODS), len(want_targets), sum(len(t) for t in want_targets.values()),
+        ", every one within %.0f%%" % (100 * tc.TOLERANCE) if not missed else ""))
 
 
 def check_q8(rows):
@@ -286,15 +349,24 @@ def main():
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--batch", type=int, default=0, help="training batch (default: the engine's, 65536)")
     p.add_argument("--ratios", default="2,4,8,16,32,64,128,256")
-    p.add_argument("--bounds", default="1e-1,3e-2,1e-2,3e-3,1e-3,3e-4,1e-4")
+    p.add_argument("--targets", default="",
+                   help="target ratios of the SZ3 bisection besides the network's (comma separated)")
+    p.add_argument("--targets-from", nargs="*", default=[],
+                   help="CSVs of neural rows: each volume's network ratios (largest step count) are SZ3 targets")
+    p.add_argument("--sz3-modes", default=",".join(tc.SZ3_MODES), help="SZ3 modes searched (abs, rel, psnr)")
     p.add_argument("--torch", help="folder of quality_torch.py and bench_torch.py (PyTorch with a GPU)")
     p.add_argument("--torch-tables", default="14,18")
     p.add_argument("--torch-steps", default="4000")
+    p.add_argument("--torch-seeds", default="1,2,3", help="seeds of the PyTorch reference (torch_seeded.py)")
     p.add_argument("--tiny", action="store_true",
                    help="CI size: two synthetic 32^3 volumes, 2^10 and 2^12, 20 and 60 steps, batch 4096")
     args = p.parse_args()
     args.ratios = [float(v) for v in args.ratios.split(",")]
-    args.bounds = [float(v) for v in args.bounds.split(",")]
+    args.targets = [float(v) for v in args.targets.split(",") if v]
+    args.sz3_modes = [m for m in args.sz3_modes.split(",") if m]
+    args.torch_seeds = ints(args.torch_seeds)
+    if set(args.sz3_modes) - set(tc.SZ3_MODES):
+        raise SystemExit("--sz3-modes: abs, rel, psnr")
     args.storage = [s for s in STORAGES if s in args.storage.replace("both", "fp16,q8").split(",")]
     if not args.storage:
         raise SystemExit("--storage: fp16, q8 or fp16,q8")
@@ -311,7 +383,7 @@ def main():
     if args.tiny:
         volumes = tm.synthetic_volumes(os.path.join(args.out, "volumes"))
         args.tables, args.steps, args.cpu_tables, args.cpu_steps = "10,12", "20,60", "10,12", "20,60"
-        args.ratios, args.bounds = [4.0, 16.0, 64.0], [1e-1, 1e-2, 1e-3]
+        args.ratios, args.targets = [4.0, 16.0, 64.0], [4.0, 16.0]
         args.batch = args.batch or 4096
     elif args.volumes:
         volumes = args.volumes
@@ -329,22 +401,28 @@ def main():
         for dev in devices:
             tables, steps = (args.tables, args.steps) if dev == "cuda" else (args.cpu_tables, args.cpu_steps)
             run_neural(args, ctx, writer, volumes, dev, ints(tables), ints(steps))
+    if args.command == "run":
+        args.targets_from = args.targets_from + [csv_path]  # the network rows just measured
+    searched = {}
     if args.command in ("run", "compressors"):
-        run_compressors(args, ctx, writer, volumes)
+        searched = run_compressors(args, ctx, writer, volumes)
     if args.command in ("run", "torch") and args.torch:
         run_torch(args, ctx, writer, volumes, ints(args.torch_tables), ints(args.torch_steps))
     writer.f.close()
+    if args.command == "compressors":
+        check_codecs(check(csv_path), searched, False)
     if args.command == "run":
         rows = check(csv_path)
         if args.tiny:
-            # Every volume has every method's rows: 2 volumes x (2 tables x 2 marks neural per storage, 3 ZFP rates
-            # unless below its floor, 3 ZFP accuracies, 3 SZ3 bounds).
+            # Every volume has every method's rows: 2 volumes x (2 tables x 2 marks neural per storage; ZFP's three
+            # modes; SZ3's three modes at 4:1, 16:1 and the network's ratios above 1, each within 2%).
             have = {(r["volume"], r["method"]) for r in rows}
             neural_methods = [neural_method(d, s) for d in devices for s in args.storage]
-            want = {(v, m) for v in ("marschnerlobb", "noise") for m in
-                    neural_methods + ["zfp-rate", "zfp-accuracy", "sz3-abs"]}
+            want = {(v, m) for v in ("marschnerlobb", "noise") for m in neural_methods}
             if want - have:
                 raise SystemExit("check: missing rows for " + ", ".join("%s/%s" % k for k in sorted(want - have)))
+            keys = sorted({(r["volume"], r["dims"]) for r in rows})
+            check_codecs(rows, {k: sorted(set(args.targets + network_ratios([csv_path], *k))) for k in keys}, True)
             neural = [r for r in rows if r["method"].startswith("neural")]
             if len(neural) != 8 * len(neural_methods):
                 raise SystemExit("check: %d neural rows, expected %d" % (len(neural), 8 * len(neural_methods)))
