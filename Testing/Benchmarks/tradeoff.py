@@ -98,6 +98,8 @@ class Writer:
     def __init__(self, path):
         self.path = path
         new = not os.path.exists(path) or os.path.getsize(path) == 0
+        if not new and open(path).readline().strip() != ",".join(COLUMNS):
+            raise SystemExit("%s has other columns (an older harness's): pass another --out" % path)
         self.f = open(path, "a", newline="")
         self.w = csv.DictWriter(self.f, COLUMNS)
         if new:
@@ -112,17 +114,22 @@ class Writer:
 
 
 def run_neural(args, ctx, writer, volumes, device, tables, steps):
+    """nvBench tradeoff per volume, table, seed (and step count: the annealed schedule plans for the run's end).
+    Volumes above IMAGE_METRIC_MAX_VOXELS (512^3) are not dumped: PSNR and max error are nvBench's own (the same
+    definition, over every voxel), the image metric is not computed."""
     tmp = tempfile.mkdtemp(prefix="nv_tradeoff_")
     for path in volumes:
         original = tm.load_nhdr(path)
-        metric = tm.ImageMetric(original)
+        large = original.size > IMAGE_METRIC_MAX_VOXELS
+        metric = None if large else tm.ImageMetric(original)
         # The filter's default schedule anneals to the run's last step: one run per step count. The step decay does
         # not depend on the run's length: one run per table, measured at every step count.
         runs = [[n] for n in steps] if args.schedule == "annealed" else [steps]
-        for log2t, marks in [(t, m) for t in tables for m in runs]:
-            cmd = [args.nvbench, "tradeoff", device, path, str(log2t), ",".join(map(str, marks)), "--dump=" + tmp,
-                   "--storage=" + storage_option(args.storage)]
+        for log2t, marks, seed in [(t, m, s) for t in tables for m in runs for s in args.seeds]:
+            cmd = [args.nvbench, "tradeoff", device, path, str(log2t), ",".join(map(str, marks)),
+                   "--storage=" + storage_option(args.storage)] + ([] if large else ["--dump=" + tmp])
             cmd += ["--schedule=cos", "--hold=500"] if args.schedule == "annealed" else ["--schedule=step"]
+            cmd += ["--seed=%d" % seed] if seed else []
             if args.threads:
                 cmd.append("--threads=%d" % args.threads)
             if args.batch:
@@ -132,13 +139,19 @@ def run_neural(args, ctx, writer, volumes, device, tables, steps):
                 if not line.startswith("RESULT "):
                     continue
                 r = json.loads(line[7:])
-                decoded = np.fromfile(r["dump"], np.float32).reshape(original.shape)
-                os.remove(r["dump"])
-                psnr, max_error = tm.errors(original, decoded)
+                if large:
+                    psnr, max_error, ssim = r["psnr"], r["max_error"], ""
+                    psnr, max_error = (float("nan") if psnr is None else psnr), (float("inf") if max_error is None
+                                                                                 else max_error)
+                else:
+                    decoded = np.fromfile(r["dump"], np.float32).reshape(original.shape)
+                    os.remove(r["dump"])
+                    psnr, max_error = tm.errors(original, decoded)
+                    ssim = metric(decoded)
                 row = volume_row(ctx, path, original)
                 row.update(method=neural_method(device, r.get("storage", "fp16")), setting="2^%d" % log2t,
                            steps=r["steps"], ratio=r["ratio"], compress_s=r["train_s"], decompress_s=r["decode_s"],
-                           psnr=psnr, max_error=max_error, ssim=metric(decoded))
+                           psnr=psnr, max_error=max_error, ssim=ssim, seed=seed or "")
                 writer.add(row)
             if proc.wait() != 0:
                 raise SystemExit("nvBench failed: " + " ".join(cmd))
@@ -174,14 +187,18 @@ def run_compressors(args, ctx, writer, volumes):
     for path in volumes:
         original = tm.load_nhdr(path)
         nz, ny, nx = original.shape
-        targets = sorted(set(args.targets + network_ratios(args.targets_from, volume_name(path),
-                                                           "%dx%dx%d" % (nx, ny, nz))))
+        dims = "%dx%dx%d" % (nx, ny, nz)
+        targets = sorted(set(args.targets + network_ratios(args.targets_from, volume_name(path), dims)))
+        done = [float(r["target_ratio"]) for p in args.skip_targets_in for r in csv.DictReader(open(p))
+                if r["volume"] == volume_name(path) and r["dims"] == dims and r["method"].startswith("sz3-")
+                and r.get("target_ratio")]
+        targets = [t for t in targets if not any(abs(d / t - 1) <= 0.005 for d in done)]
         metric = tm.ImageMetric(original) if original.size <= IMAGE_METRIC_MAX_VOXELS else None
         values = original.astype(np.float32)
         lo, hi = float(values.min()), float(values.max())
         rng = hi - lo if hi > lo else 1.0
         largest = max(targets + [max(args.ratios)])
-        searched[(volume_name(path), "%dx%dx%d" % (nx, ny, nz))] = targets
+        searched[(volume_name(path), dims)] = targets
         print("%s: targets %s" % (volume_name(path), ", ".join("%.4g" % t for t in targets) or "none"), flush=True)
 
         def record(method, setting, encoded, target=""):
@@ -193,17 +210,22 @@ def run_compressors(args, ctx, writer, volumes):
                        ssim=metric(decoded) if metric else "", target_ratio=target)
             writer.add(row)
 
-        for setting, e in tc.zfp_accuracy(values, original.nbytes, rng, largest):
-            record("zfp-accuracy", setting, e)
-        for setting, e in tc.zfp_precision(values, original.nbytes, largest):
-            record("zfp-precision", setting, e)
-        bits = original.dtype.itemsize * 8
-        rate_targets = {bits / r: r for r in targets}
-        for setting, e in tc.zfp_rate(values, bits, args.ratios + targets):
-            rate = float(setting.split()[1])
-            record("zfp-rate", setting, e, next((t for b, t in rate_targets.items() if abs(b - rate) < 1e-3 * b), ""))
-        for mode in args.sz3_modes:
-            search = tc.Sz3Search(values, original.nbytes, rng, mode, coarse=original.size > IMAGE_METRIC_MAX_VOXELS)
+        # A 512^3 volume (one evaluation takes seconds on the CPU): the sweeps start where ratios reach about 3:1,
+        # fixed rate only at the targets, the SZ3 grid is coarser (tradeoff_codecs.Sz3Search).
+        coarse = original.size > IMAGE_METRIC_MAX_VOXELS
+        if "zfp" in args.codecs:
+            for setting, e in tc.zfp_accuracy(values, original.nbytes, rng, largest, 1e-4 if coarse else 1e-5):
+                record("zfp-accuracy", setting, e)
+            for setting, e in tc.zfp_precision(values, original.nbytes, largest, 16 if coarse else 32):
+                record("zfp-precision", setting, e)
+            bits = original.dtype.itemsize * 8
+            rate_targets = {bits / r: r for r in targets}
+            for setting, e in tc.zfp_rate(values, bits, (targets or args.ratios) if coarse else args.ratios + targets):
+                rate = float(setting.split()[1])
+                record("zfp-rate", setting, e, next((t for b, t in rate_targets.items() if abs(b - rate) < 1e-3 * b),
+                                                    ""))
+        for mode in args.sz3_modes if "sz3" in args.codecs else []:
+            search = tc.Sz3Search(values, original.nbytes, rng, mode, coarse=coarse)
             for target in targets:
                 x = search.find(target)
                 record("sz3-" + mode, search.describe(x, target), search.encoded(x), target)
@@ -212,19 +234,21 @@ def run_compressors(args, ctx, writer, volumes):
 
 def run_torch(args, ctx, writer, volumes, tables, steps):
     """The paper's method in PyTorch (../shared/reference/quality_torch.py), run as it is, once per seed of
-    --torch-seeds through torch_seeded.py (which only replaces the reference's torch.manual_seed(0) by the seed)."""
+    --torch-seeds through torch_seeded.py (which only replaces the reference's torch.manual_seed(0) by the seed);
+    one process per table and seed trains every volume."""
     ref = os.path.abspath(args.torch)
     seeded = os.path.join(os.path.dirname(os.path.abspath(__file__)), "torch_seeded.py")
-    for path in volumes:
-        original = tm.load_nhdr(path)
-        for log2t, seed in [(t, s) for t in tables for s in args.torch_seeds]:
-            out = subprocess.run([sys.executable, seeded, str(seed), os.path.join(ref, "quality_torch.py"),
-                                  os.path.join(ref, "bench_torch.py"), str(max(steps)), str(log2t), path],
-                                 capture_output=True, text=True)
-            lines = [l for l in out.stdout.splitlines() if l.startswith("RESULT ")]
-            if out.returncode != 0 or not lines:
-                raise SystemExit("quality_torch.py failed:\n" + out.stderr[-2000:])
-            r = json.loads(lines[-1][7:])
+    by_name = {os.path.basename(p): p for p in volumes}
+    for log2t, seed in [(t, s) for t in tables for s in args.torch_seeds]:
+        out = subprocess.run([sys.executable, seeded, str(seed), os.path.join(ref, "quality_torch.py"),
+                              os.path.join(ref, "bench_torch.py"), str(max(steps)), str(log2t)] + list(volumes),
+                             capture_output=True, text=True)
+        results = [json.loads(l[7:]) for l in out.stdout.splitlines() if l.startswith("RESULT ")]
+        if out.returncode != 0 or len(results) != len(volumes):
+            raise SystemExit("quality_torch.py failed:\n" + out.stderr[-2000:])
+        for r in results:
+            path = by_name[r["name"]]
+            original = tm.load_nhdr(path)
             for s, t, p in r["curve"]:
                 row = volume_row(ctx, path, original)
                 # The same network as the engine's at this table size: the ratio is the engine's (stored fp16).
@@ -268,7 +292,7 @@ def voxels(row):
     return math.prod(int(v) for v in row["dims"].split("x"))
 
 
-def check_codecs(rows, want_targets, strict):
+def check_codecs(rows, want_targets, strict, zfp_methods=ZFP_METHODS, sz3_methods=SZ3_METHODS):
     """Every volume has rows of the three ZFP modes and, for every target ratio, one row of each SZ3 mode; the ZFP
     accuracy sweep passes the largest target; each SZ3 row's ratio within tc.TOLERANCE of its target. strict: a miss
     fails; otherwise it is listed (SZ3's ratio can jump over a target: the row then says how far it landed). A row
@@ -276,12 +300,12 @@ def check_codecs(rows, want_targets, strict):
     bad, missed = [], []
     for key, targets in want_targets.items():
         rs = [r for r in rows if (r["volume"], r["dims"]) == key]
-        for m in ZFP_METHODS:
+        for m in zfp_methods:
             if not any(r["method"] == m for r in rs):
                 bad.append("%s: no %s row" % (key[0], m))
-        if targets and max([float(r["ratio"]) for r in rs if r["method"] == "zfp-accuracy"] + [0]) <= max(targets):
+        if zfp_methods and targets and max([float(r["ratio"]) for r in rs if r["method"] == "zfp-accuracy"] + [0]) <= max(targets):
             bad.append("%s: ZFP fixed-accuracy never passes %.4g:1" % (key[0], max(targets)))
-        for m in SZ3_METHODS:
+        for m in sz3_methods:
             for t in targets:
                 hit = [r for r in rs if r["method"] == m and r["target_ratio"] and
                        abs(float(r["target_ratio"]) / t - 1) < 1e-4]
@@ -295,7 +319,7 @@ def check_codecs(rows, want_targets, strict):
     if bad or (strict and missed):
         raise SystemExit("check: codec rows wrong:\n  " + "\n  ".join(bad + (missed if strict else [])))
     print("check: ZFP (%s) and SZ3 (%s) rows of %d volumes, %d SZ3 targets%s" % (
-        ", ".join(ZFP_METHODS), ", ".join(SZ3_METHODS), len(want_targets), sum(len(t) for t in want_targets.values()),
+        ", ".join(zfp_methods), ", ".join(sz3_methods), len(want_targets), sum(len(t) for t in want_targets.values()),
         ", every one within %.0f%%" % (100 * tc.TOLERANCE) if not missed else ""))
 
 
@@ -346,6 +370,7 @@ def main():
                    help="learning-rate schedule of the neural runs: annealed (Neural Compress's default: 500 steps at "
                         "the full rate, then a cosine to 1/100 at the run's last step; one run per step count) or "
                         "step (the paper's step decay; one run per table)")
+    p.add_argument("--seeds", default="0", help="seeds of the neural runs (nvBench --seed; 0: its default)")
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--batch", type=int, default=0, help="training batch (default: the engine's, 65536)")
     p.add_argument("--ratios", default="2,4,8,16,32,64,128,256")
@@ -353,6 +378,9 @@ def main():
                    help="target ratios of the SZ3 bisection besides the network's (comma separated)")
     p.add_argument("--targets-from", nargs="*", default=[],
                    help="CSVs of neural rows: each volume's network ratios (largest step count) are SZ3 targets")
+    p.add_argument("--codecs", default="zfp,sz3", help="compressors run by `compressors` (zfp, sz3)")
+    p.add_argument("--skip-targets-in", nargs="*", default=[],
+                   help="CSVs whose SZ3 rows' targets are not searched again (a follow-up run at new ratios)")
     p.add_argument("--sz3-modes", default=",".join(tc.SZ3_MODES), help="SZ3 modes searched (abs, rel, psnr)")
     p.add_argument("--torch", help="folder of quality_torch.py and bench_torch.py (PyTorch with a GPU)")
     p.add_argument("--torch-tables", default="14,18")
@@ -365,6 +393,7 @@ def main():
     args.targets = [float(v) for v in args.targets.split(",") if v]
     args.sz3_modes = [m for m in args.sz3_modes.split(",") if m]
     args.torch_seeds = ints(args.torch_seeds)
+    args.seeds = ints(args.seeds)
     if set(args.sz3_modes) - set(tc.SZ3_MODES):
         raise SystemExit("--sz3-modes: abs, rel, psnr")
     args.storage = [s for s in STORAGES if s in args.storage.replace("both", "fp16,q8").split(",")]
@@ -410,7 +439,8 @@ def main():
         run_torch(args, ctx, writer, volumes, ints(args.torch_tables), ints(args.torch_steps))
     writer.f.close()
     if args.command == "compressors":
-        check_codecs(check(csv_path), searched, False)
+        check_codecs(check(csv_path), searched, False, ZFP_METHODS if "zfp" in args.codecs else [],
+                     ["sz3-" + m for m in args.sz3_modes] if "sz3" in args.codecs else [])
     if args.command == "run":
         rows = check(csv_path)
         if args.tiny:

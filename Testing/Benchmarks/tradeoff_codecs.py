@@ -61,11 +61,11 @@ def sz3_encode(values, mode, bound):
     return Encoded(c.nbytes, t, lambda: sz.decompress(c, np.float32, values.shape)[0].reshape(values.shape))
 
 
-def zfp_accuracy(values, source_bytes, value_range, largest_target):
+def zfp_accuracy(values, source_bytes, value_range, largest_target, start=1e-5):
     """Fixed-accuracy tolerances (factor 2 apart, from 1e-5 x range) until the ratio passes `largest_target` (or the
     tolerance reaches ZFP_MAX_TOLERANCE x range). ZFP's errors stay far below its tolerance (a 32^3 field at a
     tolerance of 2.6 x range still decodes at 29 dB), so the sweep goes well past the range. Yields (setting, Encoded)."""
-    rel = 1e-5
+    rel = start
     while rel <= ZFP_MAX_TOLERANCE:
         e = zfp_encode(values, tolerance=rel * value_range)
         yield "tolerance %.3g x range" % rel, e
@@ -74,10 +74,10 @@ def zfp_accuracy(values, source_bytes, value_range, largest_target):
         rel *= 2.0
 
 
-def zfp_precision(values, source_bytes, largest_target):
+def zfp_precision(values, source_bytes, largest_target, most=32):
     """Fixed precision from many bit planes down to 1 (the ratio grows as the precision falls), stopping below the
     first precision whose ratio passes `largest_target`."""
-    for p in sorted(ZFP_PRECISIONS, reverse=True):
+    for p in sorted((p for p in ZFP_PRECISIONS if p <= most), reverse=True):
         e = zfp_encode(values, precision=p)
         yield "precision %d" % p, e
         if source_bytes / e.stream_bytes > largest_target:
@@ -99,12 +99,12 @@ class Sz3Search:
 
     def __init__(self, values, source_bytes, value_range, mode, coarse=False):
         self.values, self.source_bytes, self.mode = values, source_bytes, mode
-        step = 0.5 if coarse else 0.25
+        # coarse (512^3 volumes, where one evaluation takes seconds): fewer, wider steps from 1e-6 x range / 130 dB
         if mode == "psnr":
-            self.grid = list(np.arange(-180.0, -4.9, 10 * step))  # 180 dB down to 5 dB
+            self.grid = list(np.arange(-130.0, -4.9, 10.0) if coarse else np.arange(-180.0, -4.9, 2.5))
         else:
             top = math.log10(value_range) if mode == "abs" else 0.0
-            self.grid = list(np.arange(top - 9.0, top + 0.01, step))  # 1e-9 x range .. the range
+            self.grid = list(np.arange(top - 6.0, top + 0.01, 0.5) if coarse else np.arange(top - 9.0, top + 0.01, 0.25))
         self.cache = {}
 
     def bound(self, x):
