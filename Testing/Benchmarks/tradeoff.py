@@ -269,7 +269,8 @@ def check(path):
     bad = []
     for i, r in enumerate(rows):
         for c in ("ratio", "compress_s", "decompress_s", "psnr", "max_error", "ssim", "source_bytes"):
-            if c in NOT_MEASURED.get(r["method"], ()) or (c == "ssim" and r[c] == "" and voxels(r) > IMAGE_METRIC_MAX_VOXELS):
+            unmeasured_ssim = c == "ssim" and r[c] == "" and voxels(r) > IMAGE_METRIC_MAX_VOXELS
+            if c in NOT_MEASURED.get(r["method"], ()) or unmeasured_ssim:
                 continue
             try:
                 v = float(r[c])
@@ -303,7 +304,8 @@ def check_codecs(rows, want_targets, strict, zfp_methods=ZFP_METHODS, sz3_method
         for m in zfp_methods:
             if not any(r["method"] == m for r in rs):
                 bad.append("%s: no %s row" % (key[0], m))
-        if zfp_methods and targets and max([float(r["ratio"]) for r in rs if r["method"] == "zfp-accuracy"] + [0]) <= max(targets):
+        accuracy_ratios = [float(r["ratio"]) for r in rs if r["method"] == "zfp-accuracy"]
+        if zfp_methods and targets and max(accuracy_ratios + [0]) <= max(targets):
             bad.append("%s: ZFP fixed-accuracy never passes %.4g:1" % (key[0], max(targets)))
         for m in sz3_methods:
             for t in targets:

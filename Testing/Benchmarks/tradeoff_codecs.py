@@ -64,7 +64,8 @@ def sz3_encode(values, mode, bound):
 def zfp_accuracy(values, source_bytes, value_range, largest_target, start=1e-5):
     """Fixed-accuracy tolerances (factor 2 apart, from 1e-5 x range) until the ratio passes `largest_target` (or the
     tolerance reaches ZFP_MAX_TOLERANCE x range). ZFP's errors stay far below its tolerance (a 32^3 field at a
-    tolerance of 2.6 x range still decodes at 29 dB), so the sweep goes well past the range. Yields (setting, Encoded)."""
+    tolerance of 2.6 x range still decodes at 29 dB), so the sweep goes well past the range.
+    Yields (setting, Encoded)."""
     rel = start
     while rel <= ZFP_MAX_TOLERANCE:
         e = zfp_encode(values, tolerance=rel * value_range)
@@ -104,7 +105,8 @@ class Sz3Search:
             self.grid = list(np.arange(-130.0, -4.9, 10.0) if coarse else np.arange(-180.0, -4.9, 2.5))
         else:
             top = math.log10(value_range) if mode == "abs" else 0.0
-            self.grid = list(np.arange(top - 6.0, top + 0.01, 0.5) if coarse else np.arange(top - 9.0, top + 0.01, 0.25))
+            self.grid = list(np.arange(top - 6.0, top + 0.01, 0.5) if coarse else
+                             np.arange(top - 9.0, top + 0.01, 0.25))
         self.cache = {}
 
     def bound(self, x):

@@ -166,7 +166,8 @@ def _rd_time_panel(ax, rows, seeds, volume, dims):
     seeds per step count with its min-max."""
     curves = defaultdict(list)
     for r in rows:
-        if r["method"] == "neural-gpu" and r["volume"] == volume and r["dims"] == dims and r.get("seed", "") in ("", "1"):
+        first_seed = r.get("seed", "") in ("", "1")
+        if r["method"] == "neural-gpu" and r["volume"] == volume and r["dims"] == dims and first_seed:
             curves[r["setting"]].append((_f(r["compress_s"]), _f(r["psnr"])))
     for i, (table, pts) in enumerate(sorted(curves.items(), key=lambda kv: int(kv[0].split("^")[1]))):
         pts = sorted(pts)

@@ -23,7 +23,8 @@ NETWORKS = {"neural-gpu": "fp16", "neural-gpu-q8": "8-bit"}
 ZFP = ("zfp-accuracy", "zfp-precision", "zfp-rate")
 SZ3 = ("sz3-abs", "sz3-rel", "sz3-psnr")
 OUT_COLUMNS = ["volume", "dims", "storage", "table", "steps", "net_ratio", "net_psnr", "zfp_mode", "zfp_psnr",
-               "zfp_at", "sz3_mode", "sz3_ratio", "sz3_psnr", "sz3_setting", "best", "best_psnr", "delta_db",
+               "zfp_at", "sz3_mode", "sz3_ratio", "sz3_floor", "sz3_psnr", "sz3_setting", "best", "best_psnr",
+               "delta_db", "delta_zfp_db",
                "verdict"]
 
 
@@ -103,11 +104,13 @@ def compare(rows):
             zfp = [z for z in zfp if math.isfinite(z[0][0])]
             if zfp:
                 (zp, how), zm = max(zfp, key=lambda z: z[0][0])
-                o.update(zfp_mode=zm[4:], zfp_psnr="%.2f" % zp, zfp_at=how)
+                o.update(zfp_mode=zm[4:], zfp_psnr="%.2f" % zp, zfp_at=how, delta_zfp_db="%+.2f" % (psnr - zp))
             sz = [r for r in (sz3_at(by[(v, d, m)], ratio) for m in SZ3) if r]
             if sz:
                 s = max(sz, key=lambda r: f(r["psnr"]))
-                o.update(sz3_mode=s["method"][4:], sz3_ratio="%.4g" % f(s["ratio"]), sz3_psnr="%.2f" % f(s["psnr"]),
+                o.update(sz3_mode=s["method"][4:],
+                         sz3_ratio="%.4g" % f(s["ratio"]), sz3_floor="floor" if "floor" in s["setting"] else "",
+                         sz3_psnr="%.2f" % f(s["psnr"]),
                          sz3_setting=s["setting"])
             cands = [(f(o[k + "_psnr"]), k.upper()) for k in ("zfp", "sz3") if o.get(k + "_psnr")]
             if not cands:
@@ -144,6 +147,11 @@ def bar_rows(rows, compared):
             "|---|---|---|---|"] + lines
 
 
+def sz3_ratio_text(o):
+    """"10.3:1", or "6.9:1, floor" when SZ3's smallest ratio is above the network's (compared at a larger ratio)."""
+    return "%s:1%s" % (o.get("sz3_ratio", ""), ", floor" if o.get("sz3_floor") else "") if o.get("sz3_ratio") else ""
+
+
 def fmt_db(v):
     return "lossless" if v == float("inf") else "%.2f" % v
 
@@ -157,6 +165,26 @@ def write_md(path, text):
         if begin in old and end in old:
             text = old[:old.index(begin) + len(begin)] + "\n" + text + old[old.index(end):]
     open(path, "w").write(text)
+
+
+def readme_rows(out, min_ratio):
+    """The README's short table: network rows at ratios >= min_ratio with a competitor, and one line per volume."""
+    rows = [o for o in out if o.get("delta_db") and f(o["net_ratio"]) >= min_ratio]
+    md = ["| volume | network (steps) | ratio | PSNR | ZFP, best mode | SZ3 bisected, best mode | network - ZFP | "
+          "network - best |", "|---|---|---|---|---|---|---|---|"]
+    md += ["| %s | %s %s (%s) | %s:1 | %s | %s %s | %s %s (%s) | %s | **%s** |" % (
+        o["volume"], o["table"], o["storage"], o["steps"], o["net_ratio"], o["net_psnr"], o.get("zfp_mode", "-"),
+        o.get("zfp_psnr", ""), o.get("sz3_mode", "-"), fmt_db(f(o.get("sz3_psnr")))
+        if o.get("sz3_psnr") else "", sz3_ratio_text(o), o.get("delta_zfp_db", "-"),
+        o["delta_db"].replace("-inf", "(lossless)")) for o in rows]
+    lose = [o for o in rows if o["verdict"] == "network loses"]
+    win = [o for o in rows if o["verdict"] == "network ahead"]
+    md += ["", "At ratios of %g:1 and above the network loses in %d of %d comparisons%s%s." % (
+        min_ratio, len(lose), len(rows), (": " + ", ".join("%s %s:1 (%s dB)" % (o["volume"], o["net_ratio"],
+                                                                             o["delta_db"]) for o in lose)) if lose
+        else "", ("; it is ahead at " + ", ".join("%s %s:1 (%s dB)" % (o["volume"], o["net_ratio"], o["delta_db"])
+                                                 for o in win)) if win else "; it is ahead nowhere")]
+    return md
 
 
 def loses_line(v, d, rs):
@@ -232,6 +260,8 @@ def main():
     p.add_argument("--md", required=True)
     p.add_argument("--csv-out", required=True)
     p.add_argument("--plots")
+    p.add_argument("--readme", help="README.md whose generated part (between the markers) gets the short table")
+    p.add_argument("--readme-min-ratio", type=float, default=3.0)
     args = p.parse_args()
     rows = load(args.csv)
     out = compare(rows)
@@ -241,18 +271,20 @@ def main():
         for o in out:
             w.writerow({k: o.get(k, "") for k in OUT_COLUMNS})
     md = ["", "| volume | network | steps | ratio | PSNR | ZFP best mode at that ratio | SZ3 "
-          "bisected, best mode (its ratio) | best competitor | network - best |", "|---|---|---|---|---|---|---|---|---|"]
+          "bisected, best mode (its ratio) | best competitor | network - ZFP | network - best |",
+          "|---|---|---|---|---|---|---|---|---|---|"]
     for o in out:
         if not o.get("delta_db"):
-            md.append("| %s %s | %s %s | %s | %s:1 | %s | - | - | - | %s |" % (
+            md.append("| %s %s | %s %s | %s | %s:1 | %s | - | - | - | - | %s |" % (
                 o["volume"], o["dims"], o["table"], o["storage"], o["steps"], o["net_ratio"], o["net_psnr"],
                 o["verdict"]))
             continue
-        md.append("| %s %s | %s %s | %s | %s:1 | %s | %s | %s | %s | **%s** |" % (
+        md.append("| %s %s | %s %s | %s | %s:1 | %s | %s | %s | %s | %s | **%s** |" % (
             o["volume"], o["dims"], o["table"], o["storage"], o["steps"], o["net_ratio"], o["net_psnr"],
             "%s %s (%s)" % (o["zfp_mode"], o["zfp_psnr"], o["zfp_at"]) if o.get("zfp_psnr") else "not reached",
-            "%s %s (%s:1)" % (o["sz3_mode"], fmt_db(f(o["sz3_psnr"])), o["sz3_ratio"]) if o.get("sz3_psnr") else "-",
-            "%s %s" % (o["best"], fmt_db(f(o["best_psnr"]))), o["delta_db"].replace("-inf", "(lossless)")))
+            "%s %s (%s)" % (o["sz3_mode"], fmt_db(f(o["sz3_psnr"])), sz3_ratio_text(o)) if o.get("sz3_psnr") else "-",
+            "%s %s" % (o["best"], fmt_db(f(o["best_psnr"]))), o.get("delta_zfp_db", "-"),
+            o["delta_db"].replace("-inf", "(lossless)")))
     md += ["", "Where the network loses (every network ratio above 1:1):", ""]
     by_vol = defaultdict(list)
     for o in out:
@@ -263,6 +295,8 @@ def main():
         md += ["", "## PyTorch reference over seeds", ""] + torch_table(rows, seeds)
     md += bar_rows(rows, set(by_vol))
     write_md(args.md, "\n".join(md) + "\n")
+    if args.readme:
+        write_md(args.readme, "\n".join(readme_rows(out, args.readme_min_ratio)) + "\n")
     print("\n".join(md))
     if args.plots:
         import tradeoff_plot

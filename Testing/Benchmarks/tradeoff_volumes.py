@@ -15,6 +15,7 @@ Every value comes from numpy's default_rng(seed) lattices and closed-form functi
 volume needs about 1 GiB while it is written). numpy only, so the GPU machine can generate them itself."""
 import argparse
 import filecmp
+import hashlib
 import os
 import sys
 
@@ -118,14 +119,18 @@ FIELDS = {"mlnoise": MlNoise, "rmmixing": RmMixing}
 
 
 def write(folder, name, n, seed):
-    """Write NAME_<n>_float.nhdr + .raw, slab by slab; returns the .nhdr path."""
+    """Write NAME_<n>_float.nhdr + .raw, slab by slab; prints the raw file's sha256; returns the .nhdr path."""
     os.makedirs(folder, exist_ok=True)
     field = FIELDS[name](n, seed)
     t = np.linspace(0.0, 1.0, n)
     stem = os.path.join(folder, "%s_%d_float" % (name, n))
+    digest = hashlib.sha256()
     with open(stem + ".raw", "wb") as f:
         for k in range(0, n, SLAB):
-            field.slab(t[k:k + SLAB], t, t).astype("<f4").tofile(f)
+            data = field.slab(t[k:k + SLAB], t, t).astype("<f4").tobytes()
+            digest.update(data)
+            f.write(data)
+    print("sha256 %s  %s" % (digest.hexdigest(), os.path.basename(stem) + ".raw"), flush=True)
     with open(stem + ".nhdr", "w") as f:
         f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\nendian: little\nencoding: raw\n"
                 "data file: %s\n" % (n, n, n, os.path.basename(stem) + ".raw"))
