@@ -22,12 +22,14 @@ if [ $# -ge 1 ]; then
     [ -f "$V/rmmixing_512_float.nhdr" ] || $py "$here/tradeoff_volumes.py" "$V" --size 512 --seed 1
     rm -rf "$V/sz3"
     $py "$here/tradeoff.py" compressors --codecs sz3 --sz3-modes abs,psnr --out "$V/sz3" \
-      --volumes "$V"/*_512_float.nhdr --targets-from "$RD/net512.csv" --skip-targets-in "$RD/codecs_512.csv"
-    [ -f "$V/sz3/tradeoff.csv" ] && tail -n +2 "$V/sz3/tradeoff.csv" >> "$RD/codecs_512.csv"
+      --volumes "$V"/*_512_float.nhdr --targets-from "$RD/net512.csv" --skip-targets-in $(ls "$RD/codecs_512.csv" 2>/dev/null)
+    if [ -f "$RD/codecs_512.csv" ]; then tail -n +2 "$V/sz3/tradeoff.csv" >> "$RD/codecs_512.csv"
+    else cp "$V/sz3/tradeoff.csv" "$RD/codecs_512.csv"; fi
   fi
 fi
-csvs=("$RD/codecs_data.csv" "$R/tradeoff_2026-11-25/neural_gpu.csv" "$RD/codecs_512.csv")
-for part in net512 torch512 seeds; do [ -f "$RD/$part.csv" ] && csvs+=("$RD/$part.csv"); done
+csvs=("$RD/codecs_data.csv" "$R/tradeoff_2026-11-25/neural_gpu.csv")
+for part in codecs_512 net512 torch512 seeds; do [ -f "$RD/$part.csv" ] && csvs+=("$RD/$part.csv"); done
 $py "$here/tradeoff_table.py" "${csvs[@]}" --legacy-seeds "$R/tradeoff_2026-11-25/seeds_results.csv" \
-  --md "$R/rd_table_2026-11-27.md" --csv-out "$R/rd_table_2026-11-27.csv" --plots "$RD" > /dev/null
+  --md "$R/rd_table_2026-11-27.md" --csv-out "$R/rd_table_2026-11-27.csv" --plots "$RD" \
+  --readme "$here/../../README.md" > /dev/null
 echo "rd_table: $R/rd_table_2026-11-27.md, $R/rd_table_2026-11-27.csv, plots in $RD"

@@ -197,7 +197,7 @@ def run_compressors(args, ctx, writer, volumes):
         values = original.astype(np.float32)
         lo, hi = float(values.min()), float(values.max())
         rng = hi - lo if hi > lo else 1.0
-        largest = max(targets + [max(args.ratios)])
+        largest = max(targets) if targets else max(args.ratios)
         searched[(volume_name(path), dims)] = targets
         print("%s: targets %s" % (volume_name(path), ", ".join("%.4g" % t for t in targets) or "none"), flush=True)
 
@@ -440,7 +440,7 @@ def main():
     if args.command in ("run", "torch") and args.torch:
         run_torch(args, ctx, writer, volumes, ints(args.torch_tables), ints(args.torch_steps))
     writer.f.close()
-    if args.command == "compressors":
+    if args.command == "compressors" and ("zfp" in args.codecs or any(searched.values())):
         check_codecs(check(csv_path), searched, False, ZFP_METHODS if "zfp" in args.codecs else [],
                      ["sz3-" + m for m in args.sz3_modes] if "sz3" in args.codecs else [])
     if args.command == "run":
