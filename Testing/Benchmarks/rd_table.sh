@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # The rate-distortion table of issue 25 (results/rd_table_2026-11-27.md, .csv and rd_table_2026-11-27/rd_*.png),
-# regenerated on the CPU machine from the committed CSVs. Usage: rd_table.sh [GPU_OUT]
-# GPU_OUT: the $OUT of run_rd_gpu.sh (net512/, torch512/, seeds/ with tradeoff.csv each). With it, its CSVs are copied
+# regenerated on the CPU machine from the committed CSVs. Usage: rd_table.sh [GPU_OUT...]
+# GPU_OUT: folders with run_rd_gpu.sh's $OUT (net512/, torch512/, seeds/ with tradeoff.csv each). With them, the CSVs are copied
 # into results/rd_table_2026-11-27/ (net512.csv, torch512.csv, seeds.csv), the 512^3 volumes are generated here
 # (tradeoff_volumes.py, seed 1, into $VOLS, default /tmp/nv_rd_volumes; compare the sha256 lines with the device's),
 # and SZ3 (ABS and PSNR modes) is bisected at the GPU run's network ratios not searched yet (the 8-bit ones), its rows
-# appended to codecs_512.csv: about 10 minutes per ratio and volume on 2 busy cores.
+# appended to codecs_512.csv: about 10 minutes per ratio and volume on 2 busy cores (NO_SZ3=1 skips it: the new
+# ratios are then compared with ZFP only).
 # PYTHONPATH: the zfpy/pysz wheels of Testing/setup.sh (build/pydeps; NV_PYDEPS overrides).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -14,10 +15,10 @@ RD=$R/rd_table_2026-11-27
 py=/usr/bin/python3
 export PYTHONPATH=${NV_PYDEPS:-$here/../../build/pydeps}
 if [ $# -ge 1 ]; then
-  for part in net512 torch512 seeds; do
-    [ -f "$1/$part/tradeoff.csv" ] && cp "$1/$part/tradeoff.csv" "$RD/$part.csv"
-  done
-  if [ -f "$RD/net512.csv" ]; then
+  for dir in "$@"; do for part in net512 torch512 seeds; do
+    if [ -f "$dir/$part/tradeoff.csv" ]; then cp "$dir/$part/tradeoff.csv" "$RD/$part.csv"; fi
+  done; done
+  if [ -f "$RD/net512.csv" ] && [ -z "${NO_SZ3:-}" ]; then
     V=${VOLS:-/tmp/nv_rd_volumes}
     [ -f "$V/rmmixing_512_float.nhdr" ] || $py "$here/tradeoff_volumes.py" "$V" --size 512 --seed 1
     rm -rf "$V/sz3"

@@ -4,6 +4,10 @@
 # .devcarry/data/{stent,walnut,headsq} (as ../shared/data). The 512^3 procedural volumes are generated here by
 # tradeoff_volumes.py (seed 1; 512 MiB each, too large to carry). Results go to $OUT (or ./rd-out).
 # Usage: run_rd_gpu.sh SECTION...
+#   prep      (on the CPU machine, before the device call; BUILD_CUDA=build-cuda by default) fills .devcarry/bin with
+#             nvBench and libNeuralEngine.so of the CUDA build, .devcarry/ref with the reference scripts of
+#             ../shared/reference, .devcarry/data/{stent,walnut,headsq} from ../shared/data, .devcarry/COMMIT: about
+#             28 MB to carry
 #   volumes   generate .devcarry/proc/{mlnoise,rmmixing}_512_float.nhdr (about 20 s)
 #   net512    the engine on both 512^3 volumes: tables 2^15..2^19 (fp16 ratios 72, 38, 20, 11, 5.9:1; 8-bit about
 #             2.4x), 4000 and 16000 steps (default annealed schedule, one run per step count), fp16 and 8-bit rows
@@ -12,13 +16,24 @@
 #             4000 steps, seeds 2 and 3 (seed 1 is in net512): equal steps over three seeds
 #   seeds     the data folder's missing PyTorch seeds (2026-11-25 had 2 at 2^14, 1 at 2^18): 2^14 seed 3 on headsq,
 #             stent, walnut; 2^18 seeds 2 and 3 on stent and walnut; 4000 steps
-# Then, on the CPU machine: Testing/Benchmarks/rd_table.sh $OUT (SZ3 bisection at the new ratios, the table).
+# Then, on the CPU machine: Testing/Benchmarks/rd_table.sh OUT_DIR... (the folders the device calls' $OUT came back
+# in; SZ3 bisection at the new ratios, then the table, its CSV, plots and the README's part).
 set -u
 B=.devcarry/bin
 D=.devcarry/data
 P=.devcarry/proc
 O=${OUT:-rd-out}
 mkdir -p "$O"
+if [ "${1:-}" = prep ]; then
+  C=${BUILD_CUDA:-build-cuda}
+  mkdir -p $B .devcarry/ref
+  cp "$C/Testing/Benchmarks/nvBench" "$C/lib/paraview-plugins/NeuralVolume/libNeuralEngine.so" $B/
+  cp ../shared/reference/quality_torch.py ../shared/reference/bench_torch.py .devcarry/ref/
+  for v in stent walnut headsq; do mkdir -p $D/$v && cp ../shared/data/$v/*.nhdr ../shared/data/$v/*.raw $D/$v/; done
+  git rev-parse --short HEAD > .devcarry/COMMIT  # the rows' commit (the device's copy has no git history)
+  du -sh .devcarry/bin .devcarry/ref $D
+  exit 0
+fi
 for f in $B/*.xz; do [ -e "$f" ] && xz -d -f "$f"; done
 chmod +x $B/nvBench 2>/dev/null
 export LD_LIBRARY_PATH=$PWD/$B${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
