@@ -10,9 +10,15 @@ Without --volumes: every regular-grid volume of ../shared/data (*.nhdr). --tiny:
 table sizes, few steps (the CI run). Sub-commands used by `run`, also usable alone:
   tradeoff.py neural ...  |  tradeoff.py compressors ...  |  tradeoff.py torch ...  |  tradeoff.py plot CSV.. --out DIR
   tradeoff.py check CSV   (every column present, every metric finite)
+Competitors (tradeoff_codecs.py), each row's method naming its mode: ZFP zfp-accuracy (tolerance swept until the
+ratio passes the largest target), zfp-precision, zfp-rate; SZ3 sz3-abs / sz3-rel / sz3-psnr with the bound bisected
+to within 2% of each target ratio: the network ratios of --targets-from CSVs (`run`: its own neural rows) and
+--targets. `compressors --codecs sz3 --skip-targets-in CSV` searches only targets not searched yet. --seeds and
+--torch-seeds repeat the neural and PyTorch runs per seed (column seed). The rate-distortion table from these CSVs:
+tradeoff_table.py; its procedural 512^3 volumes: tradeoff_volumes.py.
 Rows: date, machine, gpu, commit, volume, dims, source_bytes, method, setting, steps, ratio, compress_s, decompress_s,
-psnr, max_error, ssim. compress_s is the training time for the neural rows (setup excluded), decompress_s the decode
-of the whole grid into host memory. Ratios are source bytes (the volume's own type) over stored bytes (the network as
+psnr, max_error, ssim, target_ratio, seed (volumes above 2^25 voxels: ssim not computed). compress_s is the training
+time for the neural rows (setup excluded), decompress_s the decode of the whole grid into host memory. Ratios are source bytes (the volume's own type) over stored bytes (the network as
 stored, ZFP/SZ3 stream). --storage (the neural sweep; default both): fp16 rows are the methods neural-gpu / neural-cpu,
 8-bit entropy-coded rows (Neural Compress's StoragePrecision "8-bit (entropy coded)") neural-gpu-q8 / neural-cpu-q8;
 both come from the same training run (nvBench tradeoff --storage), so their compress_s are the same."""
