@@ -9,8 +9,8 @@ NAME_<n>_float.nhdr + .raw (float32, little endian) into a folder (never commit 
   (lattices of 4 to n/2 cells, smoothstep-interpolated, amplitude halving per octave; 0.35 of the signal's range).
 - rmmixing: a Richtmyer-Meshkov-like mixing layer: heavy fluid (density 3) over light (1) across a multi-mode
   perturbed interface (modes up to 16 per side, amplitude ~ 1/k), folded inside a mixing zone by ridged multi-scale
-  noise (bubbles and spikes), the interface about 1.5 voxels wide, and a rippled transmitted shock (density x 1.3)
-  above the layer.
+  noise (bubbles and spikes), the interface about 1.5 voxels wide, a rippled transmitted shock (density x 1.3)
+  above the layer, and +-2% multi-scale fluctuations everywhere (acoustic waves: no region exactly constant).
 Every value comes from numpy's default_rng(seed) lattices and closed-form functions, evaluated in z-slabs (a 512^3
 volume needs about 1 GiB while it is written). numpy only, so the GPU machine can generate them itself."""
 import argparse
@@ -91,6 +91,7 @@ class RmMixing:
         self.turbulence = ValueNoise(rng, max(4, n // 2), persistence=0.6, ridged=True)
         self.width_noise = ValueNoise(rng, 16)
         self.shock_noise = ValueNoise(rng, 32)
+        self.acoustic = ValueNoise(rng, max(4, n // 4), persistence=0.7)
         self.delta = 1.5 / n  # the interface's width: about 1.5 voxels
 
     def surface(self, ty, tx):
@@ -112,6 +113,9 @@ class RmMixing:
         density = 1.0 + 2.0 * heavy
         shock = 0.8 + 0.02 * self.shock_noise.slab(tz, ty, tx)
         density *= 1.0 + 0.3 * 0.5 * (1.0 + np.tanh((shock - tz[:, None, None]) / self.delta))
+        # Acoustic waves and the flow's small-scale fluctuations: +-2% everywhere (no region is exactly constant, as
+        # in a simulation's output).
+        density *= 1.0 + 0.02 * self.acoustic.slab(tz, ty, tx)
         return density.astype(np.float32)
 
 
