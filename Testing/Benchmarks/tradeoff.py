@@ -220,9 +220,11 @@ def run_compressors(args, ctx, writer, volumes):
         # fixed rate only at the targets, the SZ3 grid is coarser (tradeoff_codecs.Sz3Search).
         coarse = original.size > IMAGE_METRIC_MAX_VOXELS
         if "zfp" in args.codecs:
-            for setting, e in tc.zfp_accuracy(values, original.nbytes, rng, largest, 1e-4 if coarse else 1e-5):
+            smallest = min(targets) if targets else None
+            for setting, e in tc.zfp_accuracy(values, original.nbytes, rng, largest, 1e-4 if coarse else 1e-5,
+                                              smallest):
                 record("zfp-accuracy", setting, e)
-            for setting, e in tc.zfp_precision(values, original.nbytes, largest, 16 if coarse else 32):
+            for setting, e in tc.zfp_precision(values, original.nbytes, largest, 16 if coarse else 32, smallest):
                 record("zfp-precision", setting, e)
             bits = original.dtype.itemsize * 8
             rate_targets = {bits / r: r for r in targets}

@@ -61,28 +61,47 @@ def sz3_encode(values, mode, bound):
     return Encoded(c.nbytes, t, lambda: sz.decompress(c, np.float32, values.shape)[0].reshape(values.shape))
 
 
-def zfp_accuracy(values, source_bytes, value_range, largest_target, start=1e-5):
-    """Fixed-accuracy tolerances (factor 2 apart, from 1e-5 x range) until the ratio passes `largest_target` (or the
-    tolerance reaches ZFP_MAX_TOLERANCE x range). ZFP's errors stay far below its tolerance (a 32^3 field at a
-    tolerance of 2.6 x range still decodes at 29 dB), so the sweep goes well past the range.
-    Yields (setting, Encoded)."""
-    rel = start
-    while rel <= ZFP_MAX_TOLERANCE:
-        e = zfp_encode(values, tolerance=rel * value_range)
-        yield "tolerance %.3g x range" % rel, e
-        if source_bytes / e.stream_bytes > largest_target:
-            return
+def zfp_accuracy(values, source_bytes, value_range, largest_target, start=1e-5, smallest_target=None):
+    """Fixed-accuracy tolerances (factor 2 apart, from `start` x range) until the ratio passes `largest_target` (or the
+    tolerance reaches ZFP_MAX_TOLERANCE x range); first down from `start` while the ratio is still above
+    `smallest_target`. ZFP's errors stay far below its tolerance (a 32^3 field at a tolerance of 2.6 x range still
+    decodes at 29 dB), so the sweep goes well past the range. Yields (setting, Encoded)."""
+    def at(rel):
+        return "tolerance %.3g x range" % rel, zfp_encode(values, tolerance=rel * value_range)
+
+    first = at(start)
+    yield first
+    rel, ratio = start, source_bytes / first[1].stream_bytes
+    while smallest_target and ratio > smallest_target and rel > 1e-9:
+        rel /= 2.0
+        row = at(rel)
+        ratio = source_bytes / row[1].stream_bytes
+        yield row
+    rel, ratio = start, source_bytes / first[1].stream_bytes
+    while ratio <= largest_target and rel * 2.0 <= ZFP_MAX_TOLERANCE:
         rel *= 2.0
+        row = at(rel)
+        ratio = source_bytes / row[1].stream_bytes
+        yield row
 
 
-def zfp_precision(values, source_bytes, largest_target, most=32):
-    """Fixed precision from many bit planes down to 1 (the ratio grows as the precision falls), stopping below the
-    first precision whose ratio passes `largest_target`."""
+def zfp_precision(values, source_bytes, largest_target, most=32, smallest_target=None):
+    """Fixed precision from `most` bit planes down to 1 (the ratio grows as the precision falls), stopping below the
+    first precision whose ratio passes `largest_target`; then up from `most` while the ratio is still above
+    `smallest_target`."""
+    ratios = {}
     for p in sorted((p for p in ZFP_PRECISIONS if p <= most), reverse=True):
         e = zfp_encode(values, precision=p)
+        ratios[p] = source_bytes / e.stream_bytes
         yield "precision %d" % p, e
-        if source_bytes / e.stream_bytes > largest_target:
-            return
+        if ratios[p] > largest_target:
+            break
+    if smallest_target and ratios and ratios[max(ratios)] > smallest_target:
+        for p in sorted(p for p in ZFP_PRECISIONS if p > most):
+            e = zfp_encode(values, precision=p)
+            yield "precision %d" % p, e
+            if source_bytes / e.stream_bytes <= smallest_target:
+                break
 
 
 def zfp_rate(values, source_bits, ratios):
