@@ -36,18 +36,23 @@ def write_nhdr(path, array):
                 % (names[array.dtype], nx, ny, nz, os.path.basename(raw)))
 
 
-def errors(original, decoded):
+def errors(original, decoded, slab=32):
     """(PSNR over every voxel with values normalised by the original's range, max abs error in source units).
-    A non-finite decoded value gives (nan, inf): never a good score."""
-    o = original.astype(np.float64)
-    d = decoded.astype(np.float64)
-    if not np.all(np.isfinite(d)):
-        return float("nan"), float("inf")
-    lo, hi = float(o.min()), float(o.max())
+    A non-finite decoded value gives (nan, inf): never a good score. Summed over slabs of the first axis in float64,
+    so that a 512^3 volume needs no full-size float64 copies."""
+    lo, hi = float(original.min()), float(original.max())
     rng = hi - lo if hi > lo else 1.0
-    mse = float(np.mean(((d - o) / rng) ** 2))
+    sq, worst = 0.0, 0.0
+    for k in range(0, original.shape[0], slab):
+        d = decoded[k:k + slab].astype(np.float64)
+        if not np.all(np.isfinite(d)):
+            return float("nan"), float("inf")
+        diff = d - original[k:k + slab].astype(np.float64)
+        sq += float(np.sum((diff / rng) ** 2))
+        worst = max(worst, float(np.max(np.abs(diff))))
+    mse = sq / original.size
     psnr = -10.0 * math.log10(mse) if mse > 0 else float("inf")
-    return psnr, float(np.max(np.abs(d - o)))
+    return psnr, worst
 
 
 def render(volume, lo, hi, threshold, axis):
