@@ -8,6 +8,13 @@
 // Particles with a non-finite position or value, or a radius that is not finite and positive, are skipped and
 // counted (ParticleCounts); a set with none left, or whose particles all lie at one point when the radius is
 // automatic, is refused (nv::Error).
+// Radii that differ widely (adaptive smoothing lengths, a few huge radii): the locator files the particles by radius
+// class -- radii within a factor 2 of each other, at most kRadiusClasses classes, the smallest radii sharing the last
+// -- in one grid per class whose cells are the class's largest radius. A query visits at most 27 cells of each grid,
+// so the particles it visits have supports about as large as those cells: a few huge radii cost a few visits, not a
+// visit of every particle (a single grid of the largest radius made every query read most of the set). A radius above
+// kMaxRadiusExtents times the box's largest extent is clamped to it and counted (ParticleCounts::ClampedRadius): such
+// a particle's kernel is flat over the box (within 1e-5 of its centre value) and its weight would underflow float.
 #pragma once
 
 #include "ParticleGrid.h"
@@ -16,6 +23,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nv
 {
@@ -37,6 +45,10 @@ struct ParticleOptions
 
 /// The automatic radius in mean particle spacings (about 33 neighbours within the support of a uniform set).
 constexpr double kAutoRadiusSpacings = 2.0;
+/// Radius classes of the locator (a factor 2 apart: radii 2^11 = 2048 times below the largest share the last).
+constexpr int kRadiusClasses = 12;
+/// Radii are clamped to this many times the largest extent of the particles' box.
+constexpr double kMaxRadiusExtents = 1000.0;
 
 /// count particles: positions (interleaved xyz), values, optional per-particle support radii (null: Options.Radius).
 struct ParticleInput
@@ -50,6 +62,7 @@ struct ParticleInput
 struct ParticleCounts
 {
   int64_t Used = 0, BadPosition = 0, BadValue = 0, BadRadius = 0;
+  int64_t ClampedRadius = 0; ///< used, with the radius clamped to kMaxRadiusExtents box extents
 };
 
 class ParticleField
@@ -71,12 +84,25 @@ public:
   double meanSpacing() const { return this->Spacing; }
   double maxRadius() const { return this->MaxRadius; }
   double minRadius() const { return this->MinRadius; }
-  int64_t locatorBytes() const { return this->Grid ? this->Grid->bytes() : 0; }
+  /// Bytes the locator holds (records and cell starts of every radius class).
+  int64_t locatorBytes() const;
+  /// The radius classes the locator holds a grid for (1 when every radius is the same).
+  int radiusClasses() const { return int(this->Grids.size()); }
+  /// The particles the locator visits for a query at world point x (inside or not of their supports): the work of
+  /// evaluate(x), for tests and cost estimates.
+  int64_t candidates(const double x[3]) const;
   /// "200000 particles, cubic spline, radius 0.031 (automatic: 2 x mean spacing 0.0155), interpolated".
   std::string describe() const;
 
 private:
   std::vector<ParticleRecord> Gather(const ParticleInput& input);
+  void BuildLocator(std::vector<ParticleRecord> records, const double extent[3]);
+  template <class Visit>
+  void forEachNear(const double u[3], Visit&& visit) const
+  {
+    for (size_t g = 0; g < this->Grids.size(); ++g)
+      this->Grids[g]->forEachNear(u, this->GridReach[g], visit);
+  }
 
   ParticleOptions Options;
   ParticleCounts Counts;
@@ -85,7 +111,9 @@ private:
   double Scale = 1.0;           ///< world -> the records' units (1 / the box's largest extent)
   double ScaledMaxRadius = 0.0; ///< MaxRadius in the records' units
   bool AutomaticRadius = false;
-  std::unique_ptr<ParticleGrid> Grid;
+  std::vector<std::unique_ptr<ParticleGrid>> Grids; ///< one per radius class, largest radii first
+  std::vector<double> GridReach;                    ///< the largest radius of each grid's particles (records' units)
+  size_t OrderGrid = 0;                             ///< the grid with the most particles (query order)
 };
 
 } // namespace nv

@@ -252,4 +252,59 @@ NV_TEST(UnitsDoNotMatter)
   }
 }
 
+NV_TEST(HugeRadiiStayCheap)
+{
+  // 20^3 jittered particles of radius 0.1 (about 33 neighbours each) and 10 of them with a radius of 5 boxes (a
+  // bad smoothing length or a unit slip): the locator files the 10 in a radius class of their own, so a query visits
+  // about as many particles as without them plus the 10 (a single grid of the largest radius: all 8000); the values
+  // match a brute-force sum. Radii above 1000 boxes are clamped and counted.
+  const Lattice lattice(20, 0.5);
+  const int64_t n = int64_t(lattice.values.size());
+  std::vector<double> radii(size_t(n), 0.1);
+  for (int i = 0; i < 10; ++i)
+    radii[size_t(i * 797)] = 5.0;
+  ParticleField plain({ lattice.xyz.data(), lattice.values.data(), nullptr, n },
+    { ParticleFieldMode::Interpolate, ParticleKernel::WendlandC2, 0.1 });
+  ParticleField huge({ lattice.xyz.data(), lattice.values.data(), radii.data(), n },
+    { ParticleFieldMode::Interpolate, ParticleKernel::WendlandC2, 0.0 });
+  EXPECT_TRUE(plain.radiusClasses() == 1 && huge.radiusClasses() == 2);
+  double plainVisits = 0.0, hugeVisits = 0.0, worst = 0.0;
+  for (int q = 0; q < 500; ++q)
+  {
+    float u[3];
+    randomPoint(29, 7, uint64_t(q), u);
+    const double x[3] = { u[0], u[1], u[2] };
+    plainVisits += double(plain.candidates(x)) / 500.0;
+    hugeVisits += double(huge.candidates(x)) / 500.0;
+    double sw = 0.0, swf = 0.0, v = 0.0;
+    for (int64_t i = 0; i < n; ++i)
+    {
+      const double* p = &lattice.xyz[size_t(3 * i)];
+      const double r = radii[size_t(i)];
+      const double d = std::sqrt((x[0] - p[0]) * (x[0] - p[0]) + (x[1] - p[1]) * (x[1] - p[1]) +
+        (x[2] - p[2]) * (x[2] - p[2]));
+      const double w = particleKernel(ParticleKernel::WendlandC2, d / r) / (r * r * r);
+      sw += w;
+      swf += w * float(lattice.values[size_t(i)]);
+    }
+    EXPECT_TRUE(huge.evaluate(x, v));
+    worst = std::max(worst, std::fabs(v - swf / sw));
+  }
+  std::printf("  visits per query: %.1f with radius 0.1 only, %.1f with 10 radii of 5 boxes; worst |diff| %.2e\n",
+    plainVisits, hugeVisits, worst);
+  EXPECT_TRUE(hugeVisits < plainVisits + 10.5 && hugeVisits > 10.0 && worst < 1e-4);
+  // A radius of 1e9 boxes: clamped to 1000 boxes, counted, named in the description; the field stays finite.
+  radii[0] = 1e9;
+  ParticleField clamped({ lattice.xyz.data(), lattice.values.data(), radii.data(), n },
+    { ParticleFieldMode::Density, ParticleKernel::CubicSpline, 0.0 });
+  EXPECT_TRUE(clamped.counts().ClampedRadius == 1 && clamped.radiusClasses() == 3);
+  const double* b = clamped.bounds();
+  EXPECT_NEAR_REL(clamped.maxRadius(), 1000.0 * std::max({ b[1] - b[0], b[3] - b[2], b[5] - b[4] }), 1e-6, 0.0);
+  EXPECT_TRUE(clamped.describe().find("1 radii clamped to 1000 x the box") != std::string::npos);
+  const double centre[3] = { 0.5, 0.5, 0.5 }, far[3] = { 40.0, 0.5, 0.5 };
+  double inside = 0.0, outside = 0.0;
+  EXPECT_TRUE(clamped.evaluate(centre, inside) && std::isfinite(inside) && inside > 0.0);
+  EXPECT_TRUE(clamped.evaluate(far, outside) && outside > 0.0 && outside < inside);
+}
+
 NV_TEST_MAIN()
