@@ -6,6 +6,8 @@
 #include "Core/TrainingPoints.h"
 
 #include <algorithm>
+#include <array>
+#include <climits>
 #include <system_error>
 
 namespace nv
@@ -30,43 +32,46 @@ BlockBuffer::BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig
   , Config(config)
 {
   NV_CHECK(config.blockCells >= 1 && config.blockCells <= 1024, "blockCells must be 1..1024");
+  for (int axis = 0; axis < 3; ++axis)
+    NV_CHECK(layout.dims[axis] >= 1 && layout.dims[axis] <= INT32_MAX, "a volume file's axis holds 1 to 2^31 samples");
   const int64_t edge = config.blockCells;
-  int64_t samplesPerSlot = 1;
   for (int axis = 0; axis < 3; ++axis)
   {
     const int64_t cells = cellsAlong(layout.dims[axis]);
     this->BlocksPerAxis[axis] = cells == 0 ? 1 : (cells + edge - 1) / edge;
-    samplesPerSlot *= std::min(cells, edge) + 1;
+    this->SamplesPerSlot *= std::min(cells, edge) + 1;
+    this->FullCellCount *= static_cast<int32_t>(std::max<int64_t>(1, std::min(cells, edge)));
   }
   this->BlockCount = this->BlocksPerAxis[0] * this->BlocksPerAxis[1] * this->BlocksPerAxis[2];
-  const int64_t slotBytes = samplesPerSlot * static_cast<int64_t>(sizeof(float));
-  const int64_t slots = config.memoryBudgetBytes / slotBytes;
+  // A slot: its samples in the arena, its place (Slot) and its entry in Resident; a loading slot also has entries in
+  // Free and Ready (8 bytes more).
+  const int64_t slotBytes = this->SamplesPerSlot * static_cast<int64_t>(sizeof(float)) +
+    static_cast<int64_t>(sizeof(Slot) + sizeof(int32_t));
+  const int64_t slots = std::min<int64_t>(config.memoryBudgetBytes / slotBytes, INT32_MAX / 2);
   if (slots < 2)
     NV_THROW("the out-of-core memory budget (" + std::to_string(config.memoryBudgetBytes) + " bytes) holds fewer than "
       "two blocks of " + std::to_string(slotBytes) + " bytes: raise MemoryBudget or lower the block size");
   // The loading slots asked for, else a quarter of the slots (at most four per reader), are loading while the rest
-  // are drawn from; a volume whose blocks all fit is resident whole and nothing is replaced.
+  // are drawn from (less the slots their list entries take); a volume whose blocks all fit is resident whole and
+  // nothing is replaced.
   int64_t loading = config.loadingSlots > 0
     ? std::min<int64_t>(config.loadingSlots, slots - 1)
     : std::max<int64_t>(1, std::min<int64_t>(slots / 4, 4 * std::max(1, config.readerThreads)));
-  int64_t resident = slots - loading;
+  const int64_t loadingBytes = loading * (slotBytes + 2 * static_cast<int64_t>(sizeof(int32_t)));
+  int64_t resident = std::max<int64_t>(1, std::min(slots - loading, (config.memoryBudgetBytes - loadingBytes) / slotBytes));
   if (resident >= this->BlockCount)
   {
     resident = this->BlockCount;
     loading = 0;
   }
+  this->Arena.resize(static_cast<size_t>((resident + loading) * this->SamplesPerSlot)); // all the memory, up front
   this->Slots.resize(static_cast<size_t>(resident + loading));
-  for (Slot& slot : this->Slots)
-    slot.samples.reserve(static_cast<size_t>(samplesPerSlot)); // all the memory, up front
-  for (int64_t k = 0; k < resident; ++k)
-  {
-    const uint64_t block = loading == 0 ? static_cast<uint64_t>(k) : this->randomBlock(this->NextDraw++);
-    this->load(this->Slots[static_cast<size_t>(k)], block);
-    this->Resident.push_back(k);
-  }
+  this->Resident.reserve(static_cast<size_t>(resident));
+  this->Free.reserve(static_cast<size_t>(loading));
+  this->Ready.reserve(static_cast<size_t>(loading));
+  this->fillResidents(resident, loading == 0);
   for (int64_t k = resident; k < resident + loading; ++k)
-    this->Free.push_back(k);
-  this->weighResidents();
+    this->Free.push_back(static_cast<int32_t>(k));
   for (int t = 0; loading > 0 && t < std::max(1, config.readerThreads); ++t)
   {
     try
@@ -78,6 +83,51 @@ BlockBuffer::BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig
       break; // the threads the system gives; none: advance() reads in the caller's thread
     }
   }
+}
+
+void BlockBuffer::fillResidents(int64_t resident, bool wholeVolume)
+{
+  std::vector<uint64_t> blocks(static_cast<size_t>(resident));
+  for (int64_t k = 0; k < resident; ++k)
+    blocks[static_cast<size_t>(k)] = wholeVolume ? static_cast<uint64_t>(k) : this->randomBlock(this->NextDraw++);
+  std::atomic<int64_t> next{ 0 };
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  auto work = [&]() {
+    try
+    {
+      for (int64_t k = next++; k < resident; k = next++)
+        this->load(k, blocks[static_cast<size_t>(k)]);
+    }
+    catch (...)
+    {
+      std::lock_guard<std::mutex> lock(failureMutex);
+      failure = std::current_exception();
+      next = resident;
+    }
+  };
+  std::vector<std::thread> threads;
+  // The first reads are all there is to do: as many threads as the machine has (at least the readers, at most 16).
+  const int threadCount = std::min(16, std::max(std::max(1, this->Config.readerThreads),
+    static_cast<int>(std::thread::hardware_concurrency())));
+  for (int t = 1; t < threadCount && resident > 64; ++t)
+  {
+    try
+    {
+      threads.emplace_back(work);
+    }
+    catch (const std::system_error&)
+    {
+      break;
+    }
+  }
+  work();
+  for (std::thread& thread : threads)
+    thread.join();
+  if (failure)
+    std::rethrow_exception(failure);
+  for (int64_t k = 0; k < resident; ++k)
+    this->Resident.push_back(static_cast<int32_t>(k));
 }
 
 BlockBuffer::~BlockBuffer()
@@ -96,37 +146,41 @@ uint64_t BlockBuffer::randomBlock(uint64_t draw) const
   return static_cast<uint64_t>(randomBankIndex(this->Config.seed, 0xB10C, draw, this->BlockCount));
 }
 
-void BlockBuffer::load(Slot& slot, uint64_t blockIndex)
+void BlockBuffer::load(int64_t slotIndex, uint64_t blockIndex)
 {
   const int64_t edge = this->Config.blockCells;
   const VolumeFileLayout& layout = this->Reader.layout();
+  Slot& slot = this->Slots[static_cast<size_t>(slotIndex)];
   int64_t block[3];
   block[0] = static_cast<int64_t>(blockIndex) % this->BlocksPerAxis[0];
   block[1] = static_cast<int64_t>(blockIndex) / this->BlocksPerAxis[0] % this->BlocksPerAxis[1];
   block[2] = static_cast<int64_t>(blockIndex) / (this->BlocksPerAxis[0] * this->BlocksPerAxis[1]);
   std::array<int64_t, 3> origin{}, size{};
+  slot.cellCount = 1;
   for (int axis = 0; axis < 3; ++axis)
   {
     origin[axis] = block[axis] * edge;
-    slot.origin[axis] = origin[axis];
-    slot.cells[axis] = std::min(edge, cellsAlong(layout.dims[axis]) - origin[axis]);
+    slot.origin[axis] = static_cast<int32_t>(origin[axis]);
+    slot.cells[axis] = static_cast<int16_t>(std::min(edge, cellsAlong(layout.dims[axis]) - origin[axis]));
+    slot.cellCount *= std::max<int32_t>(1, slot.cells[axis]);
     size[axis] = slot.cells[axis] + 1;
   }
-  slot.samples.resize(static_cast<size_t>(size[0] * size[1] * size[2])); // within the reserved capacity
-  this->Reader.readBox(origin, size, slot.samples.data());
+  this->Reader.readBox(origin, size, this->samplesOf(slotIndex)); // within the slot's share of the arena
   ++this->BlocksRead;
 }
 
-void BlockBuffer::weighResidents()
+int64_t BlockBuffer::drawPosition(uint64_t seed, uint64_t step, uint64_t index) const
 {
-  this->CumulativeCells.resize(this->Resident.size());
-  int64_t total = 0;
-  for (size_t k = 0; k < this->Resident.size(); ++k)
+  const int64_t resident = static_cast<int64_t>(this->Resident.size());
+  constexpr uint64_t kAttempts = 64; // a far-face block is rarely below 1/64 of a full one; then it is kept anyway
+  for (uint64_t attempt = 0;; ++attempt)
   {
-    const Slot& slot = this->Slots[static_cast<size_t>(this->Resident[k])];
-    total += std::max<int64_t>(1, slot.cells[0]) * std::max<int64_t>(1, slot.cells[1]) *
-      std::max<int64_t>(1, slot.cells[2]);
-    this->CumulativeCells[k] = total;
+    const uint64_t draw = index * kAttempts + attempt;
+    const int64_t position = randomBankIndex(seed, step, draw, resident);
+    const Slot& slot = this->Slots[static_cast<size_t>(this->Resident[static_cast<size_t>(position)])];
+    if (slot.cellCount == this->FullCellCount || attempt + 1 == kAttempts ||
+      randomBankIndex(seed ^ 0xACCE97ull, step, draw, this->FullCellCount) < slot.cellCount)
+      return position;
   }
 }
 
@@ -134,15 +188,11 @@ void BlockBuffer::drawSamples(int64_t count, uint64_t seed, uint64_t step, float
   int64_t first) const
 {
   const int64_t* dims = this->Reader.layout().dims;
-  const int64_t totalCells = this->CumulativeCells.back();
   for (int64_t i = 0; i < count; ++i)
   {
     const uint64_t index = static_cast<uint64_t>(first + i);
-    const int64_t cell = randomBankIndex(seed, step, index, totalCells);
-    const size_t position = static_cast<size_t>(
-      std::upper_bound(this->CumulativeCells.begin(), this->CumulativeCells.end(), cell) -
-      this->CumulativeCells.begin());
-    const Slot& slot = this->Slots[static_cast<size_t>(this->Resident[position])];
+    const int64_t slotIndex = this->Resident[static_cast<size_t>(this->drawPosition(seed, step, index))];
+    const Slot& slot = this->Slots[static_cast<size_t>(slotIndex)];
     float u[3];
     int64_t base[3];
     float t[3];
@@ -159,7 +209,7 @@ void BlockBuffer::drawSamples(int64_t count, uint64_t seed, uint64_t step, float
     }
     const int64_t nx = slot.cells[0] + 1, ny = slot.cells[1] + 1;
     const int64_t step1[3] = { slot.cells[0] > 0 ? 1 : 0, slot.cells[1] > 0 ? nx : 0, slot.cells[2] > 0 ? nx * ny : 0 };
-    const float* corner = slot.samples.data() + (base[2] * ny + base[1]) * nx + base[0];
+    const float* corner = this->samplesOf(slotIndex) + (base[2] * ny + base[1]) * nx + base[0];
     float value = 0.0f;
     for (int c = 0; c < 8; ++c)
     {
@@ -186,8 +236,8 @@ void BlockBuffer::advance(int blocks)
       // No reader thread could be made: read here.
       const int64_t slot = this->Free.back();
       this->Free.pop_back();
-      this->load(this->Slots[static_cast<size_t>(slot)], this->randomBlock(this->NextDraw++));
-      this->Ready.push_back(slot);
+      this->load(slot, this->randomBlock(this->NextDraw++));
+      this->Ready.push_back(static_cast<int32_t>(slot));
     }
     if (this->Ready.empty())
     {
@@ -198,10 +248,9 @@ void BlockBuffer::advance(int blocks)
     this->Ready.pop_back();
     const int64_t position = randomBankIndex(this->Config.seed, 0x5A9, this->SwapDraw++, resident);
     this->Free.push_back(this->Resident[static_cast<size_t>(position)]);
-    this->Resident[static_cast<size_t>(position)] = loaded;
+    this->Resident[static_cast<size_t>(position)] = static_cast<int32_t>(loaded);
     ++this->BlocksSwapped;
   }
-  this->weighResidents();
   lock.unlock();
   this->Wake.notify_all();
 }
@@ -220,18 +269,24 @@ void BlockBuffer::readerLoop()
     lock.unlock();
     try
     {
-      this->load(this->Slots[static_cast<size_t>(slot)], block);
+      this->load(slot, block);
     }
     catch (...)
     {
       lock.lock();
       this->ReaderError = std::current_exception();
-      this->Free.push_back(slot);
+      this->Free.push_back(static_cast<int32_t>(slot));
       continue;
     }
     lock.lock();
-    this->Ready.push_back(slot);
+    this->Ready.push_back(static_cast<int32_t>(slot));
   }
+}
+
+int64_t BlockBuffer::bytesPerSlot(int blockCells)
+{
+  const int64_t side = int64_t(blockCells) + 1;
+  return side * side * side * static_cast<int64_t>(sizeof(float)) + static_cast<int64_t>(sizeof(Slot) + sizeof(int32_t));
 }
 
 BlockBufferStats BlockBuffer::stats() const
@@ -244,8 +299,8 @@ BlockBufferStats BlockBuffer::stats() const
   s.blocksSwapped = this->BlocksSwapped;
   s.swapsMissed = this->SwapsMissed;
   s.bytesRead = this->Reader.bytesRead();
-  for (const Slot& slot : this->Slots)
-    s.bufferBytes += static_cast<int64_t>(slot.samples.capacity() * sizeof(float));
+  s.bufferBytes = static_cast<int64_t>(this->Arena.capacity() * sizeof(float) + this->Slots.capacity() * sizeof(Slot) +
+    (this->Resident.capacity() + this->Free.capacity() + this->Ready.capacity()) * sizeof(int32_t));
   return s;
 }
 

@@ -1,8 +1,9 @@
 // NeuralVolume engine, out-of-core training (issue 22): the paper's random block buffer. A bounded number of blocks
 // of a volume file (VolumeFileReader.h) are resident; training samples are drawn from them at random positions
 // (trilinear, as the in-memory samplers interpolate the field); reader threads load replacement blocks with pread
-// while training goes on, and advance() swaps the ready ones in. Memory: every slot, resident or loading, fits the
-// byte budget given; nothing else grows with the file.
+// while training goes on, and advance() swaps the ready ones in. Memory: every slot, resident or loading, lies in
+// one allocation within the byte budget given, its block's place and list entries beside it (36 bytes); nothing else grows with the
+// file.
 //
 //   nv::BlockBuffer buffer(layout, { 256 << 20, 32, 4 });  // 256 MiB, 32^3-cell blocks, 4 reader threads
 //   buffer.drawSamples(65536, seed, step, xyz, values);     // xyz in [0,1]^3 of the volume, values in file units
@@ -56,8 +57,8 @@ public:
   /// `count` samples of step `step`: positions xyz (interleaved, [0,1]^3 of the whole volume) uniform inside the
   /// resident blocks, each block as likely as its share of their cells (a smaller block at the volume's far faces is
   /// drawn less often: the draws are uniform over the resident part of the volume), and the trilinearly
-  /// interpolated values in the file's units. Not to
-  /// be called while advance() runs (the training loop calls them in turn).
+  /// interpolated values in the file's units. O(1) a sample, whatever the number of blocks. Not to be called while
+  /// advance() runs (the training loop calls them in turn).
   /// `first`: the index of the first sample (draws are a function of seed, step and index: threads may fill disjoint
   /// ranges of one step).
   void drawSamples(int64_t count, uint64_t seed, uint64_t step, float* xyz, float* values, int64_t first = 0) const;
@@ -65,19 +66,26 @@ public:
   /// never waits for a read. Rethrows a reader's error (the file shrank, an I/O error).
   void advance(int blocks);
   BlockBufferStats stats() const;
+  /// The budget a slot of full blocks of `blockCells` cells per edge takes: its samples and its bookkeeping.
+  static int64_t bytesPerSlot(int blockCells);
   const VolumeFileLayout& layout() const { return Reader.layout(); }
 
 private:
   struct Slot
   {
-    int64_t origin[3] = { 0, 0, 0 }; ///< first sample of the block
-    int64_t cells[3] = { 1, 1, 1 };  ///< cells it spans per axis (fewer at the volume's far faces)
-    std::vector<float> samples;      ///< (cells + 1) per axis, x fastest
+    int32_t origin[3] = { 0, 0, 0 }; ///< first sample of the block (a model's axes hold at most 2^20 samples)
+    int16_t cells[3] = { 1, 1, 1 };  ///< cells it spans per axis (fewer at the volume's far faces; blockCells <= 1024)
+    int32_t cellCount = 1;           ///< cells[0] * cells[1] * cells[2], flat axes counting 1
   };
 
-  void load(Slot& slot, uint64_t blockIndex);
-  /// CumulativeCells from the resident slots (after the first reads and after every swap).
-  void weighResidents();
+  float* samplesOf(int64_t slot) { return this->Arena.data() + slot * this->SamplesPerSlot; }
+  const float* samplesOf(int64_t slot) const { return this->Arena.data() + slot * this->SamplesPerSlot; }
+  void load(int64_t slot, uint64_t blockIndex);
+  /// The first reads: every resident slot, on up to readerThreads threads.
+  void fillResidents(int64_t resident, bool wholeVolume);
+  /// The resident position of sample `index` of a step: uniform over the resident slots, a smaller block at the far
+  /// faces kept with the probability of its share of a full block's cells (O(1), no table of weights).
+  int64_t drawPosition(uint64_t seed, uint64_t step, uint64_t index) const;
   uint64_t randomBlock(uint64_t draw) const;
   void readerLoop();
 
@@ -85,11 +93,13 @@ private:
   BlockBufferConfig Config;
   int64_t BlocksPerAxis[3] = { 1, 1, 1 };
   int64_t BlockCount = 1;
+  int64_t SamplesPerSlot = 1;      ///< a full block's samples
+  int32_t FullCellCount = 1;       ///< a full block's cells (flat axes counting 1)
+  std::vector<float> Arena;        ///< every slot's samples, SamplesPerSlot apart: the budget, allocated once
   std::vector<Slot> Slots;         ///< resident first (Resident[k] indexes them), then loading
-  std::vector<int64_t> Resident;   ///< slot of each resident block
-  std::vector<int64_t> CumulativeCells; ///< cells of Resident[0..k] (flat axes count 1): drawSamples' weights
-  std::vector<int64_t> Free;       ///< slots waiting for a reader
-  std::vector<int64_t> Ready;      ///< slots a reader filled, waiting for advance()
+  std::vector<int32_t> Resident;   ///< slot of each resident block
+  std::vector<int32_t> Free;       ///< slots waiting for a reader
+  std::vector<int32_t> Ready;      ///< slots a reader filled, waiting for advance()
   mutable std::mutex Mutex;
   std::condition_variable Wake;
   std::vector<std::thread> Readers;

@@ -68,7 +68,7 @@ int BlockCellsFor(int64_t bufferBytes, int batchSize)
 {
   const double wanted = double(std::max(1, batchSize)) * kBlocksPerBatchSample;
   for (int edge = 32; edge > 2; --edge)
-    if (double(bufferBytes) / (double(edge + 1) * (edge + 1) * (edge + 1) * sizeof(float)) >= wanted)
+    if (double(bufferBytes) / double(nv::BlockBuffer::bytesPerSlot(edge)) >= wanted)
       return edge;
   return 2;
 }
@@ -81,7 +81,7 @@ int BlockCellsFor(int64_t bufferBytes, int batchSize)
 int64_t LoadingSlotsFor(int64_t bufferBytes, int blockCells)
 {
   const int64_t side = blockCells + 1;
-  const int64_t slots = bufferBytes / (side * side * side * int64_t(sizeof(float)));
+  const int64_t slots = bufferBytes / nv::BlockBuffer::bytesPerSlot(blockCells);
   const int64_t perStep = std::max<int64_t>(kMinBlocksPerStep, kRowReadsPerStep / (side * side));
   return std::max<int64_t>(2, std::min(2 * perStep, slots / 4));
 }

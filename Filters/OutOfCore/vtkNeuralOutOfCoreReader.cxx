@@ -4,6 +4,7 @@
 #include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Error.h"
+#include "Core/Model.h"
 #include "OutOfCore/VolumeFileLayout.h"
 
 #include "vtkImageData.h"
@@ -54,6 +55,11 @@ int vtkNeuralOutOfCoreReader::RequestInformation(
     const int ext[6] = { 0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1) };
     if (layout.dims[0] > VTK_INT_MAX || layout.dims[1] > VTK_INT_MAX || layout.dims[2] > VTK_INT_MAX)
       throw nv::Error("more than 2^31 samples along an axis");
+    // What a network can state, checked at the header: not after a pass over the whole file.
+    nv::SourceInfo grid;
+    for (int axis = 0; axis < 3; ++axis)
+      grid.dims[axis] = layout.dims[axis];
+    nv::validate(grid);
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext, 6);
     outInfo->Set(vtkDataObject::SPACING(), layout.spacing, 3);
     outInfo->Set(vtkDataObject::ORIGIN(), layout.origin, 3);

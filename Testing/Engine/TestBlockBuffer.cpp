@@ -71,7 +71,8 @@ NV_TEST(samples_sit_where_their_values_say)
   const nv::VolumeFileLayout layout = linearVolume("lin", 37, 21, 17);
   nv::BlockBufferConfig config;
   config.blockCells = 8;
-  config.memoryBudgetBytes = 12 * 9 * 9 * 9 * 4; // 12 slots of 9^3 samples: 9 resident, 3 loading
+  // 12 slots of 9^3 samples and their bookkeeping (place, list entries: under 64 bytes): 9 resident, 3 loading
+  config.memoryBudgetBytes = 12 * (9 * 9 * 9 * 4 + 64);
   nv::BlockBuffer buffer(layout, config);
   const nv::BlockBufferStats s = buffer.stats();
   EXPECT_TRUE(s.residentBlocks == 9 && s.loadingSlots == 3);
@@ -90,6 +91,25 @@ NV_TEST(samples_sit_where_their_values_say)
     EXPECT_NEAR_REL(double(misplaced(layout, xyz, values)), 0.0, 0.0, 0.0);
     buffer.advance(2);
   }
+  // Resident whole (5 x 3 x 2 blocks, the far ones smaller: 4 of 36 cells in x, 4 of 20 in y, none in z): the draws
+  // are uniform over the volume, the smaller blocks drawn as often as their share of the cells.
+  nv::BlockBufferConfig whole = config;
+  whole.memoryBudgetBytes = 64 * (9 * 9 * 9 * 4 + 56);
+  nv::BlockBuffer wholeBuffer(layout, whole);
+  EXPECT_TRUE(wholeBuffer.stats().residentBlocks == 30 && wholeBuffer.stats().loadingSlots == 0);
+  const int64_t draws = 200000;
+  std::vector<float> many(3 * draws), manyValues(draws);
+  wholeBuffer.drawSamples(draws, 11, 0, many.data(), manyValues.data());
+  int64_t farX = 0, farY = 0;
+  for (int64_t i = 0; i < draws; ++i)
+  {
+    farX += many[3 * i] > 32.0f / 36.0f ? 1 : 0;
+    farY += many[3 * i + 1] > 16.0f / 20.0f ? 1 : 0;
+  }
+  std::printf("  far blocks drawn: x %.4f (expected %.4f), y %.4f (expected %.4f)\n", double(farX) / draws, 4.0 / 36.0,
+    double(farY) / draws, 4.0 / 20.0);
+  EXPECT_NEAR_REL(double(farX) / draws, 4.0 / 36.0, 0.0, 0.03);
+  EXPECT_NEAR_REL(double(farY) / draws, 4.0 / 20.0, 0.0, 0.03);
   // A flat volume (one sample along z): z at the middle, the values those of the plane.
   const nv::VolumeFileLayout flat = linearVolume("flat", 9, 7, 1);
   nv::BlockBuffer flatBuffer(flat, config);
