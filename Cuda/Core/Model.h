@@ -2,6 +2,7 @@
 #pragma once
 
 #include "Config.h"
+#include "ErrorCorrections.h"
 #include "HashGridMath.h"
 #include "ValueRange.h"
 
@@ -127,6 +128,13 @@ public:
 
   SourceInfo source;
   TrainingStats stats;
+  /// The error-bounded mode (ErrorCorrections.h): the bound and the corrections of the stored parameters, applied by
+  /// decodeGridValues() on the source's grid. Off (bound 0) unless set after training; changing the parameters
+  /// makes them stale (the filter computes them again at each phase end).
+  ErrorCorrections corrections;
+  /// Bytes of the stored network: parameterBytes() and the corrections' (ErrorCorrections::storedBytes()). The
+  /// compression ratio is source.rawBytes / storedBytes().
+  int64_t storedBytes() const { return parameterBytes() + corrections.storedBytes(); }
 
   /// Map a de-normalised value to [0,1] and back.
   double denormalize(double y) const { return valueRange().denormalize(y); }

@@ -163,6 +163,15 @@ public:
   ///@}
 
   ///@{
+  /// Error-bounded mode: after training, the samples whose decoded value misses the input by more than MaxError
+  /// (data units) are stored with the network as a sparse correction list, so that the field decoded on the input's
+  /// grid meets |decoded - input| <= MaxError at every sample; the ratio counts the list. 0 = off. A negative or
+  /// non-finite value is refused (a warning; the mode is off). Image inputs trained on their own samples only.
+  void SetMaxError(double bound);
+  vtkGetMacro(MaxError, double);
+  ///@}
+
+  ///@{
   /// Hash-grid encoding. Log2TableSize 0 derives the table size from TargetCompressionRatio;
   /// FinestResolution 0 means twice the largest input dimension.
   vtkSetMacro(Levels, int);
@@ -408,6 +417,7 @@ protected:
   int Loss = LOSS_L1;
   int LearningRateSchedule = ANNEALED;
   double TargetCompressionRatio = 0.0;
+  double MaxError = 0.0;
   int Levels = 16;
   int FeaturesPerLevel = 4;
   int Log2TableSize = 0;

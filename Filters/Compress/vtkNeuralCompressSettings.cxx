@@ -45,6 +45,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
   s.MemoryBudgetMiB = this->MemoryBudget;
+  s.MaxError = this->MaxError;
   s.ParticleField = this->ParticleField;
   s.ParticleKernel = this->ParticleKernel;
   s.ParticleRadius = this->ParticleRadius;
@@ -73,6 +74,8 @@ std::string Settings::Canonical() const
     s << " last"; // the default keeps the v1 string too
   if (MemoryBudgetMiB != 0.0)
     s << " memory " << MemoryBudgetMiB; // out-of-core inputs only (others train with 0)
+  if (MaxError != 0.0)
+    s << " maxerror " << MaxError; // the corrections are part of the stored network; off keeps the v1 string
   if (ParticleField != 0 || ParticleKernel != 1 || ParticleRadius != 0.0 || !ParticleRadiusArray.empty())
     s << " particles " << ParticleField << ' ' << ParticleKernel << ' ' << ParticleRadius << " [" << ParticleRadiusArray
       << ']'; // the defaults keep the v1 string
