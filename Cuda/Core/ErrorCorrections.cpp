@@ -1,27 +1,18 @@
 #include "ErrorCorrections.h"
 
 #include "Error.h"
+#include "RansCoder.h"
 #include "ValueRange.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 namespace nv
 {
 namespace
 {
-int varintBytes(uint64_t v)
-{
-  int n = 1;
-  while (v >= 0x80u)
-  {
-    v >>= 7;
-    ++n;
-  }
-  return n;
-}
-
 void putVarint(std::vector<uint8_t>& out, uint64_t v)
 {
   while (v >= 0x80u)
@@ -54,24 +45,22 @@ uint64_t getVarint(const uint8_t* data, size_t bytes, size_t& at, const char* wh
   NV_THROW(std::string("error corrections: a varint ") + what + " longer than 64 bits");
 }
 
-/// Walks a coded list, checking it; `visit(index, steps)` sees every correction.
+/// Walks the two varint streams of a list (index steps, zig-zag steps), checking them; `visit(index, steps)` sees
+/// every correction.
 template <typename Visit>
-void walk(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples, Visit&& visit)
+void walk(const std::vector<uint8_t>& indexBytes, const std::vector<uint8_t>& stepBytes, uint64_t count,
+  int64_t samples, Visit&& visit)
 {
-  NV_CHECK(data != nullptr || bytes == 0, "error corrections: null data");
-  if (count > uint64_t(samples))
-    NV_THROW("error corrections: " + std::to_string(count) + " corrections on a grid of " + std::to_string(samples) +
-      " samples");
-  size_t at = 0;
+  size_t at = 0, stepAt = 0;
   int64_t previous = -1;
   for (uint64_t k = 0; k < count; ++k)
   {
-    const uint64_t delta = getVarint(data, bytes, at, "index step");
+    const uint64_t delta = getVarint(indexBytes.data(), indexBytes.size(), at, "index step");
     if (delta < 1 || delta > uint64_t(samples - 1 - previous))
       NV_THROW("error corrections: correction " + std::to_string(k) + " steps " + std::to_string(delta) +
         " samples from " + std::to_string(previous) + " on a grid of " + std::to_string(samples));
     previous += static_cast<int64_t>(delta);
-    const uint64_t z = getVarint(data, bytes, at, "value");
+    const uint64_t z = getVarint(stepBytes.data(), stepBytes.size(), stepAt, "value");
     if (z == 0 || z > 0xFFFFFFFFull)
       NV_THROW("error corrections: correction " + std::to_string(k) + " of " + std::to_string(z) +
         " (zig-zag) steps: it must be non-zero and within 32 bits");
@@ -79,9 +68,57 @@ void walk(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples, Vi
     const int32_t steps = static_cast<int32_t>((z32 >> 1) ^ (0u - (z32 & 1u)));
     visit(previous, steps);
   }
+  if (at != indexBytes.size() || stepAt != stepBytes.size())
+    NV_THROW("error corrections: the list takes " + std::to_string(at) + " + " + std::to_string(stepAt) + " of its " +
+      std::to_string(indexBytes.size()) + " + " + std::to_string(stepBytes.size()) + " varint bytes");
+}
+
+/// One stream of a coded list at data[at..bytes): u64 symbol count, then its rANS block (none for 0 symbols).
+std::vector<uint8_t> readStream(const uint8_t* data, size_t bytes, size_t& at, uint64_t maxSymbols, const char* what)
+{
+  if (bytes - at < 8)
+    NV_THROW(std::string("error corrections: the ") + what + " stream's size runs past the list");
+  uint64_t n = 0;
+  std::memcpy(&n, data + at, 8);
+  at += 8;
+  if (n > maxSymbols)
+    NV_THROW(std::string("error corrections: a ") + what + " stream of " + std::to_string(n) +
+      " bytes (at most " + std::to_string(maxSymbols) + ")");
+  std::vector<uint8_t> out;
+  if (n == 0)
+    return out;
+  RansCoder::inspect(data + at, bytes - at, n); // the stream's length against the bytes present, before allocating
+  out.reserve(static_cast<size_t>(n));
+  at += RansCoder::decode(data + at, bytes - at, n, [&out](const uint8_t* sym, size_t m) {
+    out.insert(out.end(), sym, sym + m);
+  });
+  return out;
+}
+
+void putStream(std::vector<uint8_t>& out, const std::vector<uint8_t>& symbols)
+{
+  const uint64_t n = symbols.size();
+  const uint8_t* p = reinterpret_cast<const uint8_t*>(&n);
+  out.insert(out.end(), p, p + 8);
+  if (n > 0)
+    RansCoder::encode(symbols.data(), symbols.size(), out);
+}
+
+/// Decodes and checks a coded list; `visit(index, steps)` sees every correction.
+template <typename Visit>
+void walkCoded(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples, Visit&& visit)
+{
+  NV_CHECK(data != nullptr || bytes == 0, "error corrections: null data");
+  if (count > uint64_t(samples))
+    NV_THROW("error corrections: " + std::to_string(count) + " corrections on a grid of " + std::to_string(samples) +
+      " samples");
+  size_t at = 0;
+  const std::vector<uint8_t> indexBytes = readStream(data, bytes, at, 10 * count, "index");
+  const std::vector<uint8_t> stepBytes = readStream(data, bytes, at, 5 * count, "value");
   if (at != bytes)
     NV_THROW("error corrections: the list takes " + std::to_string(at) + " of its " + std::to_string(bytes) +
       " bytes");
+  walk(indexBytes, stepBytes, count, samples, visit);
 }
 
 template <typename T>
@@ -101,13 +138,7 @@ void applyTo(const ErrorCorrections& c, int64_t first, int64_t count, T* values,
 
 int64_t ErrorCorrections::codedBytes() const
 {
-  int64_t bytes = 0, previous = -1;
-  for (size_t k = 0; k < index.size(); ++k)
-  {
-    bytes += varintBytes(static_cast<uint64_t>(index[k] - previous)) + varintBytes(zigzag(steps[k]));
-    previous = index[k];
-  }
-  return bytes;
+  return static_cast<int64_t>(encodeCorrections(*this).size());
 }
 
 int64_t ErrorCorrections::storedBytes() const
@@ -188,32 +219,40 @@ void applyCorrectionsNormalised(
 std::vector<uint8_t> encodeCorrections(const ErrorCorrections& c)
 {
   NV_CHECK(c.index.size() == c.steps.size(), "error corrections: one step per index");
-  std::vector<uint8_t> out;
-  out.reserve(static_cast<size_t>(c.codedBytes()));
+  std::vector<uint8_t> indexBytes, stepBytes;
+  indexBytes.reserve(c.index.size());
+  stepBytes.reserve(c.index.size());
   int64_t previous = -1;
   for (size_t k = 0; k < c.index.size(); ++k)
   {
     NV_CHECK(c.index[k] > previous && c.steps[k] != 0, "error corrections: ascending indices, non-zero steps");
-    putVarint(out, static_cast<uint64_t>(c.index[k] - previous));
-    putVarint(out, zigzag(c.steps[k]));
+    putVarint(indexBytes, static_cast<uint64_t>(c.index[k] - previous));
+    putVarint(stepBytes, zigzag(c.steps[k]));
     previous = c.index[k];
   }
+  return packCorrectionStreams(indexBytes, stepBytes);
+}
+
+std::vector<uint8_t> packCorrectionStreams(const std::vector<uint8_t>& indexVarints, const std::vector<uint8_t>& stepVarints)
+{
+  std::vector<uint8_t> out;
+  putStream(out, indexVarints);
+  putStream(out, stepVarints);
   return out;
 }
 
 void inspectCorrections(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples)
 {
-  walk(data, bytes, count, samples, [](int64_t, int32_t) {});
+  walkCoded(data, bytes, count, samples, [](int64_t, int32_t) {});
 }
 
 ErrorCorrections decodeCorrections(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples, double bound)
 {
-  inspectCorrections(data, bytes, count, samples);
   ErrorCorrections c;
   c.bound = bound;
   c.index.reserve(static_cast<size_t>(count));
   c.steps.reserve(static_cast<size_t>(count));
-  walk(data, bytes, count, samples, [&](int64_t i, int32_t s) {
+  walkCoded(data, bytes, count, samples, [&](int64_t i, int32_t s) {
     c.index.push_back(i);
     c.steps.push_back(s);
   });

@@ -4,8 +4,9 @@
 // listed with a correction in steps of the bound: value + steps x bound lies within bound / 2 of the source on the
 // decode that computed them. The others were within kCorrectAbove x bound there; the margin left (1 - kCorrectAbove
 // of the bound) covers another decode's rounding (the other device's, fp16 accumulation), so every voxel of a decode on
-// the source's grid meets the bound. Stored form (model format version 5, Serialization.h): per correction an unsigned
-// LEB128 varint of the index step from the previous one (the first from -1), then a zig-zag varint of its steps.
+// the source's grid meets the bound. Stored form (model format version 5, Serialization.h): two byte streams, each as
+// u64 byte count and its rANS block (RansCoder.h; none for 0 bytes): the unsigned LEB128 varints of every correction's
+// index step from the previous one (the first from -1), then the zig-zag varints of their steps.
 #pragma once
 
 #include "Volume.h"
@@ -29,7 +30,7 @@ struct ErrorCorrections
 
   bool enabled() const { return bound > 0.0; }
   int64_t count() const { return static_cast<int64_t>(index.size()); }
-  /// Bytes of the coded list (encodeCorrections()).
+  /// Bytes of the coded list (encodeCorrections(): codes the list, O(count)).
   int64_t codedBytes() const;
   /// Bytes the mode adds to a stored model: the bound, the count, the coded size and the list (0 when off).
   int64_t storedBytes() const;
@@ -57,9 +58,12 @@ void applyCorrectionsNormalised(const ErrorCorrections& corrections, int64_t fir
   double valueMax, float* values);
 
 std::vector<uint8_t> encodeCorrections(const ErrorCorrections& corrections);
-/// Checks `bytes` bytes of a coded list of `count` corrections over a grid of `samples` samples without allocating:
-/// every varint complete, indices strictly ascending and below `samples`, steps non-zero and within 32 bits, all the
-/// bytes used. Throws nv::Error naming what is wrong.
+/// The coded list of two varint streams as they are (tests craft hostile lists with it).
+std::vector<uint8_t> packCorrectionStreams(const std::vector<uint8_t>& indexVarints, const std::vector<uint8_t>& stepVarints);
+/// Checks `bytes` bytes of a coded list of `count` corrections over a grid of `samples` samples: both streams' sizes
+/// (at most 10 and 5 bytes a correction) and rANS blocks against the bytes present before decoding them (at most
+/// RansCoder::kMaxSymbolsPerByte symbols a coded byte), every varint complete, indices strictly ascending and below
+/// `samples`, steps non-zero and within 32 bits, all the bytes used. Throws nv::Error naming what is wrong.
 void inspectCorrections(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples);
 /// inspectCorrections(), then the list (its bound set to `bound`).
 ErrorCorrections decodeCorrections(const uint8_t* data, size_t bytes, uint64_t count, int64_t samples, double bound);

