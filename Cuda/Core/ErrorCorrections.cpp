@@ -98,8 +98,8 @@ std::vector<uint8_t> readStream(const uint8_t* data, size_t bytes, size_t& at, u
 void putStream(std::vector<uint8_t>& out, const std::vector<uint8_t>& symbols)
 {
   const uint64_t n = symbols.size();
-  const uint8_t* p = reinterpret_cast<const uint8_t*>(&n);
-  out.insert(out.end(), p, p + 8);
+  for (int k = 0; k < 8; ++k)
+    out.push_back(static_cast<uint8_t>(n >> (8 * k))); // little endian
   if (n > 0)
     RansCoder::encode(symbols.data(), symbols.size(), out);
 }
@@ -250,8 +250,11 @@ ErrorCorrections decodeCorrections(const uint8_t* data, size_t bytes, uint64_t c
 {
   ErrorCorrections c;
   c.bound = bound;
-  c.index.reserve(static_cast<size_t>(count));
-  c.steps.reserve(static_cast<size_t>(count));
+  // A list decodes to at most RansCoder::kMaxSymbolsPerByte varint bytes a coded byte: a hostile count fails in the
+  // walk before the vectors grow far past that.
+  const uint64_t reserve = std::min<uint64_t>(count, uint64_t(bytes) * RansCoder::kMaxSymbolsPerByte);
+  c.index.reserve(static_cast<size_t>(reserve));
+  c.steps.reserve(static_cast<size_t>(reserve));
   walkCoded(data, bytes, count, samples, [&](int64_t i, int32_t s) {
     c.index.push_back(i);
     c.steps.push_back(s);
