@@ -49,6 +49,7 @@ class vtkVolumeProperty;
 namespace nv
 {
 struct RenderRequest;
+class NetworkSession;
 enum class BlendMode : int;
 }
 
@@ -313,6 +314,9 @@ private:
   nv::BlendMode EngineBlendMode();
   /// The Decode path's grid for DecodeResolution and this machine (a warning when it is clamped).
   void FitDecodeGrid();
+  /// A warning (once per network) when the network has error-bound corrections that this request's path does not
+  /// apply.
+  void WarnUnboundedPicture(nv::NetworkSession& session, const nv::RenderRequest& q);
   /// The depth of the opaque geometry already drawn, when there is any (q.depth), else q.depth stays null.
   void ReadSceneDepth(vtkRenderer* ren, vtkVolume* vol, nv::RenderRequest& q);
   /// One engine render of `q` into the compositor: on the GPU through CUDA-OpenGL interop where possible.

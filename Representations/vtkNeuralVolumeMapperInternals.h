@@ -101,6 +101,7 @@ struct vtkNeuralVolumeMapper::vtkInternals
   std::string Reported;
   std::set<int> WarnedBlendModes;
   bool WarnedDepth = false;
+  const void* WarnedUnbounded = nullptr; ///< the corrections WarnUnboundedPicture warned about
 
   // The last frame: where its time went (GetLastFrameTimings) and how its image reached the view.
   double Timings[vtkNeuralVolumeMapper::FrameTimingCount] = {};

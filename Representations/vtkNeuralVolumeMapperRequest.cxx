@@ -47,6 +47,7 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
   this->RequestShading(ren, vol->GetProperty(), interactive, q);
   this->FitDecodeGrid();
   std::copy(in.DecodeUsed, in.DecodeUsed + 3, q.decodeResolution);
+  this->WarnUnboundedPicture(session, q);
   // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
   // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
   q.waitForDecode = !this->ProgressiveRefinement && !interactive;
@@ -159,6 +160,27 @@ nv::BlendMode vtkNeuralVolumeMapper::EngineBlendMode()
   }
 }
 
+void vtkNeuralVolumeMapper::WarnUnboundedPicture(nv::NetworkSession& session, const nv::RenderRequest& q)
+{
+  // The error-bounded mode's corrections are applied where the CPU decodes the grid of the trained field's own
+  // samples; every other path draws the network's own values (an unbounded picture): said once per network.
+  const std::shared_ptr<const nv::ErrorCorrections> corrections = session.errorCorrections();
+  const int64_t* dims = session.model().source.dims;
+  const bool applied = q.path == nv::RenderPath::Decode && session.device() == nv::Device::Cpu &&
+    q.decodeResolution[0] == dims[0] && q.decodeResolution[1] == dims[1] && q.decodeResolution[2] == dims[2];
+  vtkInternals& in = *this->Internals;
+  if (!corrections || applied || in.WarnedUnbounded == corrections.get())
+    return;
+  in.WarnedUnbounded = corrections.get();
+  vtkWarningMacro("Neural Volume: the network is stored with an error bound (Max Error "
+    << corrections->bound << ", " << corrections->count() << " samples corrected), but this render ("
+    << (q.path == nv::RenderPath::Decode ? "Decode" : q.path == nv::RenderPath::InShader ? "In-Shader" : "Sample Streaming")
+    << " on the " << nv::deviceName(session.device())
+    << ") evaluates the network without the corrections: the picture is not error-bounded. The Decode path on the CPU "
+       "at the trained resolution (Decode Resolution 0 0 0), and the Neural Compress decoded output, apply them.");
+}
+
+//------------------------------------------------------------------------------
 void vtkNeuralVolumeMapper::FitDecodeGrid()
 {
   // The grid asked for (or the trained dims) clamped to what the machine holds, decided once per request and

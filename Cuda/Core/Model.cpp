@@ -246,6 +246,16 @@ int64_t Model::parameterBytes() const
   return static_cast<int64_t>(Params.size()) * (Storage == Precision::Float16 ? 2 : 4);
 }
 
+double estimatedRatio(const ModelConfig& config, int64_t rawBytes, Precision storage)
+{
+  const GridLayout g = makeGridLayout(config.encoding);
+  const double mlp = static_cast<double>(mlpParameterCount(config));
+  const double table = static_cast<double>(g.totalEntries) * g.features;
+  const double bytes = storage == Precision::Quantized8 ? table + 2.0 * mlp
+                                                        : (table + mlp) * (storage == Precision::Float16 ? 2.0 : 4.0);
+  return static_cast<double>(rawBytes) / bytes;
+}
+
 int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio, Precision storage, int minLog2,
   int maxLog2)
 {
@@ -254,28 +264,26 @@ int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio
   for (int l = minLog2; l <= maxLog2; ++l)
   {
     config.encoding.log2TableSize = l;
-    const GridLayout g = makeGridLayout(config.encoding);
-    size_t mlp = 0;
-    for (int k = 0; k <= config.network.hiddenLayers; ++k)
-    {
-      const int in = k == 0 ? config.encoding.outputDims() : config.network.width;
-      const int out = k == config.network.hiddenLayers ? 1 : config.network.width;
-      mlp += static_cast<size_t>(in) * out;
-    }
-    const double params = static_cast<double>(g.totalEntries) * g.features + static_cast<double>(mlp);
-    const double bytes = storage == Precision::Quantized8
-      ? static_cast<double>(g.totalEntries) * g.features + 2.0 * static_cast<double>(mlp)
-      : params * (storage == Precision::Float16 ? 2.0 : 4.0);
-    if (static_cast<double>(rawBytes) / bytes >= targetRatio)
-    {
-      best = l;
-    }
-    else
-    {
+    if (estimatedRatio(config, rawBytes, storage) < targetRatio)
       break;
-    }
+    best = l;
   }
   return best;
+}
+
+AutomaticSize chooseAutomaticSize(const ModelConfig& config, int64_t rawBytes, double targetRatio,
+  bool targetIsDefault, bool automaticStorage, Precision storage)
+{
+  NV_CHECK(targetRatio > 0.0 && std::isfinite(targetRatio), "target compression ratio must be > 0");
+  AutomaticSize size;
+  size.storage = automaticStorage ? Precision::Quantized8 : storage;
+  size.log2TableSize = chooseLog2TableSize(config, rawBytes, targetRatio, size.storage);
+  ModelConfig chosen = config;
+  chosen.encoding.log2TableSize = size.log2TableSize;
+  size.targetReached = estimatedRatio(chosen, rawBytes, size.storage) >= targetRatio;
+  if (!size.targetReached && targetIsDefault)
+    size.log2TableSize = chooseLog2TableSize(config, rawBytes, 1.0, size.storage); // the largest that compresses
+  return size;
 }
 
 uint16_t floatToHalf(float f)

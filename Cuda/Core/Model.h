@@ -2,6 +2,7 @@
 #pragma once
 
 #include "Config.h"
+#include "ErrorCorrections.h"
 #include "HashGridMath.h"
 #include "ValueRange.h"
 
@@ -127,6 +128,13 @@ public:
 
   SourceInfo source;
   TrainingStats stats;
+  /// The error-bounded mode (ErrorCorrections.h): the bound and the corrections of the stored parameters, applied by
+  /// decodeGridValues() on the source's grid. Off (bound 0) unless set after training; changing the parameters
+  /// makes them stale (the filter computes them again at each phase end).
+  ErrorCorrections corrections;
+  /// Bytes of the stored network: parameterBytes() and the corrections' (ErrorCorrections::storedBytes()). The
+  /// compression ratio is source.rawBytes / storedBytes().
+  int64_t storedBytes() const { return parameterBytes() + corrections.storedBytes(); }
 
   /// Map a de-normalised value to [0,1] and back.
   double denormalize(double y) const { return valueRange().denormalize(y); }
@@ -158,6 +166,27 @@ GridLayout makeGridLayout(const EncodingConfig& config);
 /// code to about 6.5 to 7 bits a feature, so the ratio reported after training is higher; see Model::parameterBytes()).
 int chooseLog2TableSize(ModelConfig config, int64_t rawBytes, double targetRatio, Precision storage,
   int minLog2 = 10, int maxLog2 = 24);
+
+/// Raw bytes / stored bytes of a network of `config` (its table size as set) stored in `storage`, counted as
+/// chooseLog2TableSize() counts it (Quantized8: a byte per table feature).
+double estimatedRatio(const ModelConfig& config, int64_t rawBytes, Precision storage);
+
+/// The automatic size of Neural Compress (Log2TableSize 0, issue 25): the table and the storage.
+struct AutomaticSize
+{
+  int log2TableSize = 10;
+  Precision storage = Precision::Float16;
+  bool targetReached = false; ///< the estimated ratio reaches the target (false: a small input, sized for quality)
+};
+/// Where the target ratio is reachable: the largest table that reaches it in `storage` (automaticStorage: in 8-bit
+/// codes, which at equal bytes hold a table twice as large; at 500 steps on the CPU walnut at 10:1 goes from 2^10
+/// fp16, 29.5 dB at 17.1:1, to 2^11 q8, 31.6 dB at 18.6:1, stent from 2^12 fp16, 34.7 dB at 15.1:1, to 2^13 q8,
+/// 35.6 dB at 17.9:1). Where no table reaches it (a small input) and the target was not set (`targetIsDefault`), the
+/// quality-first size: the largest table that still compresses the field (estimated ratio >= 1), else the smallest
+/// (headsq 64 x 64 x 93 int16: 2^13 q8, 35.4 dB at 1.7:1, where 2^10 fp16 gave 31.3 dB at 4.6:1). An explicit target
+/// out of reach keeps the smallest table (the caller warns).
+AutomaticSize chooseAutomaticSize(const ModelConfig& config, int64_t rawBytes, double targetRatio,
+  bool targetIsDefault, bool automaticStorage, Precision storage);
 
 /// IEEE half conversion (round to nearest even), used for fp16 storage.
 uint16_t floatToHalf(float f);

@@ -50,6 +50,11 @@ TrainConfig trainerConfig(const BatchSource&, const TrainConfig& config, const S
   return c;
 }
 
+std::shared_ptr<const ErrorCorrections> sharedCorrections(const Model& model)
+{
+  return model.corrections.enabled() ? std::make_shared<const ErrorCorrections>(model.corrections) : nullptr;
+}
+
 namespace
 {
 template <typename T>
@@ -65,9 +70,15 @@ void decodeValues(NetworkSession& s, int64_t nx, int64_t ny, int64_t nz, int64_t
     norm = tmp.data();
   }
   s.decodeGrid(nx, ny, nz, z0, z1, norm, Memory::Host);
-  const ValueRange range = s.model().valueRange();
+  const Model& model = s.model();
+  const ValueRange range = model.valueRange();
   for (int64_t i = 0; i < n; ++i)
     out[i] = storedValue<T>(range.denormalize(static_cast<double>(norm[i]))); // never inf in float
+  // The error-bounded mode: on the source's own grid, the listed samples are corrected to within the bound.
+  const int64_t* dims = model.source.dims;
+  const std::shared_ptr<const ErrorCorrections> corrections = s.errorCorrections();
+  if (corrections && nx == dims[0] && ny == dims[1] && nz == dims[2])
+    applyCorrections(*corrections, z0 * nx * ny, n, out);
 }
 } // namespace
 

@@ -105,11 +105,20 @@ public:
   /// Bytes of accelerator memory held (0 on the CPU).
   virtual int64_t deviceMemoryBytes() const = 0;
 
+  /// The error corrections of the current network (Model::corrections of the last setModel()), null when it has none
+  /// or when a trainer published other parameters since (they were computed for the parameters set). The CPU and CUDA
+  /// sessions keep them; the default (a session of tests that scripts its answers) has none.
+  virtual std::shared_ptr<const ErrorCorrections> errorCorrections() const { return nullptr; }
+
 protected:
   NetworkSession() = default;
 };
 
-/// Decode slices [z0, z1) de-normalised to source units (model().source range), into host memory.
+/// A shared copy of model.corrections for a session (null when the mode is off): what errorCorrections() returns.
+std::shared_ptr<const ErrorCorrections> sharedCorrections(const Model& model);
+
+/// Decode slices [z0, z1) de-normalised to source units (model().source range), into host memory. On the source's own
+/// grid (nx, ny, nz = model().source.dims) the model's error corrections (ErrorCorrections.h) are applied.
 void decodeGridValues(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,
   float* out);
 void decodeGridValues(NetworkSession& session, int64_t nx, int64_t ny, int64_t nz, int64_t z0, int64_t z1,

@@ -91,25 +91,6 @@ void checkLittleEndian()
 
 namespace
 {
-/// Slicing-by-8 tables of the reflected CRC-32 polynomial (built once, thread-safe).
-struct CrcTables
-{
-  uint32_t table[8][256]; ///< [0]: the byte-wise table; [s]: a byte carried through s more bytes
-  CrcTables()
-  {
-    for (uint32_t i = 0; i < 256; ++i)
-    {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k)
-        c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      table[0][i] = c;
-    }
-    for (uint32_t i = 0; i < 256; ++i)
-      for (int s = 1; s < 8; ++s)
-        table[s][i] = (table[s - 1][i] >> 8) ^ table[0][table[s - 1][i] & 0xFFu];
-  }
-};
-
 /// fp16 -> fp32 for every 16-bit pattern (built once, thread-safe): decoding a stored network is a table lookup.
 const float* halfTable()
 {
@@ -123,25 +104,6 @@ const float* halfTable()
 }
 } // namespace
 
-uint32_t crc32(const uint8_t* data, size_t size)
-{
-  static const CrcTables tables;
-  const auto& t = tables.table;
-  uint32_t c = 0xFFFFFFFFu;
-  size_t i = 0;
-  for (; i + 8 <= size; i += 8)
-  {
-    uint32_t lo, hi;
-    std::memcpy(&lo, data + i, 4); // little endian (checked by the format)
-    std::memcpy(&hi, data + i + 4, 4);
-    lo ^= c;
-    c = t[7][lo & 0xFFu] ^ t[6][(lo >> 8) & 0xFFu] ^ t[5][(lo >> 16) & 0xFFu] ^ t[4][lo >> 24] ^
-      t[3][hi & 0xFFu] ^ t[2][(hi >> 8) & 0xFFu] ^ t[1][(hi >> 16) & 0xFFu] ^ t[0][hi >> 24];
-  }
-  for (; i < size; ++i)
-    c = t[0][(c ^ data[i]) & 0xFFu] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
-}
 
 namespace
 {
@@ -276,16 +238,29 @@ std::vector<uint8_t> serialize(const Model& model)
   const SourceInfo& s = model.source;
   const bool mask = !s.domain.empty(), occupancy = !s.occupancy.empty();
   const bool quantized = model.storagePrecision() == Precision::Quantized8;
+  const ErrorCorrections& c = model.corrections;
+  validateErrorBound(c.bound);
   Writer w;
   w.bytes.insert(w.bytes.end(), kMagic, kMagic + 8);
-  w.put<uint32_t>(quantized ? kFormatVersionQuantized
+  w.put<uint32_t>(c.enabled() ? kFormatVersionCorrections
+      : quantized           ? kFormatVersionQuantized
       : occupancy           ? kFormatVersionOccupancy
       : mask                ? kFormatVersionDomain
                             : kFormatVersionNoMask);
   w.put<uint32_t>(static_cast<uint32_t>(h.bytes.size()));
   w.bytes.insert(w.bytes.end(), h.bytes.begin(), h.bytes.end());
   putParameters(w, model, quantized);
-  putMasks(w, s, quantized);
+  putMasks(w, s, quantized || c.enabled());
+  if (c.enabled())
+  {
+    NV_CHECK(c.index.empty() || (c.index.front() >= 0 && c.index.back() < s.dims[0] * s.dims[1] * s.dims[2]),
+      "error corrections outside the source grid");
+    const std::vector<uint8_t> list = encodeCorrections(c);
+    w.put<double>(c.bound);
+    w.put<uint64_t>(c.index.size());
+    w.put<uint64_t>(list.size());
+    w.bytes.insert(w.bytes.end(), list.begin(), list.end());
+  }
   w.put<uint32_t>(crc32(w.bytes.data(), w.bytes.size()));
   return std::move(w.bytes);
 }
@@ -413,7 +388,7 @@ uint64_t readHeader(Reader& h, uint32_t headerBytes, ModelFileInfo& info)
   const int32_t precision = h.get<int32_t>("precision");
   if (precision != 0 && precision != 1 && precision != 2)
     corrupt("unknown parameter precision " + std::to_string(precision));
-  if ((precision == 2) != (info.version == kFormatVersionQuantized))
+  if (info.version != kFormatVersionCorrections && (precision == 2) != (info.version == kFormatVersionQuantized))
     corrupt("parameter precision " + std::to_string(precision) + " in version " + std::to_string(info.version) +
       " (8-bit quantised parameters are version 4, and version 4 holds only those)");
   info.precision = static_cast<Precision>(precision);
@@ -516,6 +491,25 @@ void readMasks(Reader& r, ModelFileInfo& info)
     info.hostBytes += uint64_t(occupancyWords(s.dims)) * 4;
   }
 }
+
+/// Version 5: the error bound, the correction count and the coded list (checked, not decoded).
+void readCorrections(Reader& r, ModelFileInfo& info)
+{
+  info.correctionBound = r.get<double>("error bound");
+  if (!(std::isfinite(info.correctionBound) && info.correctionBound > 0.0))
+    corrupt("an error bound of " + std::to_string(info.correctionBound) + " (it must be finite and > 0)");
+  info.correctionCount = r.get<uint64_t>("correction count");
+  const uint64_t bytes = r.get<uint64_t>("correction bytes");
+  const int64_t samples = info.source.dims[0] * info.source.dims[1] * info.source.dims[2];
+  if (bytes > uint64_t(1) << 40)
+    corrupt("a correction list of " + std::to_string(bytes) + " bytes");
+  r.need(size_t(bytes), "error corrections");
+  checkField(nullptr, [&] { inspectCorrections(r.here(), size_t(bytes), info.correctionCount, samples); });
+  info.correctionsAt = r.pos();
+  info.correctionBytes = size_t(bytes);
+  info.hostBytes += info.correctionCount * 12; // an index and a step each
+  r.skip(size_t(bytes));
+}
 } // namespace
 
 ModelFileInfo inspectModel(const uint8_t* data, size_t size)
@@ -529,6 +523,8 @@ ModelFileInfo inspectModel(const uint8_t* data, size_t size)
   const uint64_t expected = readHeader(h, headerBytes, info);
   readParameters(r, size, expected, info);
   readMasks(r, info);
+  if (info.version == kFormatVersionCorrections)
+    readCorrections(r, info);
   if (r.pos() + 4 != size)
     corrupt(std::to_string(size - r.pos() - 4) + " unexpected trailing bytes");
   return info;
@@ -578,6 +574,9 @@ Model deserialize(const uint8_t* data, size_t size)
     s.occupancy = fillRuns(
       data + info.occupancyRunsAt, info.occupancyRuns, int64_t(cells.dims[0]) * cells.dims[1] * cells.dims[2]);
   }
+  if (info.version == kFormatVersionCorrections)
+    m.corrections = decodeCorrections(data + info.correctionsAt, info.correctionBytes, info.correctionCount,
+      s.dims[0] * s.dims[1] * s.dims[2], info.correctionBound);
   return m;
 }
 

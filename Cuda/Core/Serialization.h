@@ -9,7 +9,10 @@
 // before), with one only as version 2, with an occupancy mask as version 3; all are read. Version 4 holds a
 // Quantized8 model (and only such): after the parameter count, u64 block bytes and the block of
 // QuantizedParameters.h (per level a step and an entropy-coded stream of 8-bit codes, then the MLP as fp16) in place
-// of the parameters, then u32 mask flags (0 to 3, as in version 3) and the masks they name. Reading checks magic,
+// of the parameters, then u32 mask flags (0 to 3, as in version 3) and the masks they name. Version 5 holds a model in
+// the error-bounded mode (ErrorCorrections.h), of any precision: the parameters as their precision's version has them
+// (Quantized8: u64 block bytes and the block), u32 mask flags and the masks, then f64 bound (source units, > 0),
+// u64 correction count, u64 coded bytes and the coded list. Reading checks magic,
 // version, the checksum, then every field against the bytes present and the bounds of Model.h (source grids of at
 // most 2^20 samples per axis and 2^34 in all, finite geometry, positive spacing) before it allocates anything.
 #pragma once
@@ -23,7 +26,8 @@
 namespace nv
 {
 
-constexpr uint32_t kFormatVersion = 4;     ///< the newest version this build reads and writes
+constexpr uint32_t kFormatVersion = 5;     ///< the newest version this build reads and writes
+constexpr uint32_t kFormatVersionCorrections = 5; ///< written for models in the error-bounded mode (any precision)
 constexpr uint32_t kFormatVersionQuantized = 4; ///< written for Quantized8 models (with or without masks)
 constexpr uint32_t kFormatVersionOccupancy = 3; ///< written for fp32/fp16 models with an occupancy mask
 constexpr uint32_t kFormatVersionDomain = 2; ///< written for models with a domain mask only
@@ -53,6 +57,10 @@ struct ModelFileInfo
   uint64_t domainRuns = 0;
   size_t occupancyRunsAt = 0; ///< offset of the occupancy mask's first run length
   uint64_t occupancyRuns = 0;
+  double correctionBound = 0.0;  ///< version 5: the error bound (source units); 0 otherwise
+  uint64_t correctionCount = 0;  ///< version 5: corrections listed
+  size_t correctionsAt = 0;      ///< version 5: offset of the coded list
+  size_t correctionBytes = 0;    ///< version 5: bytes of the coded list
 };
 
 /// Bound on the bytes of a serialized header (244 bytes of fixed fields and two strings of at most 4096 bytes each).

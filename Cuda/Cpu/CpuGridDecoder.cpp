@@ -20,6 +20,17 @@ namespace
 {
 /// Largest grid the CPU renderer decodes (8 GiB of floats).
 constexpr int64_t kMaxDecodeSamples = int64_t(1) << 31;
+
+/// The error-bounded mode: a grid of the source's own dims gets the model's corrections (slices [z0, z1), normalised).
+void correctDecoded(const Model& model, const int64_t dims[3], int64_t z0, int64_t z1, float* values)
+{
+  const int64_t* source = model.source.dims;
+  if (!model.corrections.enabled() || dims[0] != source[0] || dims[1] != source[1] || dims[2] != source[2])
+    return;
+  const int64_t slice = dims[0] * dims[1];
+  applyCorrectionsNormalised(
+    model.corrections, z0 * slice, (z1 - z0) * slice, model.source.valueMin, model.source.valueMax, values);
+}
 } // namespace
 
 struct CpuGridDecoder::Job
@@ -58,6 +69,7 @@ struct CpuGridDecoder::Job
         return;
       const int64_t z0 = b * block, z1 = std::min(dims[2], z0 + block);
       net.decodeGrid(pool, dims[0], dims[1], dims[2], z0, z1, grid->values.data() + z0 * slice);
+      correctDecoded(model, dims, z0, z1, grid->values.data() + z0 * slice);
       finished.fetch_add(1);
     }
   }
@@ -170,6 +182,7 @@ std::shared_ptr<DecodedGrid> CpuGridDecoder::decode(ThreadPool& pool, const Mode
     if (cancel && cancel->load())
       return nullptr;
     net.decodeGrid(pool, dims[0], dims[1], dims[2], z0, z1, g->values.data() + z0 * slice);
+    correctDecoded(model, dims, z0, z1, g->values.data() + z0 * slice);
   }
   g->id = newGridId();
   g->version = version;

@@ -17,6 +17,7 @@ std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const Sessi
 CpuSession::CpuSession(const Model& model, const SessionOptions& options)
   : Options(options)
   , SessionModel(model)
+  , Corrections(sharedCorrections(model))
   , Pool(options.threads, options.lowPriority)
   , Renderer(new CpuRenderer(Pool))
 {
@@ -34,7 +35,14 @@ void CpuSession::setModel(const Model& model)
   validate(model.config());
   std::lock_guard<std::mutex> lock(Mutex);
   SessionModel = model;
+  Corrections = sharedCorrections(model);
   ++Version;
+}
+
+std::shared_ptr<const ErrorCorrections> CpuSession::errorCorrections() const
+{
+  std::lock_guard<std::mutex> lock(Mutex);
+  return Corrections;
 }
 
 Model CpuSession::currentModel()
@@ -72,6 +80,8 @@ CpuTrainer::PublishFn CpuSession::publisher()
     std::lock_guard<std::mutex> guard(Mutex);
     NV_CHECK(p.size() == SessionModel.params().size(), "publish: the trainer's network has a different configuration");
     SessionModel.params() = p;
+    SessionModel.corrections = ErrorCorrections(); // computed for the parameters replaced
+    Corrections.reset();
     ++Version;
   };
 }

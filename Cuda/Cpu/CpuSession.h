@@ -34,6 +34,7 @@ public:
   void render(const RenderRequest& request, RenderResult& result, Memory where) override;
   bool workPending() const override;
   int64_t deviceMemoryBytes() const override { return 0; }
+  std::shared_ptr<const ErrorCorrections> errorCorrections() const override;
 
 private:
   /// Makes a trainer's parameters the session's.
@@ -52,6 +53,7 @@ private:
   SessionOptions Options;
   mutable std::mutex Mutex; ///< SessionModel, Version, LastSnapshot: held briefly, never during a render or inference
   Model SessionModel;
+  std::shared_ptr<const ErrorCorrections> Corrections; ///< of SessionModel's parameters; null once a trainer publishes
   /// Changed under Mutex; read without it.
   std::atomic<uint64_t> Version{ 1 };
   Snapshot LastSnapshot;

@@ -52,6 +52,7 @@ public:
   GpuSession(const Model& model, const SessionOptions& options)
     : Options(options)
     , HostModel(model)
+    , Corrections(sharedCorrections(model))
     , Pool(std::min(16, options.threads > 0 ? options.threads : ThreadPool::defaultThreads()))
   {
     upload(model);
@@ -80,8 +81,15 @@ public:
     std::lock_guard<std::mutex> lock(Mutex);
     HostModel = model;
     upload(model);
+    Corrections = sharedCorrections(model);
     HostStale = false;
     ++Version;
+  }
+
+  std::shared_ptr<const ErrorCorrections> errorCorrections() const override
+  {
+    std::lock_guard<std::mutex> lock(Mutex);
+    return Corrections;
   }
 
   void syncModel() override
@@ -229,6 +237,8 @@ private:
       std::swap(Network.w16, BackNetwork.w16);
       std::swap(Network.wout, BackNetwork.wout);
       std::swap(Params32, BackNetworkParams);
+      HostModel.corrections = ErrorCorrections(); // computed for the parameters replaced
+      Corrections.reset();
       HostStale = true;
       ++Version;
     }
@@ -300,6 +310,7 @@ private:
   SessionOptions Options;
   mutable std::mutex Mutex;
   Model HostModel;
+  std::shared_ptr<const ErrorCorrections> Corrections; ///< of HostModel's parameters; null once a trainer publishes
   bool HostStale = false;
   uint64_t Version = 1;
   Stream ComputeStream, CopyStream;

@@ -467,6 +467,10 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
     vtkErrorMacro("Neural Compress: the network's output is NaN or Inf at some of the field's samples (training "
                   "diverged): no PSNR is reported. Lower LearningRate or check the input's range.");
   }
+  if (!record.Figures.ErrorBoundNote.empty())
+  {
+    vtkWarningMacro("Neural Compress: Max Error " << this->MaxError << ": " << record.Figures.ErrorBoundNote << ".");
+  }
   if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
     record.Figures.Ratio < this->TargetCompressionRatio)
   {
@@ -509,6 +513,7 @@ void vtkNeuralCompress::PrintSelf(ostream& os, vtkIndent indent)
      << this->OutputResolution[1] << " " << this->OutputResolution[2] << "\n"
      << indent << "PSNRInterval: " << this->PSNRInterval << "\n"
      << indent << "TargetPSNR: " << this->TargetPSNR << "\n"
+     << indent << "MaxError: " << this->MaxError << "\n"
      << indent << "OutputMode: " << this->OutputMode << "\n"
      << indent << "TrainInBackground: " << this->TrainInBackground << "\n"
      << indent << "Deterministic: " << this->Deterministic << "\n"

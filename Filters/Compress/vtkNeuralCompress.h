@@ -109,7 +109,10 @@ public:
   {
     FLOAT32 = 0,
     FLOAT16 = 1,
-    QUANTIZED8 = 2 ///< hash table as 8-bit codes, entropy coded; MLP fp16 (nv::Precision::Quantized8)
+    QUANTIZED8 = 2, ///< hash table as 8-bit codes, entropy coded; MLP fp16 (nv::Precision::Quantized8)
+    /// The default: with an automatic table size, 8-bit codes where the target ratio is reachable (a table twice as
+    /// large in the same bytes), Float16 for a small input sized for quality; Float16 with a table size set.
+    AUTOMATIC_PRECISION = 3
   };
   enum Devices
   {
@@ -157,9 +160,19 @@ public:
 
   ///@{
   /// Target raw/model size ratio; used to pick the hash table size when Log2TableSize is 0.
-  /// 0 = automatic: the largest table that gives 10:1, else the smallest table (no warning).
+  /// 0 = automatic: the largest table that gives 10:1, else (a small input) the quality-first size
+  /// (nv::qualityFirstLog2TableSize, no warning). An explicit target out of reach: the smallest table and a warning.
   vtkSetClampMacro(TargetCompressionRatio, double, 0.0, VTK_DOUBLE_MAX);
   vtkGetMacro(TargetCompressionRatio, double);
+  ///@}
+
+  ///@{
+  /// Error-bounded mode: after training, the samples whose decoded value misses the input by more than MaxError
+  /// (data units) are stored with the network as a sparse correction list, so that the field decoded on the input's
+  /// grid meets |decoded - input| <= MaxError at every sample; the ratio counts the list. 0 = off. A negative or
+  /// non-finite value is refused (a warning; the mode is off). Image inputs trained on their own samples only.
+  void SetMaxError(double bound);
+  vtkGetMacro(MaxError, double);
   ///@}
 
   ///@{
@@ -186,8 +199,8 @@ public:
   ///@}
 
   ///@{
-  /// Precision of the stored parameters (FLOAT32, FLOAT16 or QUANTIZED8).
-  vtkSetClampMacro(StoragePrecision, int, FLOAT32, QUANTIZED8);
+  /// Precision of the stored parameters (FLOAT32, FLOAT16, QUANTIZED8 or AUTOMATIC_PRECISION).
+  vtkSetClampMacro(StoragePrecision, int, FLOAT32, AUTOMATIC_PRECISION);
   vtkGetMacro(StoragePrecision, int);
   ///@}
 
@@ -408,6 +421,7 @@ protected:
   int Loss = LOSS_L1;
   int LearningRateSchedule = ANNEALED;
   double TargetCompressionRatio = 0.0;
+  double MaxError = 0.0;
   int Levels = 16;
   int FeaturesPerLevel = 4;
   int Log2TableSize = 0;
@@ -415,7 +429,7 @@ protected:
   int FinestResolution = 0;
   int NetworkWidth = 64;
   int HiddenLayers = 4;
-  int StoragePrecision = FLOAT16;
+  int StoragePrecision = AUTOMATIC_PRECISION;
   int Device = DEVICE_AUTO;
   int Threads = 0;
   int TrainingStrategy = STRATEGY_AUTO;

@@ -11,6 +11,7 @@
 #include "vtkDataArray.h"
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 
 //------------------------------------------------------------------------------
@@ -80,6 +81,21 @@ void vtkNeuralCompress::SetTrainingSteps(int steps)
   if (steps != this->TrainingSteps)
   {
     this->TrainingSteps = steps;
+    this->Modified();
+  }
+}
+
+void vtkNeuralCompress::SetMaxError(double bound)
+{
+  if (!(std::isfinite(bound) && bound >= 0.0))
+  {
+    vtkWarningMacro("Neural Compress: Max Error " << bound << " is refused: the bound is a finite number >= 0 in the "
+                                                     "data's units (0 = off). The error-bounded mode is off.");
+    bound = 0.0;
+  }
+  if (bound != this->MaxError)
+  {
+    this->MaxError = bound;
     this->Modified();
   }
 }

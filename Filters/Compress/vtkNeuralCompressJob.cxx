@@ -219,8 +219,10 @@ Metrics MetricsOf(const nv::Model& model, const std::string& device)
   m.MaxErrorOfRange = std::isinf(m.MaxError) && std::isfinite(m.Psnr) ? std::numeric_limits<double>::quiet_NaN()
     : range.spans()                                                  ? range.perWidth(m.MaxError)
                                                                      : m.MaxError;
-  m.ModelBytes = model.parameterBytes();
+  m.ModelBytes = model.storedBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.ErrorBound = model.corrections.bound;
+  m.Corrections = model.corrections.count();
   m.Invalid = model.stats.invalidSamples;
   m.Device = device;
   return m;
@@ -261,12 +263,14 @@ void Job::Finalize(const RunStatus& status)
   // The network as it is stored (fp16 or fp32) is the one shown, measured and saved.
   nv::Model model = this->Session->currentModel();
   model.quantize(this->Storage);
+  model.corrections = nv::ErrorCorrections(); // computed again for these parameters (CorrectErrors)
   if (this->Retiring)
   {
     this->KeepInterruptedNetwork(model, status);
     return;
   }
   this->Session->setModel(model);
+  const std::string boundNote = this->CorrectErrors(model);
   int mode = 0;
   FieldInfo field; // a copy: the filter's thread may change the output geometry meanwhile (SetOutputGeometry)
   {
@@ -286,6 +290,7 @@ void Job::Finalize(const RunStatus& status)
     measured.Error = MeasureNetwork(*this->Session, model, this->Data->Field.View, field, decoded,
       this->TrainingSettings.Threads, measured.ResampledPsnr, measured.SourceSamples);
   std::shared_ptr<NetworkRecord> record = this->MeasuredRecord(model, status, measured, abortedBefore);
+  record->Figures.ErrorBoundNote = boundNote;
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
   // A field decoded for a geometry that changed meanwhile is not the output's (decoded again on demand).
@@ -312,6 +317,42 @@ void Job::KeepInterruptedNetwork(nv::Model& model, const RunStatus& status)
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
   this->Decoded = nullptr;
+}
+
+std::string Job::CorrectErrors(nv::Model& model)
+{
+  const double bound = this->TrainingSettings.MaxError;
+  if (!(bound > 0.0))
+    return std::string();
+  const nv::VolumeView& view = this->Data->Field.View;
+  const int64_t* dims = model.source.dims;
+  if (this->Field.OutOfCore || this->Field.Samples || !view.data || view.dims[0] != dims[0] ||
+    view.dims[1] != dims[1] || view.dims[2] != dims[2])
+    return "Max Error applies to image inputs trained on their own samples; this input was resampled or streamed "
+           "from a file, so the network is stored without an error bound";
+  try
+  {
+    nv::ErrorCorrections corrections;
+    corrections.bound = bound;
+    const int64_t slice = dims[0] * dims[1];
+    const int64_t slabs = std::max<int64_t>(1, (int64_t(1) << 22) / slice);
+    std::vector<double> decoded;
+    for (int64_t z0 = 0; z0 < dims[2]; z0 += slabs)
+    {
+      const int64_t z1 = std::min(dims[2], z0 + slabs);
+      decoded.resize(static_cast<size_t>((z1 - z0) * slice));
+      nv::decodeGridValues(*this->Session, dims[0], dims[1], dims[2], z0, z1, decoded.data()); // no corrections yet
+      nv::appendCorrections(corrections, decoded.data(), view, z0 * slice, (z1 - z0) * slice);
+    }
+    model.corrections = std::move(corrections);
+    this->Session->setModel(model); // the session decodes with them from now on
+  }
+  catch (const std::exception& e)
+  {
+    model.corrections = nv::ErrorCorrections();
+    return std::string("the error bound could not be kept: ") + e.what();
+  }
+  return std::string();
 }
 
 vtkSmartPointer<vtkDataArray> Job::DecodeAtPhaseEnd(
@@ -360,8 +401,10 @@ std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
   m.MaxErrorOfRange = error.maxErrorOfRange;
   m.ResampledPsnr = measured.ResampledPsnr;
   m.SourceSamples = measured.SourceSamples;
-  m.ModelBytes = model.parameterBytes();
+  m.ModelBytes = model.storedBytes();
   m.Ratio = static_cast<double>(model.source.rawBytes) / static_cast<double>(std::max<int64_t>(m.ModelBytes, 1));
+  m.ErrorBound = model.corrections.bound;
+  m.Corrections = model.corrections.count();
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());
@@ -434,6 +477,7 @@ void Job::WriteLiveBytes(const RunStatus& status)
     // 8-bit coding of a large network takes most of a second: live snapshots stay fp16 (their ratio too), and the
     // 8-bit network is coded once, when training ends (Finalize).
     model.quantize(this->Storage == nv::Precision::Quantized8 ? nv::Precision::Float16 : this->Storage);
+    model.corrections = nv::ErrorCorrections(); // live snapshots are not bounded: the phase end corrects
     model.stats.steps = status.Steps;
     model.stats.seconds = status.Seconds;
     model.stats.device = nv::deviceName(this->Session->device());

@@ -48,6 +48,9 @@ struct Metrics
   bool WarmStart = false;
   bool Restored = false;
   std::string EndReason;
+  double ErrorBound = 0.0;  ///< the error-bounded mode's bound (data units); 0: off
+  int64_t Corrections = 0;  ///< samples the network stores a correction for (ErrorBound > 0)
+  std::string ErrorBoundNote; ///< why MaxError was not kept for this network (empty: it was, or it is off)
 };
 
 /// The figures a stored network carries (its training statistics), for a network taken from a state file, the
@@ -232,6 +235,9 @@ private:
   /// Finalize of a job being replaced: the stored-precision `model` kept for warm starts and the cache, state
   /// "Interrupted", without a decode or a measurement.
   void KeepInterruptedNetwork(nv::Model& model, const RunStatus& status);
+  /// The error-bounded mode (TrainingSettings.MaxError > 0): the corrections of the stored `model`, which the
+  /// session holds; computed slab by slab on the training field. Returns why it was not kept (empty: kept or off).
+  std::string CorrectErrors(nv::Model& model);
   /// The output field decoded at a phase end (decoded modes; null for the others, or after an abort or a failure,
   /// whose message goes to `decodeError`).
   vtkSmartPointer<vtkDataArray> DecodeAtPhaseEnd(

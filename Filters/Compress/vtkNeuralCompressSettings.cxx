@@ -45,6 +45,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
   s.MemoryBudgetMiB = this->MemoryBudget;
+  s.MaxError = this->MaxError;
   s.ParticleField = this->ParticleField;
   s.ParticleKernel = this->ParticleKernel;
   s.ParticleRadius = this->ParticleRadius;
@@ -73,6 +74,8 @@ std::string Settings::Canonical() const
     s << " last"; // the default keeps the v1 string too
   if (MemoryBudgetMiB != 0.0)
     s << " memory " << MemoryBudgetMiB; // out-of-core inputs only (others train with 0)
+  if (MaxError != 0.0)
+    s << " maxerror " << MaxError; // the corrections are part of the stored network; off keeps the v1 string
   if (ParticleField != 0 || ParticleKernel != 1 || ParticleRadius != 0.0 || !ParticleRadiusArray.empty())
     s << " particles " << ParticleField << ' ' << ParticleKernel << ' ' << ParticleRadius << " [" << ParticleRadiusArray
       << ']'; // the defaults keep the v1 string
@@ -81,11 +84,12 @@ std::string Settings::Canonical() const
 
 namespace
 {
+/// The storage precision set (Automatic: fp16 until the automatic size chooses, NetworkConfigOf).
 nv::Precision StorageOf(const Settings& s)
 {
   return s.Precision == vtkNeuralCompress::QUANTIZED8 ? nv::Precision::Quantized8
-    : s.Precision == vtkNeuralCompress::FLOAT16      ? nv::Precision::Float16
-                                                     : nv::Precision::Float32;
+    : s.Precision == vtkNeuralCompress::FLOAT32      ? nv::Precision::Float32
+                                                     : nv::Precision::Float16;
 }
 
 nv::Device RequestedDeviceOf(const Settings& s)
@@ -95,9 +99,9 @@ nv::Device RequestedDeviceOf(const Settings& s)
                                                   : nv::Device::Auto;
 }
 
-/// The network's layout from the settings and the trained field's size (an automatic table size from the target
-/// ratio).
-nv::ModelConfig NetworkConfigOf(const Settings& s, const int64_t* dims, int64_t rawBytes, nv::Precision storage)
+/// The network's layout from the settings and the trained field's size, and its storage: an automatic table size
+/// (and, with Automatic storage, precision) from the target ratio (nv::chooseAutomaticSize).
+nv::ModelConfig NetworkConfigOf(const Settings& s, const int64_t* dims, int64_t rawBytes, nv::Precision& storage)
 {
   nv::ModelConfig config;
   config.encoding.levels = s.Levels;
@@ -114,9 +118,15 @@ nv::ModelConfig NetworkConfigOf(const Settings& s, const int64_t* dims, int64_t 
   nv::validate(config);
   if (s.Log2TableSize <= 0)
   {
-    // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1, else the smallest one.
-    const double target = s.TargetCompressionRatio > 0.0 ? s.TargetCompressionRatio : 10.0;
-    config.encoding.log2TableSize = nv::chooseLog2TableSize(config, rawBytes, target, storage);
+    // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1 (in 8-bit codes with Automatic
+    // storage), else, for a small input, the largest that still compresses (1:1); an explicit target out of reach:
+    // the smallest.
+    const bool targetIsDefault = !(s.TargetCompressionRatio > 0.0);
+    const double target = targetIsDefault ? 10.0 : s.TargetCompressionRatio;
+    const nv::AutomaticSize size = nv::chooseAutomaticSize(
+      config, rawBytes, target, targetIsDefault, s.Precision == vtkNeuralCompress::AUTOMATIC_PRECISION, storage);
+    config.encoding.log2TableSize = size.log2TableSize;
+    storage = size.storage;
   }
   return config;
 }

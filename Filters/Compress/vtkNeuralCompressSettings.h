@@ -28,6 +28,7 @@ struct Settings
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
   bool KeepBest = true;
   double MemoryBudgetMiB = 0.0; ///< out-of-core inputs (vtkNeuralOutOfCoreInput.h); 0: automatic
+  double MaxError = 0.0; ///< the error-bounded mode's bound in data units (nv::ErrorCorrections); 0: off
   /// Particle inputs (vtkNeuralCompressParticles.h).
   int ParticleField = 0, ParticleKernel = 1;
   double ParticleRadius = 0.0;

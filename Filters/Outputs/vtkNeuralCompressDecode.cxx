@@ -102,6 +102,9 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
   // As points, kDecodeChunk at a time: grid coordinates (decodeGrid's convention), or the cell centres of a resampled
   // cell output in the source's normalised coordinates.
   std::vector<float> xyz, normalised;
+  // The error-bounded mode's corrections on the source's own grid (decodeGridValues applies them above).
+  const std::shared_ptr<const nv::ErrorCorrections> corrections =
+    onGrid && n[0] == src.dims[0] && n[1] == src.dims[1] && n[2] == src.dims[2] ? session.errorCorrections() : nullptr;
   for (int64_t i0 = 0; i0 < count; i0 += kDecodeChunk)
   {
     const int64_t m = std::min(kDecodeChunk, count - i0);
@@ -124,6 +127,8 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
       }
     }
     DecodePointsChunk(session, xyz.data(), m, range, out + i0, normalised);
+    if (corrections)
+      nv::applyCorrections(*corrections, i0, m, out + i0);
     ticker.Done(i0 + m);
   }
 }

@@ -97,6 +97,12 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
     AddFieldValue<vtkIntArray>(fd, "NeuralPSNRExact", m.PsnrFinal ? 1 : 0);
   }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
+  if (m.ErrorBound > 0.0)
+  {
+    // The error-bounded mode: the bound and the samples stored with a correction (their bytes are in the ratio).
+    AddFieldValue<vtkDoubleArray>(fd, "NeuralErrorBound", m.ErrorBound);
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralCorrections", m.Corrections);
+  }
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralModelBytes", m.ModelBytes);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralInvalidSamples", m.Invalid);
   AddFieldValue<vtkTypeInt64Array>(fd, "NeuralGpuMemoryBytes", m.DeviceMemoryBytes);
@@ -302,6 +308,8 @@ std::string Summary(
     << nv::precisionName(job.Storage) << "), ratio " << m.Ratio << ":1";
   if (targetRatio > 0.0)
     s << " (target " << targetRatio << ")";
+  if (m.ErrorBound > 0.0)
+    s << "; error bound " << m.ErrorBound << " (" << m.Corrections << " samples corrected, in the ratio)";
   if (m.Ratio < 1.0)
   {
     const std::string advice = SmallerModelAdvice(job);

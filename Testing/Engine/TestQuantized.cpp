@@ -454,4 +454,39 @@ NV_TEST(table_size_from_target_ratio_counts_a_byte_per_code)
   EXPECT_TRUE(double(raw) / (double(bigger.encodingParamCount()) + 2.0 * double(bigger.mlpParamCount())) < 4.0);
 }
 
+NV_TEST(automatic_size_fits_the_data_folder_volumes)
+{
+  // Neural Compress's defaults (16 x 4 levels, finest twice the largest dimension, 64 x 4 MLP, target 10:1).
+  auto configFor = [](int64_t largest) {
+    ModelConfig c;
+    c.encoding.finestResolution = int(2 * largest);
+    return c;
+  };
+  auto automatic = [&](int64_t largest, int64_t raw, bool defaultTarget, bool autoStorage, Precision storage) {
+    return chooseAutomaticSize(configFor(largest), raw, 10.0, defaultTarget, autoStorage, storage);
+  };
+  // walnut 128 x 96 x 114 uint16: 2^10 in fp16 (17.1:1; 2^11 would be 9.5:1), 2^11 in 8-bit codes (estimated 17.1:1,
+  // coded 18.6:1).
+  const int64_t walnutRaw = int64_t(128) * 96 * 114 * 2;
+  const AutomaticSize walnut = automatic(128, walnutRaw, true, true, Precision::Float16);
+  EXPECT_TRUE(walnut.log2TableSize == 11 && walnut.storage == Precision::Quantized8 && walnut.targetReached);
+  const AutomaticSize walnut16 = automatic(128, walnutRaw, true, false, Precision::Float16);
+  EXPECT_TRUE(walnut16.log2TableSize == 10 && walnut16.storage == Precision::Float16 && walnut16.targetReached);
+  // stent 128 x 128 x 256 int16: 2^12 fp16, 2^13 8-bit.
+  const AutomaticSize stent = automatic(256, int64_t(128) * 128 * 256 * 2, true, true, Precision::Float16);
+  EXPECT_TRUE(stent.log2TableSize == 13 && stent.storage == Precision::Quantized8 && stent.targetReached);
+  // headsq 64 x 64 x 93 int16: no table reaches 10:1; the largest that still compresses: 2^13 in 8-bit (1.42:1
+  // estimated), 2^12 in fp16 (1.37:1).
+  const int64_t headsq = int64_t(64) * 64 * 93 * 2;
+  const AutomaticSize small = automatic(93, headsq, true, true, Precision::Float16);
+  EXPECT_TRUE(small.log2TableSize == 13 && small.storage == Precision::Quantized8 && !small.targetReached);
+  EXPECT_TRUE(automatic(93, headsq, true, false, Precision::Float16).log2TableSize == 12);
+  // nucleon 41^3 uint8: even the smallest model is larger than the field: the smallest table.
+  const AutomaticSize nucleon = automatic(41, int64_t(41) * 41 * 41, true, true, Precision::Float16);
+  EXPECT_TRUE(nucleon.log2TableSize == 10 && !nucleon.targetReached);
+  // An explicit target out of reach keeps the smallest table in the storage set (the filter warns).
+  const AutomaticSize asked = automatic(93, headsq, false, false, Precision::Quantized8);
+  EXPECT_TRUE(asked.log2TableSize == 10 && asked.storage == Precision::Quantized8 && !asked.targetReached);
+}
+
 NV_TEST_MAIN()

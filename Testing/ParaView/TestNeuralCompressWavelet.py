@@ -33,7 +33,7 @@ defaults = dict(TrainingSteps=2000, TimeBudget=60.0, BatchSize=65536, LearningRa
                 TargetCompressionRatio=0.0, Levels=16, FeaturesPerLevel=4, Log2TableSize="Automatic",
                 BaseResolution=16, FinestResolution=0, NetworkWidth=64, HiddenLayers=4,
                 Loss="L1", LearningRateSchedule="Annealed (cosine to 1/100 over the run)",
-                StoragePrecision="Float16", Device="Auto", Threads=0, PSNRInterval=100,
+                StoragePrecision="Automatic", Device="Auto", Threads=0, PSNRInterval=100,
                 VectorMode="Magnitude", VectorComponent=0, TargetPSNR=0.0, Deterministic=0, WarmStart=1,
                 NetworkCacheMiB=256, ContinueSteps=1000)
 for name, value in defaults.items():

@@ -108,7 +108,7 @@ EXPECTED_GROUPS = {
     "Data": ["SelectInputScalars", "VectorMode", "VectorComponent", "OutputMode", "OutputResolution", "Sampling",
              "SamplingDimensions", "ProbePoints", "MemoryBudget", "ParticleField", "ParticleKernel", "ParticleRadius",
              "ParticleRadiusArray"],
-    "Size": ["TargetCompressionRatio", "Log2TableSize", "StoragePrecision", "Levels", "FeaturesPerLevel",
+    "Size": ["TargetCompressionRatio", "Log2TableSize", "StoragePrecision", "MaxError", "Levels", "FeaturesPerLevel",
              "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
     "Advanced": ["BatchSize", "LearningRate", "LearningRateSchedule", "Loss", "Seed", "PSNRInterval",
                  "KeepBestNetwork", "Deterministic", "WarmStart", "NetworkCacheMiB", "Threads", "Device",
