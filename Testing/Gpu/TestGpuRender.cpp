@@ -170,86 +170,61 @@ NV_TEST(gpu_in_shader_fits_smaller_shared_memory)
   EXPECT_TRUE(clear);
 }
 
-NV_TEST(gpu_draws_nothing_outside_the_domain)
+namespace
 {
-  // The domain mask of a resampled source (here the half x < 0.5 of the box) on every GPU path and the five
-  // shading modes: outside pixels of an orthographic view along -z stay empty (alpha exactly 0, where the same
-  // view without a mask draws), and the picture agrees with the CPU oracle's masked one.
-  Model masked = scene().model;
-  keepHalfX(masked);
-  const int64_t* n = masked.source.dims;
-  auto gpu = gpuSession(masked, false);
-  auto plain = gpuSession(scene().model, false);
-  const Mat4 vp = orthoAlongZ();
+/// Every GPU path and shading mode, viewed orthographically along -z: the pixels right of x = 0.5 + margin stay empty
+/// (alpha exactly 0) where the network `plain` draws there, and the picture agrees with the CPU oracle's.
+void expectRightHalfEmpty(const char* what, const Model& model, const Model& plain, double clipXHi, double margin,
+  uint64_t seed)
+{
+  auto gpu = gpuSession(model, false);
+  auto plainGpu = gpuSession(plain, false);
   for (int p = 0; p < 3; ++p)
     for (int m = 0; m < 5; ++m)
     {
       const int w = m >= 3 ? 24 : 48, h = m >= 3 ? 20 : 40;
-      RenderRequest q = blobRequest(masked, RenderPath(p), ShadingMode(m), w, h);
+      RenderRequest q = blobRequest(model, RenderPath(p), ShadingMode(m), w, h);
       q.samplesPerPixel = m >= 3 ? 256 : 1;
-      setCamera(q, vp);
-      RenderResult g, cpu, g0;
+      setCamera(q, orthoAlongZ());
+      RenderResult g0;
+      plainGpu->render(q, g0, Memory::Host);
+      q.clipBox[1] = clipXHi;
+      RenderResult g, cpu;
       gpu->render(q, g, Memory::Host);
-      plain->render(q, g0, Memory::Host);
-      oracle(p).render(masked, 7, q, cpu);
-      int64_t outsideLit = 0, outsidePlain = 0, outsidePixels = 0;
+      oracle(p).render(model, seed, q, cpu);
+      int64_t lit = 0, plainLit = 0, pixels = 0;
       for (int py = 0; py < h; ++py)
         for (int px = 0; px < w; ++px)
         {
           const double ux = (-1.2 + 2.4 * (px + 0.5) / w + 1.0) / 2.0;
-          if (ux <= 0.5 + 1.0 / double(n[0] - 1))
+          if (ux <= 0.5 + margin)
             continue;
           const size_t k = 4 * (size_t(py) * w + px);
-          ++outsidePixels;
-          outsideLit += g.rgba[k + 3] != 0.0f ? 1 : 0;
-          outsidePlain += g0.rgba[k + 3] > 0.01f ? 1 : 0;
+          ++pixels;
+          lit += g.rgba[k + 3] != 0.0f ? 1 : 0;
+          plainLit += g0.rgba[k + 3] > 0.01f ? 1 : 0;
         }
       const double db = psnr(g.rgba, cpu.rgba);
-      std::printf("    %-9s %-9s masked: %lld of %lld outside pixels lit (%lld without the mask); GPU vs CPU %.1f dB\n",
-        kPath[p], kMode[m], (long long)outsideLit, (long long)outsidePixels, (long long)outsidePlain, db);
-      EXPECT_TRUE(outsidePixels > 0 && outsideLit == 0 && outsidePlain > 0);
+      std::printf("    %-9s %-9s %s: %lld of %lld pixels beyond x = 0.5 lit (%lld without it); GPU vs CPU %.1f dB\n",
+        kPath[p], kMode[m], what, (long long)lit, (long long)pixels, (long long)plainLit, db);
+      EXPECT_TRUE(pixels > 0 && lit == 0 && plainLit > 0);
       EXPECT_TRUE(allFinite(g.rgba) && db >= (m >= 3 ? 30.0 : 38.0));
     }
+}
+} // namespace
+
+NV_TEST(gpu_draws_nothing_outside_the_domain)
+{
+  // The domain mask of a resampled source (here the half x < 0.5 of the box).
+  Model masked = scene().model;
+  keepHalfX(masked);
+  expectRightHalfEmpty("masked", masked, scene().model, 1.0, 1.0 / double(masked.source.dims[0] - 1), 7);
 }
 
 NV_TEST(gpu_clip_box_matches_cpu_and_draws_nothing_beyond_it)
 {
-  // RenderRequest::clipBox (MPI: a rank draws only its own block of a network trained with ghost layers): the box
-  // x < 0.5 on every GPU path and the five shading modes, viewed along -z. Pixels beyond the plane stay empty (alpha
-  // exactly 0, where the unclipped view draws) and the picture agrees with the CPU oracle's clipped one.
-  auto gpu = gpuSession(scene().model, false);
-  const Mat4 vp = orthoAlongZ();
-  for (int p = 0; p < 3; ++p)
-    for (int m = 0; m < 5; ++m)
-    {
-      const int w = m >= 3 ? 24 : 48, h = m >= 3 ? 20 : 40;
-      RenderRequest q = blobRequest(scene().model, RenderPath(p), ShadingMode(m), w, h);
-      q.samplesPerPixel = m >= 3 ? 256 : 1;
-      setCamera(q, vp);
-      RenderResult g0;
-      gpu->render(q, g0, Memory::Host);
-      q.clipBox[1] = 0.5;
-      RenderResult g, cpu;
-      gpu->render(q, g, Memory::Host);
-      oracle(p).render(scene().model, 13, q, cpu);
-      int64_t beyondLit = 0, beyondPlain = 0, beyondPixels = 0;
-      for (int py = 0; py < h; ++py)
-        for (int px = 0; px < w; ++px)
-        {
-          const double ux = (-1.2 + 2.4 * (px + 0.5) / w + 1.0) / 2.0;
-          if (ux <= 0.5 + 0.02)
-            continue;
-          const size_t k = 4 * (size_t(py) * w + px);
-          ++beyondPixels;
-          beyondLit += g.rgba[k + 3] != 0.0f ? 1 : 0;
-          beyondPlain += g0.rgba[k + 3] > 0.01f ? 1 : 0;
-        }
-      const double db = psnr(g.rgba, cpu.rgba);
-      std::printf("    %-9s %-9s clipped: %lld of %lld pixels beyond the plane lit (%lld unclipped); GPU vs CPU %.1f dB\n",
-        kPath[p], kMode[m], (long long)beyondLit, (long long)beyondPixels, (long long)beyondPlain, db);
-      EXPECT_TRUE(beyondPixels > 0 && beyondLit == 0 && beyondPlain > 0);
-      EXPECT_TRUE(allFinite(g.rgba) && db >= (m >= 3 ? 30.0 : 38.0));
-    }
+  // RenderRequest::clipBox (MPI: a rank draws only its own block of a network trained with ghost layers): x < 0.5.
+  expectRightHalfEmpty("clipped", scene().model, scene().model, 0.5, 0.02, 13);
 }
 
 NV_TEST(gpu_empty_cells_of_a_sparse_source_are_its_background)
