@@ -161,6 +161,7 @@ public:
   nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)
   nv::Precision Storage = nv::Precision::Float16;
   std::string DeviceNote;
+  std::string SizeNote; ///< how the automatic size was fitted to an out-of-core input's MemoryBudget ("" if not)
   std::atomic<bool> WarmStart{ false }; ///< set where the initial network is installed (the run's prologue)
   std::shared_ptr<nv::NetworkSession> Session;
   std::shared_ptr<TrainingData> Data;

@@ -5,6 +5,7 @@
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressSettings.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Error.h"
 #include "Core/ResourceEstimate.h"
@@ -80,6 +81,23 @@ void CheckTrainingMemory(
     freeBytes);
 }
 
+/// An out-of-core input's automatic network keeps its host training memory (nv::trainingMemory: parameters, gradients,
+/// moments, the session's copies) within an eighth of the MemoryBudget, so that the process stays within the budget
+/// and that share whatever the file's size (sized for 10:1 of a 41 GB file, the network held 14 GB beside an 8 GiB
+/// budget). Returns what it did ("" when the automatic size fits).
+std::string FitOutOfCoreNetwork(
+  nv::ModelConfig& config, const nv::TrainConfig& train, nv::Device device, int64_t budgetBytes)
+{
+  const int64_t share = budgetBytes / 8;
+  const int chosen = config.encoding.log2TableSize;
+  while (config.encoding.log2TableSize > 10 && nv::trainingMemory(config, train, device).hostBytes > share)
+    --config.encoding.log2TableSize;
+  if (config.encoding.log2TableSize == chosen)
+    return std::string();
+  return "automatic table 2^" + std::to_string(config.encoding.log2TableSize) + " (2^" + std::to_string(chosen) +
+    " for the ratio): its training memory within an eighth of the MemoryBudget (" + nv::formatBytes(share) + ")";
+}
+
 /// The smallest valid network: a new session holds it until its job's run installs the real one (in the run's
 /// thread), so that creating a session never copies a large table in the caller's thread.
 nv::Model PlaceholderModel(const nv::ModelConfig& config)
@@ -129,11 +147,13 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
   in.DecodeRequested = false;
   // Every engine configuration from the settings snapshot, nothing from the filter's properties.
   const nv::VolumeView& view = data->Field.View;
-  const nvi::EngineConfigs configs =
+  nvi::EngineConfigs configs =
     nvi::EngineConfigsFor(settings, view.dims, data->Field.RawBytes, this->TrainInBackground != 0);
   job->Storage = configs.Storage;
   job->Train = configs.Train;
   const nv::Device device = nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote);
+  if (field.OutOfCore && settings.Log2TableSize <= 0)
+    job->SizeNote = FitOutOfCoreNetwork(configs.Network, configs.Train, device, field.OutOfCore->BudgetBytes);
   // An out-of-core field stays in its file: nothing of it is uploaded (its batches are host-sampled).
   CheckTrainingMemory(
     configs.Network, configs.Train, device, configs.GpuResident && !field.OutOfCore ? view.bytes() : 0);

@@ -320,6 +320,8 @@ std::string Summary(
   }
   if (!job.DeviceNote.empty())
     s << "; " << job.DeviceNote;
+  if (!job.SizeNote.empty())
+    s << "; " << job.SizeNote;
   s << "\n";
   return s.str();
 }

@@ -324,6 +324,21 @@ log("in memory: %.3f dB; out of core %.3f dB (gap %.3f dB)" % (memory_psnr, ooc_
 # budget; 52.9 dB before the block size followed the batch). A budget that holds 32 blocks a sample is within 0.4 dB
 # (nv.pv.NeuralOutOfCoreLarge).
 check(ooc_psnr > memory_psnr - 7.0, "out of core within 7 dB of in memory (%.2f vs %.2f)" % (ooc_psnr, memory_psnr))
+# The automatic network of an out-of-core input keeps its training memory within an eighth of the MemoryBudget (a
+# network sized for the ratio alone can hold more than the budget itself: 14 GB beside 8 GiB on the H100's 41 GB file).
+reader_auto, nc_auto, out_auto, text_auto = train(os.path.join(FOLDER, "budget.nhdr"), budget_mib,
+                                                  **dict(LONG, TrainingSteps=50, Log2TableSize=0))
+log("automatic size out of core: " + text_auto.strip()[-300:])
+check("within an eighth of the MemoryBudget" in text_auto and "automatic table 2^10 (2^" in text_auto,
+      "the automatic table is fitted to the MemoryBudget: %r" % text_auto[-300:])
+unfitted = NeuralCompress(Input=producer, SelectInputScalars=["POINTS", "inmemory"],
+                          **dict(FAST, **dict(LONG, TrainingSteps=50, Log2TableSize=0, TrainInBackground=0)))
+with nvtest.captured_messages() as messages:
+    unfitted.UpdatePipeline()
+check("within an eighth" not in messages[0] and "2^10 table" not in messages[0],
+      "in memory the automatic size is the ratio's: %r" % messages[0][-200:])
+for proxy in (nc_auto, reader_auto, unfitted):
+    Delete(proxy)
 
 # --- the Neural Volume draws it ---------------------------------------------------------------------------------
 if os.environ.get("DISPLAY"):
