@@ -16,7 +16,8 @@
  * `NeuralNetworkSession`, the key of the trained session for renderers of the same process; see
  * vtkNeuralNetworkArray) and the metadata arrays `NeuralTrainingSeconds`, `NeuralSteps`,
  * `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`, `NeuralModelBytes`,
- * `NeuralInvalidSamples`, `NeuralGpuMemoryBytes`, `NeuralDevice`, `NeuralTrainingState`,
+ * `NeuralInvalidSamples`, `NeuralGpuMemoryBytes`, `NeuralDevice`, `NeuralCudaDevice` (the GPU ordinal, -1 on
+ * the CPU), `NeuralTrainingState`,
  * `NeuralWarmStart`, `NeuralRestored`, `NeuralTime` and `NeuralValueRange`. OutputMode decides
  * whether it also holds the decoded field (under the input array's name, point data for a point
  * array, cell data for a cell array), in the input's type or in float32.

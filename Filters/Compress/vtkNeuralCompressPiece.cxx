@@ -95,7 +95,8 @@ void vtkNeuralCompress::ExecutePiece(
     local->GetExtent(whole);
   bool executed = false;
   nvi::PieceSums sums;
-  const int ranksHere = nvi::RanksOnThisHost(); // every rank (a collective the first time)
+  // Every rank (a collective the first time, which also chooses this rank's GPU: vtkNeuralCudaDevice.h).
+  const int ranksHere = nvi::RanksOnThisHost().Count;
   const bool hasPiece = in.Piece.Select(local, whole);
   if (hasPiece)
   {

@@ -26,6 +26,7 @@ struct vtkNeuralCompress::vtkInternals
   std::shared_ptr<nv::NetworkSession> Session; ///< reused by every job while the device and threads stay
   int SessionDevice = -1;
   int SessionThreads = -1;
+  int SessionCudaDevice = -1; ///< the GPU ordinal it was made for (vtkNeuralCudaDevice.h)
   nvi::NetworkCache Cache;
   nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)

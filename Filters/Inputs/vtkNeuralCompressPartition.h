@@ -34,9 +34,17 @@ constexpr int kPieceGhostLayers = 3;
 /// True under MPI (more than one process) for an image input: one network per rank (this header).
 bool PerRankNetworks(vtkDataObject* input);
 
-/// The ranks running on this rank's host (1 without MPI): a collective the first time (every rank calls it in the
-/// same execution), then cached. Threads = 0 (automatic) under MPI shares the host's cores among them.
-int RanksOnThisHost();
+/// The ranks running on this rank's host and this rank's index among them (its local rank, by global rank).
+struct HostRanks
+{
+  int Count = 1;
+  int Index = 0;
+};
+
+/// This rank's place on its host (1 rank, index 0 without MPI): a collective the first time (every rank calls it in
+/// the same execution), then cached. Threads = 0 (automatic) under MPI shares the host's cores among the ranks; the
+/// first call also chooses this process's CUDA device from the index (vtkNeuralCudaDevice.h).
+HostRanks RanksOnThisHost();
 
 /// A rank's piece of an image input: the extent it owns and the padded image its network trains on.
 class ImagePiece
