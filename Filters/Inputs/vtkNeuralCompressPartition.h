@@ -31,6 +31,10 @@ namespace vtkNeuralCompressInternals
 /// near the piece's faces are fitted on both sides of them, so neighbouring networks agree there.
 constexpr int kPieceGhostLayers = 3;
 
+/// The RMI tag by which rank 0 asks every rank whether its background run needs an update (ParaView's live-source
+/// poll runs on rank 0 alone; vtkNeuralCompressPiece.cxx).
+constexpr int kLiveUpdateRmiTag = 0x4E564C55; // "NVLU"
+
 /// True under MPI (more than one process) for an image input: one network per rank (this header).
 bool PerRankNetworks(vtkDataObject* input);
 
