@@ -19,7 +19,8 @@ namespace nv
 {
 
 /// True when CUDA device `cudaDevice` is usable (built with CUDA, driver present, a supported GPU); -1: the calling
-/// thread's current device.
+/// thread's current device. The first query of a device makes it the calling thread's current device (no context is
+/// made on another one).
 bool cudaAvailable(std::string* why = nullptr, int cudaDevice = -1);
 /// CUDA devices this process sees (0 in a build without CUDA, without a driver or a GPU). The CUDA runtime reads
 /// CUDA_VISIBLE_DEVICES, which a launcher may set per process; the engine reads no environment variable itself.

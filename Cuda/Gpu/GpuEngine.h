@@ -16,7 +16,7 @@ namespace gpu
 
 /// True when the CUDA runtime finds device `ordinal` (-1: the calling thread's current device) and this build can
 /// run on it (compute capability 7.5 or newer, with code for it in the build); otherwise `why` says what is
-/// missing, in one sentence.
+/// missing, in one sentence. The first query of a device makes it the calling thread's current device.
 bool deviceUsable(std::string* why, int ordinal = -1);
 
 /// CUDA devices the runtime sees (0 without a driver or a GPU).

@@ -94,8 +94,10 @@ const Usable& runtimeUsable(int* devices)
   return u;
 }
 
-/// Whether this build's kernels run on device `ordinal` (queried once per device; the calling thread's current
-/// device is left as it was).
+/// Whether this build's kernels run on device `ordinal` (queried once per device). The kernel query runs on the
+/// current device: device `ordinal` becomes the calling thread's current device and stays so (switching back would
+/// make a context on the previous device -- since CUDA 12 cudaSetDevice creates it -- in a process that never uses
+/// it: an MPI rank on device 1 would hold memory on device 0 too).
 Usable checkDevice(int ordinal)
 {
   Usable u;
@@ -114,9 +116,9 @@ Usable checkDevice(int ordinal)
     u.why = os.str();
     return u;
   }
-  int previous = 0;
-  const bool switched = cudaGetDevice(&previous) == cudaSuccess && previous != ordinal;
-  if (switched && cudaSetDevice(ordinal) != cudaSuccess)
+  int current = 0;
+  const bool switching = cudaGetDevice(&current) == cudaSuccess && current != ordinal;
+  if (switching && cudaSetDevice(ordinal) != cudaSuccess)
   {
     cudaGetLastError();
     u.why = "cannot select CUDA device " + std::to_string(ordinal);
@@ -124,8 +126,6 @@ Usable checkDevice(int ordinal)
   }
   cudaFuncAttributes fa;
   const cudaError_t e = cudaFuncGetAttributes(&fa, probeKernel);
-  if (switched)
-    cudaSetDevice(previous);
   if (e != cudaSuccess)
   {
     std::ostringstream os;
