@@ -34,22 +34,23 @@ namespace nvi = vtkNeuralCompressInternals;
 
 namespace
 {
-/// Why this process cannot open a file of `pieces` networks (one per rank of a distributed run); empty when it can.
+/// Why this process cannot open a file of `pieces` networks (one per rank of a distributed run); empty when it can:
+/// at least as many ranks as pieces (rank r draws piece r, ranks beyond the pieces draw nothing).
 std::string RankCountProblem(int pieces)
 {
   vtkMultiProcessController* c = nvi::DistributedController();
   const int ranks = c ? c->GetNumberOfProcesses() : 1;
-  if (pieces == 1 || pieces == ranks)
+  if (pieces == 1 || pieces <= ranks)
     return std::string();
   return "it holds one network per rank of a " + std::to_string(pieces) +
     "-rank run (MPI), each trained on its own piece: open it with " + std::to_string(pieces) + " ranks (mpiexec -n " +
-    std::to_string(pieces) + " pvbatch, or a pvserver of " + std::to_string(pieces) + " ranks), not " +
+    std::to_string(pieces) + " pvbatch, or a pvserver of " + std::to_string(pieces) + " ranks or more), not " +
     std::to_string(ranks);
 }
 
 /// The entry of a time step this process outputs: a serial run's network goes to rank 0 alone (ParaView executes a
 /// source that cannot split into pieces on piece 0 only: nothing is drawn twice); piece r of a distributed run's
-/// file to rank r (RankCountProblem: opened by as many ranks as wrote it).
+/// file to rank r (RankCountProblem: opened by at least as many ranks as wrote it).
 const nvi::VolumeFileEntry* PieceOfThisRank(const std::vector<const nvi::VolumeFileEntry*>& step)
 {
   vtkMultiProcessController* c = nvi::DistributedController();

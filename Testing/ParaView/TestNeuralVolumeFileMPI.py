@@ -8,7 +8,9 @@ writes it; version 2: one entry per rank with its piece). Checks:
 - with Decoded float32, the reader's decoded piece is the filter's, value for value (CPU engine);
 - opened by one process (a serial pvbatch, this script with --serial FOLDER), the distributed file gives one clear
   error ("open it with 2 ranks") and an empty output; the serial pvbatch also writes a file of a serial run
-  (version 1), which opened by the 2 ranks goes to rank 0 alone (rank 1 outputs nothing: nothing is drawn twice).
+  (version 1), which opened by the 2 ranks goes to rank 0 alone (rank 1 outputs nothing: nothing is drawn twice);
+- opened by 4 ranks (`mpiexec -n 4 pvbatch` of this script with --open FOLDER, where NV_MPIEXEC names the launcher):
+  ranks 0 and 1 get pieces 0 and 1 bit for bit, ranks 2 and 3 nothing, no error.
 """
 import json
 import os
@@ -27,6 +29,7 @@ from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
 
 SERIAL = "--serial" in sys.argv
+OPEN = "--open" in sys.argv
 WHOLE = [0, 47, 0, 47, 0, 47]
 CENTRE = 23.5
 SETTINGS = dict(SelectInputScalars=["POINTS", "RTData"], Device="CPU", Seed=7, Deterministic=1, TrainingSteps=120,
@@ -96,6 +99,53 @@ def serial_part(folder):
     result["serial_network"] = len(net_bytes(servermanager.Fetch(nc)) or b"")
     with open(os.path.join(folder, "serial.json"), "w") as f:
         json.dump(result, f)
+
+
+def open_part(folder):
+    """Under mpiexec -n 4: every rank's output of the 2-rank file, to open.json."""
+    ranks = vtkMultiProcessController.GetGlobalController().GetNumberOfProcesses()
+    with nvtest.captured_messages() as messages:
+        reader = NeuralVolumeReader(FileName=[os.path.join(folder, "distributed.nvol")])
+        reader.UpdatePipeline()
+        opened = fetch_all(reader, ranks)
+    result = dict(ranks=ranks, error=messages[0], pieces=[
+        dict(extent=list(d.GetExtent()), network=(net_bytes(d) or b"").hex(),
+             bounds=array_values(d, "NeuralPieceBounds")) for d in opened])
+    with open(os.path.join(folder, "open.json"), "w") as f:
+        json.dump(result, f)
+
+
+def run_open_with_4(folder):
+    mpiexec = os.environ.get("NV_MPIEXEC")
+    if not mpiexec:
+        log("SKIP (part): NV_MPIEXEC not set: no run of 4 ranks")
+        return None
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
+    command = [mpiexec] + os.environ.get("NV_MPIEXEC_FLAGS", "").split() + [
+        "-n", "4", os.environ.get("NV_PVBATCH", "pvbatch"), "--force-offscreen-rendering", os.path.abspath(__file__),
+        "--open", folder]
+    run = subprocess.run(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=300)
+    log("4-rank pvbatch: exit %d\n%s" % (run.returncode, run.stdout.decode(errors="replace")[-800:]))
+    if not check(run.returncode == 0 and os.path.exists(os.path.join(folder, "open.json")), "the 4-rank run worked"):
+        return None
+    with open(os.path.join(folder, "open.json")) as f:
+        return json.load(f)
+
+
+def check_open_with_4(folder, trained):
+    opened = run_open_with_4(folder)
+    if opened is None:
+        return
+    check("ERROR" not in opened["error"], "4 ranks open the 2-rank file without an error (%s)" % opened["error"][-300:])
+    pieces = opened["pieces"]
+    for r in range(2):
+        check(bytes.fromhex(pieces[r]["network"]) == net_bytes(trained[r]) and
+              pieces[r]["extent"] == list(trained[r].GetExtent()),
+              "4 ranks: rank %d has piece %d bit for bit (extent %s)" % (r, r, pieces[r]["extent"]))
+    for r in (2, 3):
+        check(not pieces[r]["network"] and pieces[r]["extent"] == [0, -1, 0, -1, 0, -1],
+              "4 ranks: rank %d draws nothing (extent %s)" % (r, pieces[r]["extent"]))
 
 
 def run_serial(folder):
@@ -181,6 +231,7 @@ def mpi_run():
     nc = NeuralCompress(Input=Wavelet(WholeExtent=WHOLE), **SETTINGS)
     nc.UpdatePipeline()
     check_distributed_file(nc, os.path.join(out_dir, "distributed.nvol"), ranks)
+    check_open_with_4(out_dir, fetch_all(nc, ranks))
     serial = run_serial(out_dir)
     if serial is None:
         return
@@ -193,6 +244,8 @@ def mpi_run():
 
 if SERIAL:
     serial_part(sys.argv[sys.argv.index("--serial") + 1])
+elif OPEN:
+    open_part(sys.argv[sys.argv.index("--open") + 1])
 else:
     mpi_run()
 nvtest.finish()
