@@ -22,11 +22,15 @@ TrainConfig trainerConfig(const BatchSource& source, const TrainConfig& config, 
 
 std::unique_ptr<NetworkSession> createCpuSession(const Model& model, const SessionOptions& options);
 
-/// True when the CUDA backend can run here (built with CUDA, driver present, a supported GPU); else `why`.
-bool cudaBackendUsable(std::string* why);
-/// Free and total bytes of the current CUDA device (cudaMemGetInfo); false, with both 0, in a build without CUDA or
-/// when the runtime cannot answer. Creates the CUDA context where none exists.
-bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes);
+/// True when the CUDA backend can run here on device `cudaDevice` (-1: the current one; built with CUDA, driver
+/// present, a supported GPU); else `why`.
+bool cudaBackendUsable(std::string* why, int cudaDevice = -1);
+/// CUDA devices the runtime sees (0 without CUDA).
+int cudaBackendDeviceCount();
+/// Free and total bytes of CUDA device `cudaDevice` (-1: the current one; cudaMemGetInfo); false, with both 0, in a
+/// build without CUDA or when the runtime cannot answer. Creates the CUDA context where none exists; a device
+/// ordinal becomes the calling thread's current device.
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes, int cudaDevice = -1);
 /// Throws nv::Error when !cudaBackendUsable().
 std::unique_ptr<NetworkSession> createCudaSession(const Model& model, const SessionOptions& options);
 

@@ -6,12 +6,17 @@
 namespace nv
 {
 
-bool cudaAvailable(std::string* why)
+bool cudaAvailable(std::string* why, int cudaDevice)
 {
-  return cudaBackendUsable(why);
+  return cudaBackendUsable(why, cudaDevice);
 }
 
-Device resolveDevice(Device requested, std::string* message)
+int cudaDeviceCount()
+{
+  return cudaBackendDeviceCount();
+}
+
+Device resolveDevice(Device requested, std::string* message, int cudaDevice)
 {
   std::string why;
   switch (requested)
@@ -19,13 +24,13 @@ Device resolveDevice(Device requested, std::string* message)
     case Device::Cpu:
       return Device::Cpu;
     case Device::Cuda:
-      if (!cudaAvailable(&why))
+      if (!cudaAvailable(&why, cudaDevice))
       {
         NV_THROW("CUDA device requested but not usable: " + why);
       }
       return Device::Cuda;
     case Device::Auto:
-      if (cudaAvailable(&why))
+      if (cudaAvailable(&why, cudaDevice))
       {
         return Device::Cuda;
       }

@@ -18,10 +18,15 @@
 namespace nv
 {
 
-/// True when a CUDA device is usable (built with CUDA, driver present, a supported GPU).
-bool cudaAvailable(std::string* why = nullptr);
-/// Auto -> Cuda when available, else Cpu. Cuda when unavailable throws.
-Device resolveDevice(Device requested, std::string* message = nullptr);
+/// True when CUDA device `cudaDevice` is usable (built with CUDA, driver present, a supported GPU); -1: the calling
+/// thread's current device. The first query of a device makes it the calling thread's current device (no context is
+/// made on another one).
+bool cudaAvailable(std::string* why = nullptr, int cudaDevice = -1);
+/// CUDA devices this process sees (0 in a build without CUDA, without a driver or a GPU). The CUDA runtime reads
+/// CUDA_VISIBLE_DEVICES, which a launcher may set per process; the engine reads no environment variable itself.
+int cudaDeviceCount();
+/// Auto -> Cuda when device `cudaDevice` is available, else Cpu. Cuda when unavailable throws.
+Device resolveDevice(Device requested, std::string* message = nullptr, int cudaDevice = -1);
 
 class Trainer
 {

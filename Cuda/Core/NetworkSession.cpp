@@ -14,7 +14,8 @@ std::unique_ptr<NetworkSession> NetworkSession::create(Device device, const Mode
   validate(model.config());
   NV_CHECK(model.paramCount() > 0, "model has no parameters");
   NV_CHECK(options.threads >= 0 && options.threads <= 4096, "thread count must be in 0..4096");
-  if (resolveDevice(device, message) == Device::Cuda)
+  NV_CHECK(options.cudaDevice >= -1, "SessionOptions::cudaDevice must be -1 (the current device) or an ordinal");
+  if (resolveDevice(device, message, options.cudaDevice) == Device::Cuda)
     return createCudaSession(model, options);
   return createCpuSession(model, options);
 }

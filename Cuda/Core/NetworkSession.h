@@ -49,14 +49,20 @@ struct SessionOptions
   int threads = 0; ///< CPU worker threads (CPU backend, and host-side work of the GPU backend); 0 = all cores
   /// The CPU backend's workers run at a lower scheduling priority (ThreadPriority.h): a session beside a GUI.
   bool lowPriority = false;
+  /// CUDA backend: the device ordinal the session runs on (0 .. cudaDeviceCount() - 1), chosen once: its network,
+  /// streams, buffers and trainers live there, and every call selects it on the calling thread. -1: the calling
+  /// thread's current device at create() (device 0 unless the application chose another). Device::Auto falls back
+  /// to the CPU when this device is not usable. The CPU backend ignores it. Under MPI the application gives each
+  /// rank its own (the ParaView plugin: the rank's index among the ranks of its host modulo the devices it sees).
+  int cudaDevice = -1;
   KernelOptions kernels;
 };
 
 class NetworkSession
 {
 public:
-  /// Device::Auto picks CUDA when a GPU is usable, else the CPU (`message` says why); Device::Cuda without a GPU
-  /// throws nv::Error.
+  /// Device::Auto picks CUDA when the GPU options.cudaDevice is usable, else the CPU (`message` says why);
+  /// Device::Cuda without it throws nv::Error.
   static std::unique_ptr<NetworkSession> create(Device device, const Model& model,
     const SessionOptions& options = SessionOptions(), std::string* message = nullptr);
 
@@ -65,6 +71,8 @@ public:
   NetworkSession& operator=(const NetworkSession&) = delete;
 
   virtual Device device() const = 0;
+  /// The CUDA device ordinal this session runs on; -1 on the CPU.
+  virtual int cudaDevice() const { return -1; }
   /// Host copy: configuration and source information; its parameters are current after setModel() or syncModel().
   virtual const Model& model() const = 0;
   /// Incremented whenever the parameters change (setModel, Trainer::publish). Caches key on it.

@@ -132,9 +132,9 @@ int64_t hostMemoryLimit()
   return hostMemoryBudget().bytes;
 }
 
-bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes)
+bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes, int cudaDevice)
 {
-  return cudaDeviceMemory(freeBytes, totalBytes);
+  return cudaDeviceMemory(freeBytes, totalBytes, cudaDevice);
 }
 
 std::string formatBytes(int64_t bytes)

@@ -53,9 +53,9 @@ ProcessMemoryLimits processMemoryLimits();
 HostMemoryBudget hostMemoryBudget(const ProcessMemoryLimits* limits = nullptr);
 /// hostMemoryBudget().bytes; INT64_MAX when unknown (nothing is refused then).
 int64_t hostMemoryLimit();
-/// Free and total bytes of the current CUDA device. False in a build without CUDA or without a usable GPU; call it
-/// only where a GPU session exists (it creates the CUDA context otherwise).
-bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes);
+/// Free and total bytes of CUDA device `cudaDevice` (-1: the current one). False in a build without CUDA or without
+/// a usable GPU; call it only where a GPU session exists (it creates the CUDA context otherwise).
+bool deviceMemoryInfo(int64_t& freeBytes, int64_t& totalBytes, int cudaDevice = -1);
 
 /// a * b, or INT64_MAX when it overflows (negative factors count as 0).
 int64_t saturatingMul(int64_t a, int64_t b);

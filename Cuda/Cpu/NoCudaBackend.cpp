@@ -6,14 +6,19 @@
 namespace nv
 {
 
-bool cudaBackendUsable(std::string* why)
+bool cudaBackendUsable(std::string* why, int)
 {
   if (why)
     *why = "this build has no CUDA support";
   return false;
 }
 
-bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes)
+int cudaBackendDeviceCount()
+{
+  return 0;
+}
+
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes, int)
 {
   freeBytes = totalBytes = 0;
   return false;

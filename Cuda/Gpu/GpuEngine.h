@@ -14,11 +14,15 @@ namespace nv
 namespace gpu
 {
 
-/// True when the CUDA runtime finds a device this build can run on (compute capability 7.5 or newer, with code
-/// for it in the build); otherwise `why` says what is missing, in one sentence.
-bool deviceUsable(std::string* why);
+/// True when the CUDA runtime finds device `ordinal` (-1: the calling thread's current device) and this build can
+/// run on it (compute capability 7.5 or newer, with code for it in the build); otherwise `why` says what is
+/// missing, in one sentence. The first query of a device makes it the calling thread's current device.
+bool deviceUsable(std::string* why, int ordinal = -1);
 
-/// Name, architecture, multiprocessors and memory of the device, for reports.
+/// CUDA devices the runtime sees (0 without a driver or a GPU).
+int deviceCount();
+
+/// Name, architecture, multiprocessors and memory of the current device, for reports.
 std::string deviceDescription();
 
 /// Receives a trainer's fp32 parameters (device pointer, Model::params layout) and the trainer's stream on publish().

@@ -59,12 +59,16 @@ struct Usable
   std::string why;
 };
 
-const Usable& usable()
+/// Devices whose properties and usability are cached (ordinals 0..kMaxDevices-1).
+constexpr int kMaxDevices = 64;
+
+/// The runtime's device count, or why there is none (queried once).
+const Usable& runtimeUsable(int* devices)
 {
   static Usable u;
+  static int count = 0;
   static std::once_flag once;
   std::call_once(once, [] {
-    int count = 0;
     cudaError_t e = cudaGetDeviceCount(&count);
     if (e != cudaSuccess)
     {
@@ -76,6 +80,7 @@ const Usable& usable()
       else
         u.why = std::string("CUDA runtime reports ") + cudaGetErrorString(e);
       cudaGetLastError();
+      count = 0;
       return;
     }
     if (count == 0)
@@ -83,42 +88,70 @@ const Usable& usable()
       u.why = "no NVIDIA GPU found";
       return;
     }
-    cudaDeviceProp p;
-    if (cudaGetDeviceProperties(&p, 0) != cudaSuccess)
-    {
-      cudaGetLastError();
-      u.why = "cannot query CUDA device 0";
-      return;
-    }
-    if (p.major * 10 + p.minor < 75)
-    {
-      std::ostringstream os;
-      os << "GPU '" << p.name << "' has compute capability " << p.major << "." << p.minor
-         << "; NeuralVolume's CUDA engine needs 7.5 (Turing) or newer";
-      u.why = os.str();
-      return;
-    }
-    cudaFuncAttributes fa;
-    e = cudaFuncGetAttributes(&fa, probeKernel);
-    if (e != cudaSuccess)
-    {
-      std::ostringstream os;
-      os << "the CUDA kernels cannot run on '" << p.name << "' (sm_" << p.major << p.minor << "): ";
-      if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorInvalidKernelImage)
-        os << "this build has no code for it (built for " << NV_CUDA_ARCHITECTURES
-           << "; rebuild with CMAKE_CUDA_ARCHITECTURES including " << p.major << p.minor << ")";
-      else if (e == cudaErrorUnsupportedPtxVersion)
-        os << "its driver is older than this build's CUDA " << CUDART_VERSION / 1000 << "." << CUDART_VERSION % 1000 / 10
-           << " (update the NVIDIA driver)";
-      else
-        os << cudaGetErrorString(e);
-      u.why = os.str();
-      cudaGetLastError();
-      return;
-    }
     u.ok = true;
   });
+  *devices = count;
   return u;
+}
+
+/// Whether this build's kernels run on device `ordinal` (queried once per device). The kernel query runs on the
+/// current device: device `ordinal` becomes the calling thread's current device and stays so (switching back would
+/// make a context on the previous device -- since CUDA 12 cudaSetDevice creates it -- in a process that never uses
+/// it: an MPI rank on device 1 would hold memory on device 0 too).
+Usable checkDevice(int ordinal)
+{
+  Usable u;
+  cudaDeviceProp p;
+  if (cudaGetDeviceProperties(&p, ordinal) != cudaSuccess)
+  {
+    cudaGetLastError();
+    u.why = "cannot query CUDA device " + std::to_string(ordinal);
+    return u;
+  }
+  if (p.major * 10 + p.minor < 75)
+  {
+    std::ostringstream os;
+    os << "GPU '" << p.name << "' has compute capability " << p.major << "." << p.minor
+       << "; NeuralVolume's CUDA engine needs 7.5 (Turing) or newer";
+    u.why = os.str();
+    return u;
+  }
+  int current = 0;
+  const bool switching = cudaGetDevice(&current) == cudaSuccess && current != ordinal;
+  if (switching && cudaSetDevice(ordinal) != cudaSuccess)
+  {
+    cudaGetLastError();
+    u.why = "cannot select CUDA device " + std::to_string(ordinal);
+    return u;
+  }
+  cudaFuncAttributes fa;
+  const cudaError_t e = cudaFuncGetAttributes(&fa, probeKernel);
+  if (e != cudaSuccess)
+  {
+    std::ostringstream os;
+    os << "the CUDA kernels cannot run on '" << p.name << "' (sm_" << p.major << p.minor << "): ";
+    if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorInvalidKernelImage)
+      os << "this build has no code for it (built for " << NV_CUDA_ARCHITECTURES
+         << "; rebuild with CMAKE_CUDA_ARCHITECTURES including " << p.major << p.minor << ")";
+    else if (e == cudaErrorUnsupportedPtxVersion)
+      os << "its driver is older than this build's CUDA " << CUDART_VERSION / 1000 << "." << CUDART_VERSION % 1000 / 10
+         << " (update the NVIDIA driver)";
+    else
+      os << cudaGetErrorString(e);
+    u.why = os.str();
+    cudaGetLastError();
+    return u;
+  }
+  u.ok = true;
+  return u;
+}
+
+const Usable& usable(int ordinal)
+{
+  static Usable devices[kMaxDevices];
+  static std::once_flag once[kMaxDevices];
+  std::call_once(once[ordinal], [ordinal] { devices[ordinal] = checkDevice(ordinal); });
+  return devices[ordinal];
 }
 
 __global__ void toHalfKernel(const float* __restrict__ src, __half* __restrict__ dst, int64_t n)
@@ -148,30 +181,77 @@ int gridFor(int64_t n, int threads)
   return static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(b, int64_t(deviceInfo().sms) * 32)));
 }
 
-const DeviceInfo& deviceInfo()
+int currentDevice()
 {
-  static DeviceInfo info;
-  static std::once_flag once;
-  std::call_once(once, [] {
-    NV_CUDA(cudaGetDevice(&info.device));
-    cudaDeviceProp p;
-    NV_CUDA(cudaGetDeviceProperties(&p, info.device));
-    info.sms = p.multiProcessorCount;
-    info.maxSmemOptin = static_cast<int>(p.sharedMemPerBlockOptin);
-    info.totalMem = p.totalGlobalMem;
-    info.name = p.name;
-    info.major = p.major;
-    info.minor = p.minor;
-  });
-  return info;
+  int device = 0;
+  NV_CUDA(cudaGetDevice(&device));
+  return device;
 }
 
-bool deviceUsable(std::string* why)
+void useDevice(int ordinal)
 {
-  const Usable& u = usable();
-  if (!u.ok && why)
-    *why = u.why;
-  return u.ok;
+  if (currentDevice() != ordinal)
+    NV_CUDA(cudaSetDevice(ordinal));
+}
+
+const DeviceInfo& deviceInfo()
+{
+  static DeviceInfo info[kMaxDevices];
+  static std::once_flag once[kMaxDevices];
+  const int device = currentDevice();
+  NV_CHECK(device >= 0 && device < kMaxDevices, "CUDA device ordinal beyond " + std::to_string(kMaxDevices - 1));
+  std::call_once(once[device], [device] {
+    DeviceInfo& d = info[device];
+    d.device = device;
+    cudaDeviceProp p;
+    NV_CUDA(cudaGetDeviceProperties(&p, device));
+    d.sms = p.multiProcessorCount;
+    d.maxSmemOptin = static_cast<int>(p.sharedMemPerBlockOptin);
+    d.totalMem = p.totalGlobalMem;
+    d.name = p.name;
+    d.major = p.major;
+    d.minor = p.minor;
+  });
+  return info[device];
+}
+
+int deviceCount()
+{
+  int devices = 0;
+  runtimeUsable(&devices);
+  return devices;
+}
+
+bool deviceUsable(std::string* why, int ordinal)
+{
+  int devices = 0;
+  const Usable& runtime = runtimeUsable(&devices);
+  std::string reason;
+  bool ok = runtime.ok;
+  if (!ok)
+    reason = runtime.why;
+  else
+  {
+    if (ordinal < 0 && cudaGetDevice(&ordinal) != cudaSuccess)
+    {
+      cudaGetLastError();
+      ordinal = 0;
+    }
+    if (ordinal >= devices || ordinal >= kMaxDevices)
+    {
+      ok = false;
+      reason = "no CUDA device " + std::to_string(ordinal) + " (this process sees " + std::to_string(devices) + ")";
+    }
+    else
+    {
+      const Usable& u = usable(ordinal);
+      ok = u.ok;
+      reason = u.why;
+    }
+  }
+  if (!ok && why)
+    *why = reason;
+  return ok;
 }
 
 std::string deviceDescription()

@@ -22,8 +22,14 @@ struct DeviceInfo
   std::string name;
   int major = 0, minor = 0;
 };
-/// Properties of the current device (queried once).
+/// Properties of the calling thread's current device (queried once per device).
 const DeviceInfo& deviceInfo();
+/// The calling thread's current CUDA device.
+int currentDevice();
+/// Makes `ordinal` the calling thread's current device (cudaSetDevice when it is another one; the runtime keeps it
+/// for the thread). Every entry point of a session and of its trainers calls it with the session's device, so a
+/// session made for device 1 works from any thread (a new thread starts on device 0).
+void useDevice(int ordinal);
 /// Blocks for a grid-stride loop over n items (at most 32 blocks per SM).
 int gridFor(int64_t n, int threads = 256);
 

@@ -17,15 +17,25 @@
 namespace nv
 {
 
-bool cudaBackendUsable(std::string* why)
+bool cudaBackendUsable(std::string* why, int cudaDevice)
 {
-  return gpu::deviceUsable(why);
+  return gpu::deviceUsable(why, cudaDevice);
 }
 
-bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes)
+int cudaBackendDeviceCount()
+{
+  return gpu::deviceCount();
+}
+
+bool cudaDeviceMemory(int64_t& freeBytes, int64_t& totalBytes, int cudaDevice)
 {
   freeBytes = totalBytes = 0;
   size_t f = 0, t = 0;
+  if (cudaDevice >= 0 && (!gpu::deviceUsable(nullptr, cudaDevice) || cudaSetDevice(cudaDevice) != cudaSuccess))
+  {
+    cudaGetLastError();
+    return false;
+  }
   if (cudaMemGetInfo(&f, &t) != cudaSuccess)
   {
     cudaGetLastError(); // not sticky: clear it for the next CUDA call
@@ -49,8 +59,11 @@ constexpr int64_t kChunk = int64_t(1) << 22;
 class GpuSession final : public NetworkSession
 {
 public:
+  /// Made on the calling thread's current device (createCudaSession selects options.cudaDevice first); every call
+  /// selects that device again on the thread it runs on.
   GpuSession(const Model& model, const SessionOptions& options)
     : Options(options)
+    , Ordinal(currentDevice())
     , HostModel(model)
     , Corrections(sharedCorrections(model))
     , Pool(std::min(16, options.threads > 0 ? options.threads : ThreadPool::defaultThreads()))
@@ -61,11 +74,13 @@ public:
 
   ~GpuSession() override
   {
+    cudaSetDevice(Ordinal); // the members are released on their device (nothing may leave a destructor)
     cudaStreamSynchronize(ComputeStream.get());
     cudaStreamSynchronize(CopyStream.get());
   }
 
   Device device() const override { return Device::Cuda; }
+  int cudaDevice() const override { return Ordinal; }
   const Model& model() const override { return HostModel; }
 
   uint64_t version() const override
@@ -78,6 +93,7 @@ public:
   {
     validate(model.config());
     NV_CHECK(model.paramCount() > 0, "model has no parameters");
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     HostModel = model;
     upload(model);
@@ -94,12 +110,14 @@ public:
 
   void syncModel() override
   {
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
   }
 
   Model currentModel() override
   {
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
     return HostModel;
@@ -108,6 +126,7 @@ public:
   std::unique_ptr<Trainer> createTrainer(const VolumeView& volume, const TrainConfig& config) override
   {
     const TrainConfig c = trainerConfig(volume, config, Options);
+    useDevice(Ordinal); // the trainer lives on the session's device
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked(); // the trainer starts from the current parameters
     // The trainer must not outlive the session (NetworkSession::createTrainer).
@@ -118,6 +137,7 @@ public:
   std::unique_ptr<Trainer> createTrainer(const TrainingPoints& points, const TrainConfig& config) override
   {
     const TrainConfig c = trainerConfig(points, config, Options);
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
     return gpu::createTrainer(HostModel, points, c, Options.kernels,
@@ -127,6 +147,7 @@ public:
   std::unique_ptr<Trainer> createTrainer(BatchSource& source, const TrainConfig& config) override
   {
     const TrainConfig c = trainerConfig(source, config, Options);
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     syncLocked();
     return gpu::createTrainer(HostModel, source, c, Options.kernels,
@@ -138,6 +159,7 @@ public:
     NV_CHECK(n >= 0 && (n == 0 || (xyz && out)), "inferPoints: invalid arguments");
     if (n == 0)
       return;
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     if (where == Memory::Device)
     {
@@ -161,6 +183,7 @@ public:
     if (z0 == z1)
       return;
     const int64_t n = nx * ny * (z1 - z0);
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     if (where == Memory::Device)
     {
@@ -177,6 +200,7 @@ public:
   {
     while (PublishWaiting.load() > 0) // a trained network is ready: let it in first
       std::this_thread::yield();
+    useDevice(Ordinal);
     std::lock_guard<std::mutex> lock(Mutex);
     Renderer->render(HostModel, Version, request, result, where);
   }
@@ -212,6 +236,7 @@ private:
   /// render loop and never waits for more than the frame in flight.
   void publish(const float* dParams, cudaStream_t stream)
   {
+    useDevice(Ordinal); // the trainer's thread
     std::lock_guard<std::mutex> one(PublishMutex); // one publish at a time
     {
       std::lock_guard<std::mutex> lock(Mutex);
@@ -308,6 +333,7 @@ private:
   }
 
   SessionOptions Options;
+  int Ordinal = 0; ///< the CUDA device of every resource of this session
   mutable std::mutex Mutex;
   Model HostModel;
   std::shared_ptr<const ErrorCorrections> Corrections; ///< of HostModel's parameters; null once a trainer publishes
@@ -333,7 +359,10 @@ private:
 std::unique_ptr<NetworkSession> createCudaSession(const Model& model, const SessionOptions& options)
 {
   std::string why;
-  NV_CHECK(gpu::deviceUsable(&why), "CUDA device requested but not usable: " + why);
+  NV_CHECK(options.cudaDevice >= -1, "SessionOptions::cudaDevice must be -1 (the current device) or an ordinal");
+  NV_CHECK(gpu::deviceUsable(&why, options.cudaDevice), "CUDA device requested but not usable: " + why);
+  if (options.cudaDevice >= 0)
+    gpu::useDevice(options.cudaDevice); // the session's resources are made there
   return std::unique_ptr<NetworkSession>(new gpu::GpuSession(model, options));
 }
 

@@ -37,6 +37,7 @@ public:
   GpuTrainer(const Model& model, const VolumeView& volume, const TrainingPoints& points, const TrainConfig& config,
     const KernelOptions& options, PublishFn publish, BatchSource* source = nullptr)
     : GpuTrainerState(model, volume, points, config, options, std::move(publish), source)
+    , Ordinal(currentDevice()) // the session's, selected by the session that creates this trainer
   {
     validate(config);
     allocateTraining(model, config, options);
@@ -105,6 +106,7 @@ public:
 
   ~GpuTrainer() override
   {
+    cudaSetDevice(Ordinal); // the buffers are released on their device (nothing may leave a destructor)
     if (NextBatch.valid())
     {
       try
@@ -131,6 +133,7 @@ public:
   void steps(int64_t count, float* losses) override
   {
     const int64_t B = Train.batchSize;
+    useDevice(Ordinal); // a background training thread starts on device 0
     cudaStream_t st = ComputeStream.get();
     for (int64_t done = 0; done < count;)
     {
@@ -197,6 +200,7 @@ public:
   void syncTo(Model& model) const override
   {
     NV_CHECK(model.paramCount() == EncodingParamCount + MlpParamCount, "syncTo: model has a different configuration");
+    useDevice(Ordinal);
     ComputeStream.sync();
     NV_CUDA(cudaMemcpy(model.params().data(), Params.get(), Params.bytes(), cudaMemcpyDeviceToHost));
   }
@@ -205,6 +209,7 @@ public:
   void publish() override
   {
     NV_CHECK(Publish != nullptr, "this trainer has no session to publish to");
+    useDevice(Ordinal);
     Publish(Params.get(), ComputeStream.get());
   }
 
@@ -220,6 +225,7 @@ public:
     std::vector<float>& grad) override
   {
     NV_CHECK(n >= 1 && n <= Train.batchSize, "lossAndGradient: 1..batch size samples");
+    useDevice(Ordinal);
     if (NextBatch.valid())
       NextBatch.wait(); // host-sampled: the next batch's preparation does not touch the buffers used here
     cudaStream_t st = ComputeStream.get();
@@ -266,6 +272,8 @@ public:
   }
 
 private:
+  const int Ordinal; ///< the CUDA device of the session and of every buffer here
+
   /// Host-sampled strategy: targets of step s into pinned buffer k (NaN = invalid); returns the valid count.
   int64_t prepare(int64_t s, int k)
   {

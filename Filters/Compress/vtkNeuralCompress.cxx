@@ -51,11 +51,13 @@ vtkNeuralCompress::vtkNeuralCompress()
   this->SetNumberOfOutputPorts(3);
   this->SetInputArrayToProcess(0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS,
     vtkDataSetAttributes::SCALARS);
+  this->RegisterForLiveUpdates();
 }
 
 
 vtkNeuralCompress::~vtkNeuralCompress()
 {
+  this->UnregisterForLiveUpdates();
   this->Internals->Preparing.reset(); // its thread uses this filter
   this->Internals->Current.reset();
 }

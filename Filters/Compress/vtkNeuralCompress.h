@@ -16,7 +16,8 @@
  * `NeuralNetworkSession`, the key of the trained session for renderers of the same process; see
  * vtkNeuralNetworkArray) and the metadata arrays `NeuralTrainingSeconds`, `NeuralSteps`,
  * `NeuralPSNR`, `NeuralMaxError`, `NeuralCompressionRatio`, `NeuralModelBytes`,
- * `NeuralInvalidSamples`, `NeuralGpuMemoryBytes`, `NeuralDevice`, `NeuralTrainingState`,
+ * `NeuralInvalidSamples`, `NeuralGpuMemoryBytes`, `NeuralDevice`, `NeuralCudaDevice` (the GPU ordinal, -1 on
+ * the CPU), `NeuralTrainingState`,
  * `NeuralWarmStart`, `NeuralRestored`, `NeuralTime` and `NeuralValueRange`. OutputMode decides
  * whether it also holds the decoded field (under the input array's name, point data for a point
  * array, cell data for a cell array), in the input's type or in float32.
@@ -59,6 +60,7 @@
 
 class vtkDataArray;
 class vtkImageData;
+class vtkMultiProcessController;
 class vtkTable;
 namespace nv
 {
@@ -379,7 +381,8 @@ public:
   ///@}
 
   /// For ParaView's live-source poller: true (and the algorithm Modified()) when the run has a newer
-  /// state than the last output.
+  /// state than the last output. Under MPI (called on rank 0, as ParaView's poller does) every rank answers for its
+  /// own run and every rank is Modified() when one needs it, so the update that follows executes on every rank.
   bool GetNeedsUpdate();
 
   /// State of the current run for the panel: "Training 1234/2000 steps, 12.3 s, PSNR 41.2 dB".
@@ -462,12 +465,27 @@ private:
   bool Execute(vtkDataObject* inputObject, vtkInformationVector** inputVector,
     vtkImageData* output, vtkTable* log, vtkTable* metrics, double time, bool background);
   /// RequestData under MPI with an image input (vtkNeuralCompressPartition.h): this rank's network of its own piece
-  /// (trained blocking, no communication), the output cropped to the piece, then the global figures (one
-  /// all-reduce that every rank reaches). vtkNeuralCompressPiece.cxx.
+  /// (trained here or, with TrainInBackground, in the background; no communication while training), the output
+  /// cropped to the piece, then the global figures (one all-reduce that every rank reaches).
+  /// vtkNeuralCompressPiece.cxx.
   void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
   /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).
   vtkNeuralCompressInternals::PieceSums MeasureCurrentPiece();
+  /// ExecutePiece while this rank's run trains in the background: its sums from the output's live PSNR estimate.
+  vtkNeuralCompressInternals::PieceSums EstimateCurrentPiece(vtkImageData* output);
+  /// True while the current run trains (not settled).
+  bool TrainingLive();
+  /// GetNeedsUpdate's decision for this process's run alone (the live-source bookkeeping updated, not Modified()).
+  bool LocalNeedsUpdate();
+  /// Under MPI (a collective): whether any rank's run needs an update; every rank is Modified() when one does.
+  bool NeedsUpdateOnEveryRank(vtkMultiProcessController* controller, bool local);
+  /// The RMI by which rank 0's GetNeedsUpdate asks the other ranks (vtkNeuralCompressPiece.cxx).
+  static void LiveUpdateRmi(void* localArg, void* remoteArg, int remoteArgLength, int remoteProcessId);
+  /// This filter in the process-wide list the RMI finds it in (the same number on every rank: ParaView creates a
+  /// pipeline's objects in the same order on every rank).
+  void RegisterForLiveUpdates();
+  void UnregisterForLiveUpdates();
   /// ExecutePiece (a collective): every rank's networks to rank 0, which adds them to GetTrainedNetworks (a state
   /// saved from the client then holds every rank's network; on loading, each rank finds its own by its key).
   void GatherPeerNetworks();

@@ -9,13 +9,37 @@
 #include "Core/Serialization.h"
 
 #include "vtkDataArray.h"
+#include "vtkMultiProcessController.h"
 
 #include <algorithm>
 #include <cmath>
 #include <chrono>
+#include <cstdint>
 
 //------------------------------------------------------------------------------
 bool vtkNeuralCompress::GetNeedsUpdate()
+{
+  vtkMultiProcessController* c = nvi::DistributedController();
+  if (c)
+  {
+    // MPI: ParaView asks rank 0 only, then updates every rank, and an execution ends with a collective: every rank
+    // must execute, so every rank answers for its own run and is Modified() when any needs it.
+    if (c->GetLocalProcessId() == 0)
+    {
+      uint64_t id = this->Internals->LiveUpdateId;
+      c->TriggerRMIOnAllChildren(&id, static_cast<int>(sizeof(id)), nvi::kLiveUpdateRmiTag);
+    }
+    return this->NeedsUpdateOnEveryRank(c, this->LocalNeedsUpdate());
+  }
+  if (this->LocalNeedsUpdate())
+  {
+    this->Modified();
+    return true;
+  }
+  return false;
+}
+
+bool vtkNeuralCompress::LocalNeedsUpdate()
 {
   vtkInternals& in = *this->Internals;
   // A preparation: it ended (its job starts at the next update), its stage changed or a second passed (the panel's
@@ -35,7 +59,6 @@ bool vtkNeuralCompress::GetNeedsUpdate()
       in.PreparingSerialShown = in.Preparing->Serial();
       in.PreparingShownAt = now;
     }
-    this->Modified();
     return true;
   }
   return false;

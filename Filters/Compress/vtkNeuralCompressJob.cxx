@@ -313,6 +313,7 @@ void Job::KeepInterruptedNetwork(nv::Model& model, const RunStatus& status)
   record->Figures.Seconds = status.Seconds;
   record->Figures.ModelBytes = model.parameterBytes();
   record->Figures.Device = nv::deviceName(this->Session->device());
+  record->Figures.CudaDevice = this->Session->cudaDevice();
   record->Figures.WarmStart = this->WarmStart;
   std::lock_guard<std::mutex> lock(this->Mutex);
   this->FinalRecord = record;
@@ -408,6 +409,7 @@ std::shared_ptr<NetworkRecord> Job::MeasuredRecord(
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());
+  m.CudaDevice = this->Session->cudaDevice();
   m.WarmStart = this->WarmStart;
   if (this->Run)
   {
@@ -582,6 +584,7 @@ NetworkRecord Job::Snapshot()
   m.Invalid = this->Field.Stats.invalid;
   m.DeviceMemoryBytes = status.DeviceMemoryBytes;
   m.Device = nv::deviceName(this->Session->device());
+  m.CudaDevice = this->Session->cudaDevice();
   m.WarmStart = this->WarmStart;
   r.Log = this->Run->log();
   return r;

@@ -45,6 +45,7 @@ struct Metrics
   int64_t Invalid = 0;
   int64_t DeviceMemoryBytes = 0;
   std::string Device;
+  int CudaDevice = -1; ///< the GPU ordinal of the session (NeuralCudaDevice; -1: the CPU, or not known)
   bool WarmStart = false;
   bool Restored = false;
   std::string EndReason;

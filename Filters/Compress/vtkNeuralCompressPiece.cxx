@@ -1,5 +1,7 @@
 // vtkNeuralCompress under MPI with an image input: one network per rank on its own piece, the global figures
-// (vtkNeuralCompressPartition.h, vtkNeuralCompressGlobalFigures.h).
+// (vtkNeuralCompressPartition.h, vtkNeuralCompressGlobalFigures.h), and the live updates of background training:
+// ParaView's live-source poll asks rank 0 alone (GetNeedsUpdate), rank 0 asks the other ranks by an RMI, and every
+// rank is Modified() when one rank's run has something new, so the update that follows executes on every rank.
 #include "vtkNeuralCompress.h"
 
 #include "vtkNeuralCompressOutput.h"
@@ -7,6 +9,8 @@
 
 #include "Core/Volume.h"
 
+#include "vtkAbstractArray.h"
+#include "vtkDataArray.h"
 #include "vtkDataObject.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
@@ -18,14 +22,126 @@
 #include "vtkNew.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkTable.h"
+#include "vtkVariant.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <map>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
+
+namespace
+{
+/// The filters of this process by their number (the same on every rank), for the live-update RMI.
+struct LiveUpdateList
+{
+  std::mutex Mutex;
+  std::map<uint64_t, vtkNeuralCompress*> Filters;
+  uint64_t Next = 1;
+  bool RmiAdded = false;
+};
+
+LiveUpdateList& LiveUpdates()
+{
+  static LiveUpdateList list;
+  return list;
+}
+
+/// The ranks' training states ("Training", ...) of an output: a live output, one whose run still trains.
+bool IsLiveState(const std::string& state)
+{
+  return state == "Starting" || state == "Training" || state == "Paused" || state == "Preparing" ||
+    state == "Finishing";
+}
+} // namespace
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::RegisterForLiveUpdates()
+{
+  LiveUpdateList& list = LiveUpdates();
+  std::lock_guard<std::mutex> lock(list.Mutex);
+  this->Internals->LiveUpdateId = list.Next++;
+  list.Filters[this->Internals->LiveUpdateId] = this;
+  vtkMultiProcessController* c = nvi::DistributedController();
+  if (c && !list.RmiAdded)
+  {
+    c->AddRMICallback(&vtkNeuralCompress::LiveUpdateRmi, nullptr, nvi::kLiveUpdateRmiTag);
+    list.RmiAdded = true;
+  }
+}
+
+void vtkNeuralCompress::UnregisterForLiveUpdates()
+{
+  LiveUpdateList& list = LiveUpdates();
+  std::lock_guard<std::mutex> lock(list.Mutex);
+  list.Filters.erase(this->Internals->LiveUpdateId);
+}
+
+void vtkNeuralCompress::LiveUpdateRmi(void*, void* remoteArg, int remoteArgLength, int)
+{
+  vtkMultiProcessController* c = nvi::DistributedController();
+  if (!c)
+    return;
+  uint64_t id = 0;
+  if (remoteArg && remoteArgLength == static_cast<int>(sizeof(id)))
+    std::memcpy(&id, remoteArg, sizeof(id));
+  vtkNeuralCompress* filter = nullptr;
+  {
+    LiveUpdateList& list = LiveUpdates();
+    std::lock_guard<std::mutex> lock(list.Mutex);
+    auto found = list.Filters.find(id);
+    filter = found != list.Filters.end() ? found->second : nullptr;
+  }
+  if (filter)
+    filter->NeedsUpdateOnEveryRank(c, filter->LocalNeedsUpdate());
+  else
+  {
+    int none = 0, any = 0; // no such filter here: this rank still takes part in the decision
+    c->AllReduce(&none, &any, 1, vtkCommunicator::MAX_OP);
+  }
+}
+
+bool vtkNeuralCompress::NeedsUpdateOnEveryRank(vtkMultiProcessController* c, bool local)
+{
+  int mine = local ? 1 : 0, any = 0;
+  c->AllReduce(&mine, &any, 1, vtkCommunicator::MAX_OP);
+  if (any)
+    this->Modified();
+  return any != 0;
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::TrainingLive()
+{
+  nvi::Job* job = this->Internals->Current.get();
+  return job && job->Run && !nvi::isSettled(job->Run->status().State);
+}
+
+nvi::PieceSums vtkNeuralCompress::EstimateCurrentPiece(vtkImageData* output)
+{
+  vtkInternals& in = *this->Internals;
+  nvi::Job* job = in.Current.get();
+  if (!job || !output)
+    return nvi::PieceSums();
+  vtkFieldData* fd = output->GetFieldData();
+  auto value = [fd](const char* name) {
+    vtkDataArray* a = vtkDataArray::SafeDownCast(fd->GetAbstractArray(name));
+    return a && a->GetNumberOfTuples() > 0 ? a->GetTuple1(0) : std::nan("");
+  };
+  vtkDataArray* range = vtkDataArray::SafeDownCast(fd->GetAbstractArray("NeuralValueRange"));
+  const double lo = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(0) : job->Field.Stats.min;
+  const double hi = range && range->GetNumberOfTuples() >= 2 ? range->GetTuple1(1) : job->Field.Stats.max;
+  const nv::VolumeView& view = job->Data ? job->Data->Field.View : nv::VolumeView();
+  const double bytesPerSample =
+    view.count() > 0 ? static_cast<double>(job->Data->Field.RawBytes) / static_cast<double>(view.count()) : 0.0;
+  const double modelBytes = value("NeuralModelBytes");
+  return nvi::EstimatePiece(in.Piece.Owned(), in.Piece.Whole(), job->Field.Cells, value("NeuralPSNR"), lo, hi,
+    bytesPerSample, std::isfinite(modelBytes) ? modelBytes : 0.0);
+}
 
 //------------------------------------------------------------------------------
 nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
@@ -95,7 +211,8 @@ void vtkNeuralCompress::ExecutePiece(
     local->GetExtent(whole);
   bool executed = false;
   nvi::PieceSums sums;
-  const int ranksHere = nvi::RanksOnThisHost(); // every rank (a collective the first time)
+  // Every rank (a collective the first time, which also chooses this rank's GPU: vtkNeuralCudaDevice.h).
+  const int ranksHere = nvi::RanksOnThisHost().Count;
   const bool hasPiece = in.Piece.Select(local, whole);
   if (hasPiece)
   {
@@ -105,10 +222,9 @@ void vtkNeuralCompress::ExecutePiece(
     vector->GetInformationObject(0)->Copy(inInfo);
     vector->GetInformationObject(0)->Set(vtkDataObject::DATA_OBJECT(), in.Piece.Training());
     vtkInformationVector* vectors[1] = { vector };
-    // Every rank trains to the end within this execution: the figures are reduced across ranks at its end, and
-    // executions of one rank alone (a background run's refresh) could not take part in that.
-    const bool background = this->TrainInBackground;
-    this->TrainInBackground = false;
+    // The piece is prepared within the execution (every rank's executions take part in the reduction at their
+    // end); with TrainInBackground its run then trains in the background and the live updates are collective
+    // (GetNeedsUpdate).
     // Threads = 0 (automatic): the host's cores shared among the ranks on it.
     const int threads = this->Threads;
     if (threads == 0)
@@ -121,12 +237,13 @@ void vtkNeuralCompress::ExecutePiece(
     {
       vtkErrorMacro("Neural Compress: unexpected failure. The output is empty.");
     }
-    this->TrainInBackground = background;
     this->Threads = threads;
     if (executed)
     {
       in.Piece.CropOutput(output);
-      sums = this->MeasureCurrentPiece();
+      vtkAbstractArray* state = output->GetFieldData()->GetAbstractArray("NeuralTrainingState");
+      const bool live = this->TrainingLive() || (state && IsLiveState(state->GetVariantValue(0).ToString()));
+      sums = live ? this->EstimateCurrentPiece(output) : this->MeasureCurrentPiece();
     }
   }
   this->ReportEngineWarnings();

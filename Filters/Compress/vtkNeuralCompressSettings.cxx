@@ -4,6 +4,7 @@
 
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressJob.h"
+#include "vtkNeuralCudaDevice.h"
 
 #include "Core/ResourceEstimate.h"
 
@@ -161,6 +162,7 @@ EngineConfigs EngineConfigsFor(const Settings& settings, const int64_t dims[3], 
   configs.RequestedDevice = RequestedDeviceOf(settings);
   configs.Session.threads = settings.Threads;
   configs.Session.lowPriority = lowPriority; // its renders and measurements share the cores with training
+  configs.Session.cudaDevice = vtkNeuralCudaDevice::Get(); // under MPI: this rank's GPU
   configs.GpuResident = settings.Strategy == vtkNeuralCompress::STRATEGY_GPU_RESIDENT;
   return configs;
 }

@@ -67,13 +67,13 @@ nv::SourceInfo SourceOf(const nvi::FieldInfo& field, const nvi::TrainingData& da
 
 /// A network or a batch the machine cannot hold is refused before anything is allocated (throws nv::Error).
 /// `fieldBytes`: the field uploaded to a GPU with the network (GPU-resident training), else 0.
-void CheckTrainingMemory(
-  const nv::ModelConfig& config, const nv::TrainConfig& train, nv::Device device, int64_t fieldBytes)
+void CheckTrainingMemory(const nv::ModelConfig& config, const nv::TrainConfig& train, nv::Device device,
+  int cudaDevice, int64_t fieldBytes)
 {
   const nv::MemoryEstimate estimate =
     nv::trainingMemory(config, train, device, device == nv::Device::Cuda ? fieldBytes : 0);
   int64_t freeBytes = -1, totalBytes = 0;
-  if (device != nv::Device::Cuda || !nv::deviceMemoryInfo(freeBytes, totalBytes))
+  if (device != nv::Device::Cuda || !nv::deviceMemoryInfo(freeBytes, totalBytes, cudaDevice))
     freeBytes = -1;
   nv::checkMemory(estimate, "training this network",
     "Lower Log2TableSize (or set it to 0 for the automatic size), FinestResolution, Levels, FeaturesPerLevel or "
@@ -121,6 +121,8 @@ void ReuseNetwork(
   record->Time = job.Time;
   record->Bytes = bytes;
   record->Figures = cached ? cached->Figures : nvi::MetricsOf(model, nv::deviceName(job.Session->device()));
+  if (!cached)
+    record->Figures.CudaDevice = job.Session->cudaDevice();
   const bool restored = cached ? cached->Figures.Restored : true;
   record->Figures.Restored = restored;
   record->Figures.State = restored ? "Restored" : record->Figures.State;
@@ -151,12 +153,13 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     nvi::EngineConfigsFor(settings, view.dims, data->Field.RawBytes, this->TrainInBackground != 0);
   job->Storage = configs.Storage;
   job->Train = configs.Train;
-  const nv::Device device = nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote);
+  const nv::Device device =
+    nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote, configs.Session.cudaDevice);
   if (field.OutOfCore && settings.Log2TableSize <= 0)
     job->SizeNote = FitOutOfCoreNetwork(configs.Network, configs.Train, device, field.OutOfCore->BudgetBytes);
   // An out-of-core field stays in its file: nothing of it is uploaded (its batches are host-sampled).
-  CheckTrainingMemory(
-    configs.Network, configs.Train, device, configs.GpuResident && !field.OutOfCore ? view.bytes() : 0);
+  CheckTrainingMemory(configs.Network, configs.Train, device, configs.Session.cudaDevice,
+    configs.GpuResident && !field.OutOfCore ? view.bytes() : 0);
   job->NetworkConfig = configs.Network;
   job->Source = SourceOf(field, *data); // the geometry is checked now (as the network format does), not after training
 
@@ -224,11 +227,13 @@ const nvi::NetworkRecord* vtkNeuralCompress::vtkInternals::StoredNetwork(
 void vtkNeuralCompress::vtkInternals::UseSession(
   nv::Device device, const nv::SessionOptions& options, const nv::Model& storedModel, bool haveStored)
 {
-  if (!this->Session || this->SessionDevice != static_cast<int>(device) || this->SessionThreads != options.threads)
+  if (!this->Session || this->SessionDevice != static_cast<int>(device) || this->SessionThreads != options.threads ||
+    this->SessionCudaDevice != options.cudaDevice)
   {
     this->Session = nv::NetworkSession::create(device, storedModel, options);
     this->SessionDevice = static_cast<int>(device);
     this->SessionThreads = options.threads;
+    this->SessionCudaDevice = options.cudaDevice;
   }
   else if (haveStored)
   {

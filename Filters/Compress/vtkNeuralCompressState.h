@@ -26,6 +26,8 @@ struct vtkNeuralCompress::vtkInternals
   std::shared_ptr<nv::NetworkSession> Session; ///< reused by every job while the device and threads stay
   int SessionDevice = -1;
   int SessionThreads = -1;
+  int SessionCudaDevice = -1; ///< the GPU ordinal it was made for (vtkNeuralCudaDevice.h)
+  uint64_t LiveUpdateId = 0;  ///< MPI: this filter's number in the live-update RMI's list (vtkNeuralCompressPiece.cxx)
   nvi::NetworkCache Cache;
   nvi::InputResampler Resampler; ///< inputs that are not images, resampled onto one
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)

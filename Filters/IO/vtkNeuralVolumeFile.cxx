@@ -78,6 +78,42 @@ void CheckExtent(const VolumeFileEntry& e)
       std::to_string(e.Extent[3] - e.Extent[2] + 1) + " x " + std::to_string(e.Extent[5] - e.Extent[4] + 1) + " (" +
       std::to_string(points) + " points) exceeds the 2^34 points a NeuralVolume image may have");
 }
+/// Version 2: the entry's piece, its bounds and the whole extent it is a piece of.
+void ReadPiece(In& r, VolumeFileEntry& e)
+{
+  const uint32_t piece = r.get<uint32_t>("piece"), pieces = r.get<uint32_t>("pieces");
+  NV_CHECK(pieces >= 1 && pieces <= 65536 && piece < pieces,
+    "corrupt NeuralVolume file: piece " + std::to_string(piece) + " of " + std::to_string(pieces));
+  e.Piece = static_cast<int>(piece);
+  e.Pieces = static_cast<int>(pieces);
+  r.get(e.PieceBounds, 6, "piece bounds");
+  r.get(e.WholeExtent, 6, "whole extent");
+  for (int a = 0; a < 3; ++a)
+  {
+    NV_CHECK(std::isfinite(e.PieceBounds[2 * a]) && std::isfinite(e.PieceBounds[2 * a + 1]),
+      "corrupt NeuralVolume file: non-finite piece bounds");
+    NV_CHECK(e.WholeExtent[2 * a] <= e.Extent[2 * a] && e.Extent[2 * a + 1] <= e.WholeExtent[2 * a + 1],
+      "corrupt NeuralVolume file: a piece's extent outside the whole extent");
+  }
+}
+
+/// The pieces of each time step agree on their count and whole extent, and none is there twice.
+void CheckPieces(const std::vector<VolumeFileEntry>& entries)
+{
+  for (const auto& step : EntriesByTime(entries))
+  {
+    std::vector<bool> seen(static_cast<size_t>(step.front()->Pieces), false);
+    for (const VolumeFileEntry* e : step)
+    {
+      NV_CHECK(std::equal(e->WholeExtent, e->WholeExtent + 6, step.front()->WholeExtent),
+        "corrupt NeuralVolume file: the pieces of time " + std::to_string(e->Time) + " differ in their whole extent");
+      NV_CHECK(!seen[static_cast<size_t>(e->Piece)],
+        "corrupt NeuralVolume file: piece " + std::to_string(e->Piece) + " of time " + std::to_string(e->Time) +
+          " is there twice");
+      seen[static_cast<size_t>(e->Piece)] = true;
+    }
+  }
+}
 } // namespace
 
 void CheckEntryAgainstNetwork(const VolumeFileEntry& e, const nv::SourceInfo& source)
@@ -95,12 +131,33 @@ void CheckEntryAgainstNetwork(const VolumeFileEntry& e, const nv::SourceInfo& so
   NV_CHECK(e.Cells == source.association, "the entry's association is not its network's");
 }
 
+std::vector<std::vector<const VolumeFileEntry*>> EntriesByTime(const std::vector<VolumeFileEntry>& entries)
+{
+  std::vector<std::vector<const VolumeFileEntry*>> groups;
+  for (const VolumeFileEntry& e : entries)
+  {
+    const bool sameStep = !groups.empty() && e.Pieces > 1 && groups.back().front()->Pieces == e.Pieces &&
+      groups.back().front()->Time == e.Time && static_cast<int>(groups.back().size()) < e.Pieces;
+    if (!sameStep)
+      groups.emplace_back();
+    groups.back().push_back(&e);
+  }
+  return groups;
+}
+
 std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries)
 {
   NV_CHECK(!entries.empty() && entries.size() <= 65536, "a NeuralVolume file holds 1 to 65536 entries");
+  bool distributed = false;
+  for (const VolumeFileEntry& e : entries)
+  {
+    NV_CHECK(e.Pieces >= 1 && e.Pieces <= 65536 && e.Piece >= 0 && e.Piece < e.Pieces, "an entry's piece is invalid");
+    distributed = distributed || e.Pieces > 1;
+  }
+  const uint32_t version = distributed ? 2u : 1u; // a serial run's file stays readable by earlier plugins
   Out o;
   o.bytes.insert(o.bytes.end(), kMagic, kMagic + 8);
-  o.put<uint32_t>(kVolumeFileVersion);
+  o.put<uint32_t>(version);
   o.put<uint32_t>(static_cast<uint32_t>(entries.size()));
   for (const VolumeFileEntry& e : entries)
   {
@@ -120,6 +177,13 @@ std::vector<uint8_t> WriteVolumeFile(const std::vector<VolumeFileEntry>& entries
     o.bytes.insert(o.bytes.end(), e.Name.begin(), e.Name.end());
     o.put<uint64_t>(e.Network.size());
     o.bytes.insert(o.bytes.end(), e.Network.begin(), e.Network.end());
+    if (version >= 2)
+    {
+      o.put<uint32_t>(static_cast<uint32_t>(e.Piece));
+      o.put<uint32_t>(static_cast<uint32_t>(e.Pieces));
+      o.put(e.PieceBounds, 6);
+      o.put(e.WholeExtent, 6);
+    }
   }
   o.put<uint32_t>(nv::crc32(o.bytes.data(), o.bytes.size()));
   return o.bytes;
@@ -168,6 +232,10 @@ std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
     r.need(static_cast<size_t>(std::min<uint64_t>(networkBytes, uint64_t(1) << 62)), "network");
     e.Network.assign(data + r.at, data + r.at + networkBytes);
     r.at += networkBytes;
+    if (version >= 2)
+      ReadPiece(r, e);
+    else
+      std::copy(e.Extent, e.Extent + 6, e.WholeExtent);
     bool finite = std::isfinite(e.Time) && std::isfinite(e.ValueRange[0]) && std::isfinite(e.ValueRange[1]);
     for (int a = 0; a < 3; ++a)
     {
@@ -182,6 +250,7 @@ std::vector<VolumeFileEntry> ReadVolumeFile(const uint8_t* data, size_t size)
     CheckExtent(e);
   }
   NV_CHECK(r.at == r.end, "corrupt NeuralVolume file: " + std::to_string(r.end - r.at) + " unexpected trailing bytes");
+  CheckPieces(out);
   return out;
 }
 

@@ -39,6 +39,20 @@ void ExclusiveRange(const int owned[6], const int whole[6], bool cells, int a, i
     hi -= 1;
 }
 
+/// Samples of the whole extent and those `owned` holds exclusively (a sample count, points or cells).
+void CountSamples(const int owned[6], const int whole[6], bool cells, double& samples, double& wholeSamples)
+{
+  samples = wholeSamples = 1.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    int lo = 0, hi = 0;
+    ExclusiveRange(owned, whole, cells, a, lo, hi);
+    const int points = whole[2 * a + 1] - whole[2 * a] + 1;
+    wholeSamples *= cells ? std::max(points - 1, 1) : points;
+    samples *= std::max(hi - lo + 1, 0);
+  }
+}
+
 template <typename ArrayT>
 void SetValue(vtkFieldData* fd, const char* name, double value)
 {
@@ -107,22 +121,42 @@ PieceSums MeasurePiece(nv::NetworkSession& session, const nv::VolumeView& view, 
   return sums;
 }
 
+PieceSums EstimatePiece(const int owned[6], const int whole[6], bool cells, double psnr, double valueMin,
+  double valueMax, double rawBytesPerSample, double modelBytes)
+{
+  PieceSums sums;
+  CountSamples(owned, whole, cells, sums.Samples, sums.WholeSamples);
+  sums.Estimated = 1.0;
+  sums.Networks = modelBytes > 0.0 ? 1.0 : 0.0;
+  sums.ModelBytes = modelBytes;
+  sums.Count = sums.Samples;
+  sums.FieldBytes = sums.Count * rawBytesPerSample;
+  sums.ValueMin = valueMin;
+  sums.ValueMax = valueMax;
+  const double span = valueMax > valueMin ? valueMax - valueMin : 1.0;
+  if (std::isfinite(psnr))
+    sums.SquaredError = sums.Count * span * span * std::pow(10.0, -psnr / 10.0);
+  else
+    sums.Unknown = 1.0;
+  return sums;
+}
+
 GlobalFigures ReduceFigures(const PieceSums& local)
 {
   GlobalFigures g;
   vtkMultiProcessController* c = DistributedController();
   const bool have = local.Count > 0.0;
   // Sums, then maxima (min as the max of the negated value).
-  double sum[8] = { local.SquaredError, local.Count, local.NonFinite, local.ModelBytes, local.FieldBytes,
-    local.Networks, local.Samples, local.Failed };
+  double sum[10] = { local.SquaredError, local.Count, local.NonFinite, local.ModelBytes, local.FieldBytes,
+    local.Networks, local.Samples, local.Failed, local.Estimated, local.Unknown };
   double max[4] = { local.MaxError, have ? local.ValueMax : -std::numeric_limits<double>::max(),
     have ? -local.ValueMin : -std::numeric_limits<double>::max(), local.WholeSamples };
-  double sumAll[8], maxAll[4];
-  std::copy(sum, sum + 8, sumAll);
+  double sumAll[10], maxAll[4];
+  std::copy(sum, sum + 10, sumAll);
   std::copy(max, max + 4, maxAll);
   if (c)
   {
-    c->AllReduce(sum, sumAll, 8, vtkCommunicator::SUM_OP);
+    c->AllReduce(sum, sumAll, 10, vtkCommunicator::SUM_OP);
     c->AllReduce(max, maxAll, 4, vtkCommunicator::MAX_OP);
   }
   g.Samples = sumAll[6];
@@ -146,6 +180,16 @@ GlobalFigures ReduceFigures(const PieceSums& local)
   g.PiecePsnr = pieceMse > 0.0 ? 10.0 * std::log10(1.0 / pieceMse) : (pieceMse == 0.0 ? HUGE_VAL : nan);
   const double mse = sumAll[0] / g.Count / scale;
   g.Psnr = diverged ? nan : (mse > 0.0 ? 10.0 * std::log10(1.0 / mse) : std::numeric_limits<double>::infinity());
+  g.Estimated = sumAll[8] > 0.0;
+  if (g.Estimated)
+  {
+    // Live figures: the estimates of the ranks that train, the exact sums of those done; no max error yet.
+    g.MaxError = g.MaxErrorOfRange = nan;
+    if (sumAll[9] > 0.0)
+      g.Psnr = nan;
+    if (local.Unknown > 0.0)
+      g.PiecePsnr = nan;
+  }
   g.Ratio = g.ModelBytes > 0.0 ? sumAll[4] / g.ModelBytes : 0.0;
   return g;
 }

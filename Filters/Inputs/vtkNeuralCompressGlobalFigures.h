@@ -35,6 +35,8 @@ struct PieceSums
   double Samples = 0.0;      ///< samples this rank owns exclusively (finite or not)
   double WholeSamples = 0.0; ///< samples of the whole extent (points, or cells of a cell array)
   double Failed = 0.0;       ///< 1 when this rank held a piece but could not train it (it reported why)
+  double Estimated = 0.0;    ///< 1 while this rank trains in the background: SquaredError from its PSNR estimate
+  double Unknown = 0.0;      ///< 1 when that estimate is not known yet (no probe so far)
 };
 
 /// The whole field's figures (the same on every rank).
@@ -50,6 +52,8 @@ struct GlobalFigures
   double Samples = 0.0, WholeSamples = 0.0; ///< owned by the ranks together, and of the whole extent
   int Failed = 0;                           ///< ranks that held a piece and could not train it
   double PiecePsnr = 0.0; ///< this rank's own samples against the whole field's range
+  bool Estimated = false; ///< some rank still trains: Psnr from the ranks' estimates (NaN until each has one),
+                          ///< MaxError unknown (NaN)
 };
 
 /// This rank's sums: the session's network decoded over the exclusively owned samples of `view` (the field the
@@ -57,6 +61,11 @@ struct GlobalFigures
 /// extents; `rawBytesPerSample` the input type's size.
 PieceSums MeasurePiece(nv::NetworkSession& session, const nv::VolumeView& view, const int trainExtent[6],
   const int owned[6], const int whole[6], bool cells, double rawBytesPerSample, double modelBytes);
+
+/// While this rank trains in the background (TrainInBackground under MPI): its sums estimated from its live PSNR
+/// estimate `psnr` (over its training field's range `valueMin`..`valueMax`; NaN: none yet) for the samples it owns.
+PieceSums EstimatePiece(const int owned[6], const int whole[6], bool cells, double psnr, double valueMin,
+  double valueMax, double rawBytesPerSample, double modelBytes);
 
 /// The all-reduce (a collective: every rank calls it once per execution, with or without a network).
 GlobalFigures ReduceFigures(const PieceSums& local);

@@ -2,6 +2,7 @@
 #include "vtkNeuralCompressPartition.h"
 
 #include "vtkNeuralCompressDistributed.h"
+#include "vtkNeuralCudaDevice.h"
 
 #include "vtkDoubleArray.h"
 #include "vtkExtentTranslator.h"
@@ -64,24 +65,33 @@ bool PerRankNetworks(vtkDataObject* input)
   return DistributedController() && vtkImageData::SafeDownCast(input);
 }
 
-int RanksOnThisHost()
+HostRanks RanksOnThisHost()
 {
-  static int ranks = 0;
-  if (ranks > 0)
-    return ranks;
+  static HostRanks host;
+  static bool known = false;
+  if (known)
+    return host;
   vtkMultiProcessController* c = DistributedController();
   if (!c)
-    return 1;
+    return HostRanks();
   constexpr int kNameLength = 256;
   char name[kNameLength] = {};
   gethostname(name, kNameLength - 1);
   std::vector<char> all(static_cast<size_t>(kNameLength) * c->GetNumberOfProcesses());
   c->AllGather(name, all.data(), kNameLength);
-  ranks = 0;
+  host.Count = 0;
   for (int r = 0; r < c->GetNumberOfProcesses(); ++r)
-    ranks += std::strncmp(all.data() + static_cast<size_t>(r) * kNameLength, name, kNameLength) == 0 ? 1 : 0;
-  ranks = std::max(ranks, 1);
-  return ranks;
+  {
+    if (std::strncmp(all.data() + static_cast<size_t>(r) * kNameLength, name, kNameLength) != 0)
+      continue;
+    if (r < c->GetLocalProcessId())
+      ++host.Index;
+    ++host.Count;
+  }
+  host.Count = std::max(host.Count, 1);
+  vtkNeuralCudaDevice::ChooseForLocalRank(host.Index); // the GPU of this local rank, for every session made here
+  known = true;
+  return host;
 }
 
 void ImagePiece::RequestPaddedPiece(vtkInformation* inInfo)

@@ -31,12 +31,24 @@ namespace vtkNeuralCompressInternals
 /// near the piece's faces are fitted on both sides of them, so neighbouring networks agree there.
 constexpr int kPieceGhostLayers = 3;
 
+/// The RMI tag by which rank 0 asks every rank whether its background run needs an update (ParaView's live-source
+/// poll runs on rank 0 alone; vtkNeuralCompressPiece.cxx).
+constexpr int kLiveUpdateRmiTag = 0x4E564C55; // "NVLU"
+
 /// True under MPI (more than one process) for an image input: one network per rank (this header).
 bool PerRankNetworks(vtkDataObject* input);
 
-/// The ranks running on this rank's host (1 without MPI): a collective the first time (every rank calls it in the
-/// same execution), then cached. Threads = 0 (automatic) under MPI shares the host's cores among them.
-int RanksOnThisHost();
+/// The ranks running on this rank's host and this rank's index among them (its local rank, by global rank).
+struct HostRanks
+{
+  int Count = 1;
+  int Index = 0;
+};
+
+/// This rank's place on its host (1 rank, index 0 without MPI): a collective the first time (every rank calls it in
+/// the same execution), then cached. Threads = 0 (automatic) under MPI shares the host's cores among the ranks; the
+/// first call also chooses this process's CUDA device from the index (vtkNeuralCudaDevice.h).
+HostRanks RanksOnThisHost();
 
 /// A rank's piece of an image input: the extent it owns and the padded image its network trains on.
 class ImagePiece

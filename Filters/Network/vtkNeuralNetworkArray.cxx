@@ -1,5 +1,6 @@
 #include "vtkNeuralNetworkArray.h"
 
+#include "vtkNeuralCudaDevice.h"
 #include "vtkNeuralSessionRegistry.h"
 
 #include "Core/Error.h"
@@ -211,6 +212,8 @@ std::shared_ptr<nv::NetworkSession> vtkNeuralNetworkArray::Session(vtkFieldData*
   }
   return registry.FindOrCreate(fingerprint, [&]() {
     const nv::Model model = nv::deserialize(bytes, size);
-    return std::shared_ptr<nv::NetworkSession>(nv::NetworkSession::create(nv::Device::Auto, model));
+    nv::SessionOptions options;
+    options.cudaDevice = vtkNeuralCudaDevice::Get(); // under MPI: this rank's GPU
+    return std::shared_ptr<nv::NetworkSession>(nv::NetworkSession::create(nv::Device::Auto, model, options));
   });
 }

@@ -111,6 +111,7 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
   AddFieldValue<vtkDoubleArray>(fd, "NeuralTime", record.Time);
   AddFieldValue<vtkIntArray>(fd, "NeuralSourceType", field.VtkType); // "Decoded, input type" from a saved network
   AddString(fd, "NeuralDevice", m.Device);
+  AddFieldValue<vtkIntArray>(fd, "NeuralCudaDevice", m.CudaDevice);
   AddString(fd, "NeuralTrainingState", m.State);
   // The field's range: the colour and opacity maps fit it when no decoded array is output.
   vtkNew<vtkDoubleArray> range;

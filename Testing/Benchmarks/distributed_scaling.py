@@ -1,10 +1,12 @@
 """Training throughput of Neural Compress with one network per rank (issue 23), under `mpiexec -n R pvbatch`.
 
 Usage: mpiexec -n R pvbatch distributed_scaling.py <plugin.so> <mode: strong|weak> [steps=300] [threads=1] [size=128]
+         [device=CPU|CUDA|Auto] [batch=16384]
   strong: a Wavelet of size^3 points split over the R ranks;  weak: size^2 x (size * R) points (size^3 per rank).
-Every rank trains its own piece (CPU engine, batch 16384, fixed seed); the throughput of a rank is its steps x batch
-over its training seconds (field data NeuralTrainingSeconds), summed over the ranks. Prints one RESULT line (JSON):
-ranks, mode, whole extent, per-rank seconds and samples/s, their sum, the wall time of the update, the global PSNR.
+Every rank trains its own piece (fixed seed; device CPU by default; CUDA: each rank on the GPU of its local rank); the
+throughput of a rank is its steps x batch over its training seconds (field data NeuralTrainingSeconds), summed over
+the ranks. Prints one RESULT line (JSON): ranks, mode, device, whole extent, per-rank seconds, samples/s, devices
+(NeuralDevice) and CUDA device ordinals (NeuralCudaDevice), their sum, the wall time of the update, the global PSNR.
 """
 import json
 import sys
@@ -18,27 +20,31 @@ plugin, mode = sys.argv[1], sys.argv[2]
 steps = int(sys.argv[3]) if len(sys.argv) > 3 else 300
 threads = int(sys.argv[4]) if len(sys.argv) > 4 else 1
 size = int(sys.argv[5]) if len(sys.argv) > 5 else 128
-BATCH = 16384
+device = sys.argv[6] if len(sys.argv) > 6 else "CPU"
+BATCH = int(sys.argv[7]) if len(sys.argv) > 7 else 16384
 LoadPlugin(plugin, remote=False, ns=globals())
 controller = vtkMultiProcessController.GetGlobalController()
 ranks = controller.GetNumberOfProcesses() if controller else 1
 depth = size * ranks if mode == "weak" else size
 whole = [0, size - 1, 0, size - 1, 0, depth - 1]
 wavelet = Wavelet(WholeExtent=whole)
-nc = NeuralCompress(Input=wavelet, SelectInputScalars=["POINTS", "RTData"], Device="CPU", Seed=7, Deterministic=1,
+nc = NeuralCompress(Input=wavelet, SelectInputScalars=["POINTS", "RTData"], Device=device, Seed=7, Deterministic=1,
                     TrainingSteps=steps, BatchSize=BATCH, Levels=8, FeaturesPerLevel=2, NetworkWidth=32,
                     HiddenLayers=2, Loss="L2", Log2TableSize=14, Threads=threads, PSNRInterval=0,
                     TrainInBackground=0, OutputMode="Network only")
 started = time.time()
 nc.UpdatePipeline()
 wall = time.time() - started
-seconds, psnr = [], None
+seconds, psnr, devices, ordinals = [], None, [], []
 for r in range(ranks):
     data = servermanager.Fetch(nc, r) if ranks > 1 else servermanager.Fetch(nc)
     fd = data.GetFieldData()
     seconds.append(fd.GetArray("NeuralTrainingSeconds").GetValue(0))
     psnr = fd.GetArray("NeuralPSNR").GetValue(0)
+    devices.append(fd.GetAbstractArray("NeuralDevice").GetValue(0))
+    ordinal = fd.GetArray("NeuralCudaDevice")
+    ordinals.append(ordinal.GetValue(0) if ordinal is not None else None)
 rates = [steps * BATCH / s for s in seconds]
-print("RESULT " + json.dumps(dict(ranks=ranks, mode=mode, threads=threads, whole=whole, steps=steps, batch=BATCH,
-                                  seconds=seconds, samples_per_s=rates, total_samples_per_s=sum(rates),
+print("RESULT " + json.dumps(dict(ranks=ranks, mode=mode, device=device, threads=threads, whole=whole, steps=steps,
+                                  batch=BATCH, devices=devices, cuda_devices=ordinals, seconds=seconds, samples_per_s=rates, total_samples_per_s=sum(rates),
                                   wall_s=wall, psnr=psnr)))

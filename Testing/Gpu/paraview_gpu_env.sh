@@ -24,6 +24,18 @@ if [ -f "$here/.devcarry/gui-extras.tar.xz" ]; then
   export PATH=$gui/bin:$PATH QT_PLUGIN_PATH=$gui/qt5/plugins LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$gui/lib
   export NV_PARAVIEW=$root/usr/bin/paraview NV_HOST_PYTHON=$root/usr/bin/python3.11 # the runtime's own (PYTHONHOME)
 fi
+# Open MPI (Testing/Gpu/pack_mpi_extras.sh), when carried: mpiexec for run_paraview_gpu_mpi.sh. Debian's Open MPI finds
+# its components relative to OPAL_PREFIX; its /etc/openmpi settings (no ofi, ucx) come from the carried copy.
+if [ -f "$here/.devcarry/mpi-extras.tar.xz" ]; then
+  [ -d "$here/.devcarry/mpi-root/mpi" ] || { mkdir -p "$here/.devcarry/mpi-root" &&
+    tar -xJf "$here/.devcarry/mpi-extras.tar.xz" -C "$here/.devcarry/mpi-root"; }
+  mpi=$here/.devcarry/mpi-root/mpi
+  export OPAL_PREFIX=$mpi/usr PATH=$mpi/usr/bin:$PATH
+  export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$mpi/lib:$mpi/usr/lib/x86_64-linux-gnu/pmix2/lib
+  export OMPI_MCA_mca_base_param_files=$mpi/etc/openmpi/openmpi-mca-params.conf
+  export PMIX_MCA_mca_base_component_path=$mpi/usr/lib/x86_64-linux-gnu/pmix2/lib/pmix
+  export NV_MPIEXEC=$mpi/usr/bin/orterun
+fi
 plugin_dir=$here/.devcarry/plugin/NeuralVolume
 export LD_LIBRARY_PATH=$plugin_dir:$LD_LIBRARY_PATH
 export __GLX_VENDOR_LIBRARY_NAME=nvidia PYTHONUNBUFFERED=1

@@ -9,7 +9,7 @@ compares:
 - a Wavelet [0,47]^3 split between the ranks: the output has the whole extent (data information), rank 0 holds
   z 0..23 and rank 1 z 23..47, each with its own network; the global PSNR (the same on both ranks) within 0.5 dB of
   the serial run and equal to numpy's over the decoded pieces (each sample counted once) within 0.05 dB; ghost layers
-  on the pieces (GhostCellsGenerator) and TrainInBackground (trained blocking under MPI) give the same networks;
+  on the pieces (GhostCellsGenerator) and TrainInBackground (each rank in the background) give the same networks;
 - no hang, an error and an empty output when the array is missing on rank 1's piece or rank 1 has no points;
 - a Neural Volume render of the two networks, composited by ParaView, matches the serial picture;
 - disk_out_ref (NV_DATA_DIR) redistributed over the ranks (RedistributeDataSet): one network, PSNR at its 8499
@@ -218,8 +218,8 @@ def mpi_run():
     Delete(ng)
     Delete(ghosts)
 
-    # 1c. TrainInBackground under MPI with an image: every rank trains its piece within the execution (the global
-    # figures are reduced at its end), so the networks are the blocking ones.
+    # 1c. TrainInBackground under MPI with an image: every rank trains its piece in the background; once every rank
+    # has finished (WaitForTraining runs on every rank), the networks and global figures are the blocking ones.
     nb = NeuralCompress(Input=wavelet, **dict(WAVELET, TrainInBackground=1))
     nb.UpdatePipeline()
     nb.WaitForTraining()
