@@ -16,11 +16,12 @@ import numpy as np  # noqa: E402
 check, log = nvtest.check, nvtest.log
 nvtest.require_display()
 
-# Measured on a loaded 2-core machine (load ~10; the demo's 60 s budget): 660-680 steps, PSNR 40.6-40.8 dB (39 dB
-# after 20 s), ratio 36.6:1 (a 2^15 table). On an idle machine more steps fit in the budget and the PSNR is higher;
-# the margin covers a CI machine running other tests at the same time.
+# Measured on a loaded 2-core machine (the demo's 60 s budget): with the default Automatic storage (an automatic size
+# coded in 8 bits) 1525 steps, PSNR 44.5 dB, ratio 25.3:1 (a 2^17 table); with Float16 (before) 660-680 steps, 40.6-40.8
+# dB, 36.6:1 (2^15). The ratio must reach the demo's target (20:1); on an idle machine more steps fit in the budget
+# and the PSNR is higher; the margin covers a CI machine running other tests at the same time.
 PSNR_MIN = 37.0
-RATIO_MIN = 30.0
+RATIO_MIN = 20.0
 SHAPE_IOU_MIN = 0.88  # overlap of the Mandelbulb's footprint in the two renderings (measured 0.944)
 WIDTH, HEIGHT = 1920, 1200  # Testing/demo_picture.py
 BUDGET = 60.0
