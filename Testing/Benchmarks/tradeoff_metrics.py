@@ -1,5 +1,6 @@
 """Shared pieces of the run-time-versus-error harness (tradeoff.py): volumes, error metrics, a small
 emission-absorption renderer for the image metric, and SSIM. numpy only, so it runs on the GPU machine as well."""
+import csv
 import math
 import os
 
@@ -136,3 +137,20 @@ def synthetic_volumes(folder, n=32):
     write_nhdr(paths[0], ml.astype(np.float32))
     write_nhdr(paths[1], noise)
     return paths
+
+
+def number(value):
+    """A CSV cell as a float (nan when empty or not a number)."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def load_rows(paths):
+    """Every row of the CSV files, in order."""
+    rows = []
+    for path in paths:
+        with open(path) as f:
+            rows += list(csv.DictReader(f))
+    return rows

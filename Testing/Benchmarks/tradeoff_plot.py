@@ -1,6 +1,5 @@
 """Plots of the run-time-versus-error harness (tradeoff.py): per volume, PSNR against compression ratio and PSNR
 against compression time, every method on one chart; and one overview image of every volume."""
-import csv
 import math
 import os
 from collections import defaultdict
@@ -9,6 +8,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+import tradeoff_metrics as tm  # noqa: E402
 
 STYLE = {"neural-gpu": ("tab:red", "o", "Neural (GPU)"), "neural-cpu": ("tab:orange", "s", "Neural (CPU)"),
          "neural-gpu-q8": ("darkred", "P", "Neural 8-bit (GPU)"), "neural-cpu-q8": ("saddlebrown", "X", "Neural 8-bit (CPU)"),
@@ -20,18 +21,8 @@ STYLE = {"neural-gpu": ("tab:red", "o", "Neural (GPU)"), "neural-cpu": ("tab:ora
 COMPETITORS = ("zfp-accuracy", "zfp-precision", "zfp-rate", "sz3-abs", "sz3-rel", "sz3-psnr")
 
 
-def _f(v):
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
-def load(paths):
-    rows = []
-    for p in paths:
-        rows += list(csv.DictReader(open(p)))
-    return rows
+_f = tm.number
+load = tm.load_rows
 
 
 def _ratio_panel(ax, rows):

@@ -18,6 +18,8 @@ import math
 import os
 from collections import defaultdict
 
+import tradeoff_metrics as tm  # noqa: E402
+
 TOLERANCE = 0.02
 NETWORKS = {"neural-gpu": "fp16", "neural-gpu-q8": "8-bit"}
 ZFP = ("zfp-accuracy", "zfp-precision", "zfp-rate")
@@ -28,18 +30,8 @@ OUT_COLUMNS = ["volume", "dims", "storage", "table", "steps", "net_ratio", "net_
                "verdict"]
 
 
-def f(v):
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
-def load(paths):
-    rows = []
-    for p in paths:
-        rows += list(csv.DictReader(open(p)))
-    return rows
+f = tm.number
+load = tm.load_rows
 
 
 def network_rows(rows):

@@ -72,20 +72,7 @@ def live_update(nc):
 
 
 def render(nc, path):
-    view = nvtest.render_view(SIZE)
-    display = Show(nc, view)
-    display.SetRepresentationType("Neural Volume")
-    ColorBy(display, ("POINTS", "RTData"))
-    values = nvtest.wavelet_values(WHOLE)
-    for tf in (GetColorTransferFunction("RTData"), GetOpacityTransferFunction("RTData")):
-        tf.RescaleTransferFunction(values.min(), values.max())
-    Render(view)
-    nvtest.set_camera(view, [31.5 + 160.0, 31.5 - 120.0, 31.5 + 210.0], focal=(31.5, 31.5, 31.5))
-    Render(view)
-    nvtest.shot(view, path, SIZE)
-    Delete(display)
-    Delete(view)
-    return nvtest.read_png(path)
+    return nvtest.wavelet_picture(nc, path, SIZE, WHOLE, (160.0, -120.0, 210.0))
 
 
 def check_live(nc, out_dir):

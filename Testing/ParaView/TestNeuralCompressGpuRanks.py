@@ -80,20 +80,7 @@ def gpus_of(pids):
 
 
 def picture(nc, path):
-    view = nvtest.render_view(SIZE, BACKGROUND)
-    display = Show(nc, view)
-    display.SetRepresentationType("Neural Volume")
-    ColorBy(display, ("POINTS", "RTData"))
-    values = nvtest.wavelet_values(WHOLE)
-    for tf in (GetColorTransferFunction("RTData"), GetOpacityTransferFunction("RTData")):
-        tf.RescaleTransferFunction(values.min(), values.max())
-    Render(view)
-    nvtest.set_camera(view, [63.5 + 330.0, 63.5 - 240.0, 63.5 + 450.0], focal=(63.5, 63.5, 63.5))
-    Render(view)
-    nvtest.shot(view, path, SIZE)
-    Delete(display)
-    Delete(view)
-    pixels = nvtest.read_png(path)
+    pixels = nvtest.wavelet_picture(nc, path, SIZE, WHOLE, (330.0, -240.0, 450.0), BACKGROUND)
     return float(np.mean(np.abs(pixels - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0))
 
 

@@ -329,6 +329,28 @@ def render_view(size, background=(0.32, 0.34, 0.43)):
     return view
 
 
+def wavelet_picture(network, path, size, whole, eye_offset, background=(0.32, 0.34, 0.43)):
+    """The Neural Volume of a network of a Wavelet's RTData (its maps over the Wavelet's whole range on `whole`), seen
+    from the extent's centre plus `eye_offset`, saved to `path`: its pixels (read_png)."""
+    from paraview.simple import (ColorBy, Delete, GetColorTransferFunction, GetOpacityTransferFunction, Render,
+                                 Show)
+    view = render_view(size, background)
+    display = Show(network, view)
+    display.SetRepresentationType("Neural Volume")
+    ColorBy(display, ("POINTS", "RTData"))
+    values = wavelet_values(whole)
+    for tf in (GetColorTransferFunction("RTData"), GetOpacityTransferFunction("RTData")):
+        tf.RescaleTransferFunction(values.min(), values.max())
+    Render(view)
+    centre = [(whole[2 * a] + whole[2 * a + 1]) / 2.0 for a in range(3)]
+    set_camera(view, [c + o for c, o in zip(centre, eye_offset)], focal=centre)
+    Render(view)
+    shot(view, path, size)
+    Delete(display)
+    Delete(view)
+    return read_png(path)
+
+
 def set_camera(view, position, focal=(0.5, 0.5, 0.5), up=(0.0, 0.0, 1.0), angle=30.0, parallel=0, scale=50.0):
     view.CameraPosition = list(position)
     view.CameraFocalPoint = list(focal)
