@@ -7,7 +7,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <limits>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 namespace nv
@@ -26,33 +30,89 @@ void report(const FileProgress& progress, double fraction)
   if (progress && !progress(fraction))
     NV_THROW("stopped");
 }
+
+/// Threads of a streamed pass: reading (pread, the conversion) and the per-sample work run on every core (at most 16);
+/// a box source (chunked HDF5: one lock, a decoded chunk held per call) is read by one.
+int passThreads(const VolumeFileReader& reader)
+{
+  if (reader.layout().boxSource)
+    return 1;
+  return static_cast<int>(std::min(16u, std::max(1u, std::thread::hardware_concurrency())));
+}
+
+/// work(z0, z1, thread) over the slices [0, slices) of a slab, split among the threads; the first error is rethrown.
+void forSliceRanges(int64_t slices, int threads, const std::function<void(int64_t, int64_t, int)>& work)
+{
+  const int count = static_cast<int>(std::max<int64_t>(1, std::min<int64_t>(threads, slices)));
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  auto run = [&](int t) {
+    try
+    {
+      work(slices * t / count, slices * (t + 1) / count, t);
+    }
+    catch (...)
+    {
+      std::lock_guard<std::mutex> lock(failureMutex);
+      if (!failure)
+        failure = std::current_exception();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < count; ++t)
+    pool.emplace_back(run, t);
+  run(0);
+  for (std::thread& thread : pool)
+    thread.join();
+  if (failure)
+    std::rethrow_exception(failure);
+}
 } // namespace
 
 FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes, const FileProgress& progress)
 {
   const VolumeFileLayout& layout = reader.layout();
   const int64_t slices = slicesPerSlab(layout, slabBytes);
-  std::vector<double> slab(static_cast<size_t>(layout.dims[0] * layout.dims[1] * slices));
-  FileValueRange r;
-  r.min = std::numeric_limits<double>::infinity();
-  r.max = -std::numeric_limits<double>::infinity();
+  const int64_t plane = layout.dims[0] * layout.dims[1];
+  const int threads = passThreads(reader);
+  std::vector<double> slab(static_cast<size_t>(plane * slices));
+  std::vector<FileValueRange> parts(static_cast<size_t>(threads));
+  for (FileValueRange& part : parts)
+  {
+    part.min = std::numeric_limits<double>::infinity();
+    part.max = -std::numeric_limits<double>::infinity();
+  }
   for (int64_t z0 = 0; z0 < layout.dims[2]; z0 += slices)
   {
     const int64_t nz = std::min(slices, layout.dims[2] - z0);
-    reader.readBox({ 0, 0, z0 }, { layout.dims[0], layout.dims[1], nz }, slab.data());
-    for (int64_t i = 0; i < layout.dims[0] * layout.dims[1] * nz; ++i)
-    {
-      const double v = slab[static_cast<size_t>(i)];
-      if (!std::isfinite(v))
+    forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int t) {
+      if (k0 == k1)
+        return;
+      double* part = slab.data() + k0 * plane;
+      reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, part);
+      FileValueRange& r = parts[static_cast<size_t>(t)];
+      for (int64_t i = 0; i < plane * (k1 - k0); ++i)
       {
-        ++r.nonFinite;
-        continue;
+        const double v = part[i];
+        if (!std::isfinite(v))
+        {
+          ++r.nonFinite;
+          continue;
+        }
+        r.min = std::min(r.min, v);
+        r.max = std::max(r.max, v);
+        ++r.finite;
       }
-      r.min = std::min(r.min, v);
-      r.max = std::max(r.max, v);
-      ++r.finite;
-    }
+    });
     report(progress, double(z0 + nz) / double(layout.dims[2]));
+  }
+  FileValueRange r = parts[0];
+  for (size_t t = 1; t < parts.size(); ++t)
+  {
+    r.min = std::min(r.min, parts[t].min);
+    r.max = std::max(r.max, parts[t].max);
+    r.finite += parts[t].finite;
+    r.nonFinite += parts[t].nonFinite;
   }
   if (r.finite == 0)
     r.min = r.max = 0.0;
@@ -68,22 +128,28 @@ ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader
   std::vector<double> samples(static_cast<size_t>(plane * slices)), decoded(static_cast<size_t>(plane * slices));
   std::vector<float> normalised(static_cast<size_t>(plane * slices));
   const ValueRange range(valueMin, valueMax);
+  const int threads = passThreads(reader);
   ErrorStats total;
   double squaredSum = 0.0;
   for (int64_t z0 = 0; z0 < layout.dims[2]; z0 += slices)
   {
     const int64_t nz = std::min(slices, layout.dims[2] - z0);
-    reader.readBox({ 0, 0, z0 }, { layout.dims[0], layout.dims[1], nz }, samples.data());
+    forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int) {
+      if (k0 < k1)
+        reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, samples.data() + k0 * plane);
+    });
     session.decodeGrid(layout.dims[0], layout.dims[1], layout.dims[2], z0, z0 + nz, normalised.data());
-    for (int64_t i = 0; i < plane * nz; ++i)
-      decoded[static_cast<size_t>(i)] = range.denormalize(normalised[static_cast<size_t>(i)]);
+    forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int) {
+      for (int64_t i = k0 * plane; i < k1 * plane; ++i)
+        decoded[static_cast<size_t>(i)] = range.denormalize(normalised[static_cast<size_t>(i)]);
+    });
     VolumeView slab;
     slab.data = samples.data();
     slab.type = ScalarType::Float64;
     slab.dims[0] = layout.dims[0];
     slab.dims[1] = layout.dims[1];
     slab.dims[2] = nz;
-    const ErrorStats part = compareDecoded(decoded.data(), slab, valueMin, valueMax, 1);
+    const ErrorStats part = compareDecoded(decoded.data(), slab, valueMin, valueMax, threads);
     squaredSum += std::isfinite(part.mse) ? part.mse * double(part.count) : 0.0;
     total.count += part.count;
     total.nonFinite += part.nonFinite;
