@@ -116,9 +116,9 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
   }
   const bool swap = bytes > 1 && this->Layout.bigEndian != hostIsBigEndian();
   const int64_t nx = this->Layout.dims[0], ny = this->Layout.dims[1];
-  // Whole rows are contiguous across y: one read a run of rows (up to kRunBytes), not one a row (a streamed pass of a
-  // 2176^2-sample plane: 5 reads, not 2176).
-  constexpr int64_t kRunBytes = int64_t(4) << 20;
+  // Whole rows are contiguous across y: one read a run of rows (up to kRunBytes, held per call: a pass's threads hold
+  // at most 16 MiB), not one a row (a streamed pass of a 2176^2-sample float32 plane: 19 reads, not 2176).
+  constexpr int64_t kRunBytes = int64_t(1) << 20;
   const int64_t rowsPerRun = size[0] == nx ? std::max<int64_t>(1, std::min(size[1], kRunBytes / (nx * bytes))) : 1;
   std::vector<unsigned char> run(static_cast<size_t>(rowsPerRun * size[0] * bytes));
   for (int64_t z = 0; z < size[2]; ++z)

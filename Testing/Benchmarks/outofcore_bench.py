@@ -1,8 +1,8 @@
 """Issue 22's out-of-core benchmark (pvbatch, the plugin loaded; meant for the GPU machine, CPU works too): a procedural
 file larger than the budget (default 3456^3 uint8, 41 GB; ooc_procedural.py, a slab at a time, all cores), then
 
-  1. the disk's random-read bandwidth for the buffer's block size: the file dropped from the page cache
-     (posix_fadvise DONTNEED), random blocks read row by row with pread from 4 threads, as the block buffer reads;
+  1. the disk's random-read bandwidth for the buffer's block size (--disk-tool nvDiskRandomRead: the file dropped from
+     the page cache, random blocks read row by row with pread from 4 threads, as the block buffer reads);
   2. Neural Compress out of core (MemoryBudget, default 8 GiB) for STEPS steps: the PSNR over wall time (its training
      log: estimates every PSNRInterval steps, exact at the end), the steps/s, the buffer's read throughput (bytes read,
      /proc/self/io rchar, less the two whole-file passes, over the training seconds) and its share of (1);
@@ -19,9 +19,7 @@ Example (the GPU machine, see README "Out-of-core files"):
 import argparse
 import json
 import os
-import random
 import subprocess
-import threading
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -35,36 +33,6 @@ def status_kib(name):
 def bytes_read():
     with open("/proc/self/io") as f:
         return next(int(line.split()[1]) for line in f if line.startswith("rchar:"))
-
-
-def disk_random_read(raw, dims, item, edge, seconds, threads=4):
-    """MB/s of random (edge+1)^3 blocks read row by row, the file first dropped from the page cache."""
-    fd = os.open(raw, os.O_RDONLY)
-    os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
-    nx, ny, nz = dims
-    side = edge + 1
-    total = [0]
-    lock = threading.Lock()
-    deadline = time.time() + seconds
-
-    def reader(seed):
-        rng = random.Random(seed)
-        got = 0
-        while time.time() < deadline:
-            x, y, z = rng.randrange(nx - side), rng.randrange(ny - side), rng.randrange(nz - side)
-            for k in range(side):
-                for j in range(side):
-                    got += len(os.pread(fd, side * item, (((z + k) * ny + y + j) * nx + x) * item))
-        with lock:
-            total[0] += got
-    start = time.time()
-    workers = [threading.Thread(target=reader, args=(s,)) for s in range(threads)]
-    for w in workers:
-        w.start()
-    for w in workers:
-        w.join()
-    os.close(fd)
-    return total[0] / (time.time() - start) / 1e6
 
 
 def psnr_curve(log_table):
@@ -166,8 +134,8 @@ def main():
     parser.add_argument("--disk-seconds", type=float, default=20)
     parser.add_argument("--disk-tool", default="",
                         help="nvDiskRandomRead (Testing/Benchmarks, built with the project): the disk's random-read "
-                             "bandwidth measured in C++ (the Python fallback's per-row calls are the bottleneck, not "
-                             "the disk)")
+                             "bandwidth at the buffer's block pattern (without it, not measured: Python's per-row "
+                             "calls would measure Python, not the disk)")
     parser.add_argument("--parts", default="generate,large,crop",
                         help="any of generate (the files, plain Python), large (out of core, the disk), crop (the crop "
                              "in memory and out of core); the JSON gathers the parts run so far")
@@ -209,10 +177,7 @@ def main():
                                                  capture_output=True, text=True).stdout)
             result["disk_random_read"] = measured
             result["disk_random_read_mb_per_s"] = measured["mb_per_s"]
-        else:
-            result["disk_random_read_mb_per_s"] = disk_random_read(raw, args.dims, item, edge, args.disk_seconds)
-        result["disk_block_cells"] = edge
-        result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / result["disk_random_read_mb_per_s"]
+            result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / measured["mb_per_s"]
     if "crop" in parts:
         drop_from_page_cache(crop_raw)
         result["crop_ooc"] = train_out_of_core(crop, args.crop_budget_mib, settings, os.path.getsize(crop_raw))
