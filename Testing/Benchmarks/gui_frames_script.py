@@ -16,7 +16,9 @@ the original field, then one over the empty view (nothing shown: the GUI's own c
 Environment: NV_PLUGIN, NV_TEST_OUTPUT (gui_frames.json goes there), NV_TEST_DIR (Testing/ParaView), NV_GUI_DEVICE
 (CUDA or CPU), NV_GUI_SMALL=1 (a quick run: 32^3, small views, short drags), NV_DATA_DIR (the stent when present),
 NV_HOST_PYTHON (the Python that runs the xdotool driver), NV_GUI_SIZES (e.g. 1280x720,1920x1080), NV_GUI_SAMPLE=1 (thread_sampler.py on the GUI thread
-during each drag: the share of time it runs and the system calls it waits in). Every figure is wall time in the GUI's process."""
+during each drag: the share of time it runs and the system calls it waits in), NV_GUI_FULLSCREEN=1 (View > Full Screen
+(layout), F11, its window sized so the view is each size: no panels drawn around the view; the screen must hold the
+view plus 4 pixels). Every figure is wall time in the GUI's process."""
 import json
 import os
 import signal
@@ -43,6 +45,7 @@ PERF = os.environ.get("NV_GUI_PERF")  # a perf binary: profile the GUI thread du
 PYTHON = os.environ.get("NV_HOST_PYTHON", "/usr/bin/python3")
 DEVICE = os.environ.get("NV_GUI_DEVICE", "CUDA")
 SMALL = os.environ.get("NV_GUI_SMALL") == "1"
+FULLSCREEN = os.environ.get("NV_GUI_FULLSCREEN") == "1"  # the layout full screen (F11), its window sized to the view
 # (a 1920 x 1080 preview needs a main window of about 2400 x 1500: gui_frames.sh's NV_GUI_GEOMETRY)
 SIZES = [(320, 180)] if SMALL else [(1280, 720), (1920, 1080)]
 if os.environ.get("NV_GUI_SIZES"):  # e.g. "1280x720,1920x1080"
@@ -81,7 +84,7 @@ window = view.GetRenderWindow()
 
 frames, starts, handled, ticks, buttons = [], [], [], [], []
 state = {"phase": "starting", "since": time.time(), "driver": None, "offset": None, "size": 0, "path": 0,
-         "results": {"data": data_name, "device": DEVICE, "sizes": {}}}
+         "results": {"data": data_name, "device": DEVICE, "fullscreen": FULLSCREEN, "sizes": {}}}
 
 
 def on_frame(caller, event):
@@ -111,13 +114,53 @@ def driver(args, name):
     return subprocess.Popen([PYTHON, DRIVER, "--log", path] + [str(a) for a in args]), path
 
 
+def xdotool(*args):
+    return subprocess.run(["xdotool"] + [str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                          text=True, timeout=10).stdout.split()
+
+
 def start_size():
-    """A view of the next size (layout preview mode), then where it lies on the screen (it moves with its size)."""
+    """A view of the next size (layout preview mode, or the full-screen layout's window sized to it), then where it
+    lies on the screen (it moves with its size)."""
     size = SIZES[state["size"]]
+    if FULLSCREEN:
+        if "fullscreen_window" not in state:  # F11 (View > Full Screen (layout)) in the main window, once
+            state["windows_before"] = set(xdotool("search", "--class", "ParaView"))
+            main = xdotool("search", "--onlyvisible", "--name", "ParaView 5")
+            xdotool("mousemove", 400, 300)
+            if main:
+                xdotool("windowfocus", "--sync", main[0])
+            xdotool("key", "F11")
+        state.update(phase="fullscreen", since=time.time(), driver=None, border=(4, 4), resized_at=None)
+        return
     layout.PreviewMode = list(size)
     Render(view)
     state.update(phase="calibrate", since=time.time(), driver=None, view=list(view.ViewSize))
     log("asked for a %r view" % (size,))
+
+
+def fit_fullscreen_window(now):
+    """The full-screen layout's own top-level window (without a window manager Qt cannot make it full screen) sized
+    so that the view inside it is the size asked for; then calibration. False while it is not there yet."""
+    size = SIZES[state["size"]]
+    if "fullscreen_window" not in state:
+        new = [w for w in xdotool("search", "--class", "ParaView") if w not in state["windows_before"]]
+        if not new:
+            return False
+        state["fullscreen_window"] = new[-1]
+        log("full-screen layout window %s (new windows %r)" % (new[-1], new))
+    if list(view.ViewSize) == list(size):
+        state.update(phase="calibrate", since=now, driver=None, view=list(view.ViewSize))
+        log("full-screen layout: a %r view in a window %r larger" % (size, state["border"]))
+        return True
+    if state.get("resized_at") is None:
+        xdotool("windowsize", state["fullscreen_window"], size[0] + state["border"][0], size[1] + state["border"][1])
+        state["resized_at"] = now
+    elif now - state["resized_at"] > 2.0:  # settled at another size: the window's border is not the one assumed
+        shell = dict(line.split("=") for line in xdotool("getwindowgeometry", "--shell", state["fullscreen_window"]))
+        state["border"] = (int(shell["WIDTH"]) - view.ViewSize[0], int(shell["HEIGHT"]) - view.ViewSize[1])
+        state["resized_at"] = None
+    return False
 
 
 def start_still():
@@ -242,7 +285,11 @@ def on_timer(caller, event):
     now = time.time()
     ticks.append(now)
     phase = state["phase"]
-    if phase == "calibrate":
+    if phase == "fullscreen":
+        if not fit_fullscreen_window(now) and now - state["since"] > 30.0:
+            log("the full-screen layout never reached %r (view %r)" % (SIZES[state["size"]], list(view.ViewSize)))
+            nvtest._exit(1)
+    elif phase == "calibrate":
         if state["driver"] is None:
             proc, path = driver(["scan"], "find")
             state.update(driver=proc, sent=path, handled=len(handled))

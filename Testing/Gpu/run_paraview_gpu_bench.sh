@@ -3,7 +3,8 @@
 # Testing/Benchmarks/gpu_paraview_frames.py on the Wavelet (256^3) and, when carried, the stent, then the state
 # restore on the GPU against stock Volume (state_restore.py --device CUDA --stock), and, with the GUI's extras carried
 # (pack_gui_extras.sh), the GUI's frame rate while the view turns (gui_frames.sh). JSON and logs: .devcarry/gpu-paraview-out.
-# usage: run_paraview_gpu_bench.sh [PART...] with PART in frames, frames512, state, gui (default: frames state gui)
+# usage: run_paraview_gpu_bench.sh [PART...] with PART in frames, frames512, state, gui, guifull (default: frames state gui)
+# guifull: the GUI with the layout full screen (F11), its window sized to a 1280x720 then a 1920x1080 view
 set -u
 source "$(dirname "$0")/paraview_gpu_env.sh"
 bench=$here/Testing/Benchmarks
@@ -35,5 +36,8 @@ for part in ${@:-frames state gui}; do
       else
         echo "gui: no GUI extras carried (.devcarry/gui-extras.tar.xz)"
       fi ;;
+    guifull)
+      NV_DATA_DIR=$NV_DATA_DIR NV_GUI_FULLSCREEN=1 NV_GUI_SIZES=1280x720,1920x1080 bash "$bench/gui_frames.sh" \
+        "$NV_PLUGIN" "$out/guifull" CUDA ;;
   esac
 done

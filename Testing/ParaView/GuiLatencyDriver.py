@@ -24,14 +24,17 @@ a = parser.parse_args()
 
 
 def main_window():
-    """The ParaView main window, the largest visible one: (x, y, width, height, id)."""
+    """The window holding the render view: the full-screen layout's (a window named just "ParaView") when it is
+    shown, else the largest visible ParaView window (the main one): (x, y, width, height, id)."""
     best = None
-    for wid in xdotool("search", "--onlyvisible", "--name", "ParaView").split():
+    for wid in xdotool("search", "--onlyvisible", "--class", "ParaView").split():
         geometry = xdotool("getwindowgeometry", "--shell", wid)
         g = dict(line.split("=") for line in geometry.split())
         area = int(g["WIDTH"]) * int(g["HEIGHT"])
-        if best is None or area > best[0]:
-            best = (area, int(g["X"]), int(g["Y"]), int(g["WIDTH"]), int(g["HEIGHT"]), wid)
+        full_screen = xdotool("getwindowname", wid).strip() == "ParaView" and area > 1
+        rank = (full_screen, area)
+        if best is None or rank > best[0]:
+            best = (rank, int(g["X"]), int(g["Y"]), int(g["WIDTH"]), int(g["HEIGHT"]), wid)
     return best[1:]
 
 
