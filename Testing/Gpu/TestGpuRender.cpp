@@ -293,6 +293,32 @@ NV_TEST(gpu_paths_agree_but_are_not_identical)
   }
 }
 
+NV_TEST(gpu_streaming_loop_runs_on_the_device_in_any_batch_size)
+{
+  // The wavefront loop runs on the device (a CUDA graph; CUDA >= 12.4): no host wait inside. Batches of 2048 queries
+  // (several per wavefront) give the picture of one batch per wavefront bit for bit.
+  auto whole = gpuSession(scene().model, true);
+  SessionOptions o;
+  o.kernels = kernels();
+  o.kernels.streamBatchQueries = 2048;
+  auto small = NetworkSession::create(Device::Cuda, scene().model, o);
+  for (int m = 0; m < 5; ++m)
+  {
+    RenderRequest q = request(1, m, m >= 3 ? 24 : 48);
+    q.samplesPerPixel = m >= 3 ? 8 : 1;
+    RenderResult a, b;
+    whole->render(q, a, Memory::Host);
+    small->render(q, b, Memory::Host);
+    std::printf("    %-9s batches %lld vs %lld (2048 queries each); host waits %lld, %lld; identical %s\n", kMode[m],
+      (long long)a.stats.wavefronts, (long long)b.stats.wavefronts, (long long)a.stats.wavefrontHostSyncs,
+      (long long)b.stats.wavefrontHostSyncs, a.rgba == b.rgba ? "yes" : "no");
+    EXPECT_TRUE(a.stats.wavefrontHostSyncs == 0 && b.stats.wavefrontHostSyncs == 0);
+    EXPECT_TRUE(a.stats.wavefronts > 0 && b.stats.wavefronts > a.stats.wavefronts);
+    EXPECT_TRUE(a.stats.samplesEvaluated == b.stats.samplesEvaluated && a.stats.samplesPlain == b.stats.samplesPlain);
+    EXPECT_TRUE(allFinite(a.rgba) && a.rgba == b.rgba);
+  }
+}
+
 NV_TEST(gpu_skipping_does_not_change_the_picture)
 {
   auto gpu = gpuSession(scene().model, true);
