@@ -68,6 +68,12 @@ FwdFn pickForward(int W, int F, bool pre, bool shared, int warps)
   return nullptr; // widths 16 and 32 without shared weights: not instantiated (their weights always fit)
 }
 
+__global__ void zeroCountsKernel(uint32_t* __restrict__ counts, int64_t n)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    counts[i] = 0;
+}
+
 /// Bins for m points (2^(3 bits) bins) and the scan's scratch, allocated if smaller; returns the scratch's size.
 size_t reserveBins(const DeviceModel& dm, int64_t m, int bits)
 {
@@ -98,7 +104,14 @@ void binPoints(const DeviceModel& dm, const float* xyz, int64_t m, int bits, cud
   PointBins& b = dm.bins;
   const size_t nb = size_t(1) << (3 * bits);
   size_t temp = reserveBins(dm, m, bits);
-  NV_CUDA(cudaMemsetAsync(b.counts.get(), 0, nb * sizeof(uint32_t), stream));
+  if (liveCount)
+  {
+    // (A kernel, not a memset node: the launch may be captured into a CUDA graph's loop body.)
+    zeroCountsKernel<<<gridFor(int64_t(nb)), 256, 0, stream>>>(b.counts.get(), int64_t(nb));
+    NV_CUDA_LAUNCH();
+  }
+  else
+    NV_CUDA(cudaMemsetAsync(b.counts.get(), 0, nb * sizeof(uint32_t), stream));
   binCountKernel<<<gridFor(m), 256, 0, stream>>>(xyz, m, bits, b.counts.get(), b.rank.get(), liveCount, liveBase);
   NV_CUDA_LAUNCH();
   NV_CUDA(cub::DeviceScan::ExclusiveSum(b.scanTemp.get(), temp, b.counts.get(), b.offsets.get(), static_cast<int>(nb),

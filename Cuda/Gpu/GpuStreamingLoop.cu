@@ -1,6 +1,7 @@
 // NeuralVolume engine: Sample Streaming's device-driven wavefront loop (see GpuStreamingLoop.cuh).
 #include "GpuStreamingLoop.cuh"
 
+#include "Core/EngineWarnings.h"
 #include "Core/Error.h"
 #include "GpuStreamingKernels.cuh"
 
@@ -183,12 +184,26 @@ void StreamingLoop::trace(const ray::Params& P, int K, uint32_t sample, float4* 
   NV_CUDA(cudaMemsetAsync(&counters->loop, 0, sizeof(StreamLoopState), stream));
   initRaysKernel<<<gridFor(pixels), 256, 0, stream>>>(P, sample, Rays.get(), Active[0].get(), counters, image, accum);
   NV_CUDA_LAUNCH();
-  if (!Exec && !GraphFailed)
-    GraphFailed = !buildGraph(b);
+  if (!Exec && !GraphFailed && !buildGraph(b))
+    fallBack();
   if (Exec)
-    NV_CUDA(cudaGraphLaunch(Exec, stream));
-  else
-    runOnHost(b, stream, st);
+  {
+    const cudaError_t e = cudaGraphLaunch(Exec, stream);
+    if (e == cudaSuccess)
+      return;
+    GraphError = std::string("cudaGraphLaunch: ") + cudaGetErrorString(e);
+    cudaGetLastError();
+    releaseGraph();
+    fallBack();
+  }
+  runOnHost(b, stream, st);
+}
+
+void StreamingLoop::fallBack()
+{
+  GraphFailed = true;
+  postWarning("Sample Streaming: the GPU's wavefront loop cannot run as a CUDA graph (" + GraphError +
+    "); the host drives it, waiting for the GPU after every batch");
 }
 
 } // namespace gpu

@@ -4,7 +4,8 @@
 // device memory (GpuStreamingKernels.cuh), and the loop itself is a CUDA graph whose WHILE node repeats the batch
 // while rays are live (CUDA 12.4 or newer; the graph is built once per traced picture, i.e. per camera). So a frame
 // enqueues its work and returns without waiting for the GPU. Built with an older CUDA, or where the graph cannot be
-// made, the host drives the same batches and reads the condition back after each (RenderStats::wavefrontHostSyncs).
+// made or launched (a warning, nv::postWarning), the host drives the same batches and reads the condition back after
+// each (RenderStats::wavefrontHostSyncs counts those waits).
 #pragma once
 
 #include "Core/Render.h"
@@ -56,6 +57,8 @@ private:
   void releaseGraph();
   /// The fallback: the host enqueues batch after batch and reads the condition back after each.
   void runOnHost(const Batch& b, cudaStream_t stream, RenderStats& st);
+  /// From now on the host drives the loop (a warning says why: GraphError).
+  void fallBack();
 
   const DeviceModel& Network;
   DeviceBuffer<ray::Ray> Rays;

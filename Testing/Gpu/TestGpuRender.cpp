@@ -2,6 +2,7 @@
 // GPU paths against each other, empty-space skipping, accumulation, device-memory output and a real volume
 // (ray marching of the network vs the same marcher on the original data). Label gpu: skipped without a GPU.
 //   nvTestGpuRender [case] [--data DIR] [kernel flags]
+#include "Core/EngineWarnings.h"
 #include "Core/Macrocells.h"
 #include "Cpu/CpuDenoiser.h"
 #include "DenoiseFixtures.h"
@@ -312,6 +313,8 @@ NV_TEST(gpu_streaming_loop_runs_on_the_device_in_any_batch_size)
     std::printf("    %-9s batches %lld vs %lld (2048 queries each); host waits %lld, %lld; identical %s\n", kMode[m],
       (long long)a.stats.wavefronts, (long long)b.stats.wavefronts, (long long)a.stats.wavefrontHostSyncs,
       (long long)b.stats.wavefrontHostSyncs, a.rgba == b.rgba ? "yes" : "no");
+    for (const std::string& w : takeWarnings())
+      std::printf("    warning: %s\n", w.c_str()); // why the loop fell back to the host, if it did
     EXPECT_TRUE(a.stats.wavefrontHostSyncs == 0 && b.stats.wavefrontHostSyncs == 0);
     EXPECT_TRUE(a.stats.wavefronts > 0 && b.stats.wavefronts > a.stats.wavefronts);
     EXPECT_TRUE(a.stats.samplesEvaluated == b.stats.samplesEvaluated && a.stats.samplesPlain == b.stats.samplesPlain);
