@@ -297,11 +297,12 @@ NV_TEST(gpu_paths_agree_but_are_not_identical)
 NV_TEST(gpu_streaming_loop_runs_on_the_device_in_any_batch_size)
 {
   // The wavefront loop runs on the device (a CUDA graph; CUDA >= 12.4): no host wait inside. Batches of 2048 queries
-  // (several per wavefront) give the picture of one batch per wavefront bit for bit.
+  // (several per wavefront; Morton-binned, 8^3 bins) give the picture of one unbinned batch per wavefront bit for bit.
   auto whole = gpuSession(scene().model, true);
   SessionOptions o;
   o.kernels = kernels();
   o.kernels.streamBatchQueries = 2048;
+  o.kernels.binBitsPerAxis = 3;
   auto small = NetworkSession::create(Device::Cuda, scene().model, o);
   for (int m = 0; m < 5; ++m)
   {
