@@ -42,6 +42,9 @@ struct KernelOptions
   /// 99 KiB on Ampere sm_86 and Ada, 64 KiB on Turing); a smaller value makes every kernel choose the tiling it
   /// would choose on a GPU with that limit.
   int sharedMemoryLimit = 0;
+  /// Sample Streaming on the GPU: queries of one wavefront batch at most (0: 2^23); smaller values run more,
+  /// smaller batches (a test's way to give a small image several batches per wavefront).
+  int64_t streamBatchQueries = 0;
 };
 
 struct SessionOptions

@@ -134,6 +134,9 @@ struct RenderStats
   int64_t samplesPlain = 0;     ///< samples a plain marcher would take (one per step from entry to termination or
                                 ///< exit, no skipping); ray-marching modes only
   int64_t wavefronts = 0;       ///< Sample Streaming: batches inferred
+  /// Sample Streaming: times the host waited for the GPU inside the wavefront loop (the CUDA backend: 0, the loop
+  /// runs on the device as a CUDA graph; the CPU backend: 0, it has no device).
+  int64_t wavefrontHostSyncs = 0;
   int accumulatedFrames = 0;    ///< path tracing: renders averaged into this image
   int64_t accumulatedPaths = 0; ///< path tracing: paths per pixel averaged into this image
   bool denoised = false;        ///< path tracing: the image is the denoised accumulation (request.denoise)
@@ -144,7 +147,8 @@ struct RenderStats
   bool cancelled = false;       ///< request.control->cancel stopped the render: rgba is empty, nothing was cached or
                                 ///< accumulated (render again to get the picture)
   bool gpuFiguresOfPreviousRender = false; ///< RenderRequest::deferDeviceSync: renderMilliseconds,
-                                           ///< samplesEvaluated and samplesPlain are the previous render's
+                                           ///< samplesEvaluated, samplesPlain and wavefronts are the previous
+                                           ///< render's
   bool olderField = false;      ///< the grid or macrocell ranges of an older network version were used
                                 ///< (RenderRequest::liveRefreshMilliseconds)
   bool reused = false;          ///< ray marching: the request, network and image size were unchanged, so the previous

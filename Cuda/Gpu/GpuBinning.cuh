@@ -36,10 +36,21 @@ __device__ __forceinline__ uint32_t mortonBin(const float* p, int bits)
   return spreadBits3(q[0]) | (spreadBits3(q[1]) << 1) | (spreadBits3(q[2]) << 2);
 }
 
-/// Pass 1: the rank of every point among the points of its bin (warp-aggregated atomic per bin).
-__global__ void __launch_bounds__(256) binCountKernel(const float* __restrict__ xyz, int64_t n, int bits,
-  uint32_t* __restrict__ counts, uint32_t* __restrict__ rank)
+/// Points of a launch over a capacity of n: all n, or those of a device-side count (*liveCount - liveBase, clamped;
+/// FwdArgs::liveCount).
+__device__ __forceinline__ int64_t binnedPoints(int64_t n, const uint32_t* liveCount, int64_t liveBase)
 {
+  if (!liveCount)
+    return n;
+  const int64_t m = static_cast<int64_t>(*liveCount) - liveBase;
+  return m < 0 ? 0 : (m > n ? n : m);
+}
+
+/// Pass 1: the rank of every point among the points of its bin (warp-aggregated atomic per bin).
+__global__ void __launch_bounds__(256) binCountKernel(const float* __restrict__ xyz, int64_t capacity, int bits,
+  uint32_t* __restrict__ counts, uint32_t* __restrict__ rank, const uint32_t* liveCount, int64_t liveBase)
+{
+  const int64_t n = binnedPoints(capacity, liveCount, liveBase);
   const int lane = threadIdx.x & 31;
   const int64_t stride = int64_t(gridDim.x) * blockDim.x;
   // Uniform trip count per warp so that the whole warp takes part in the match / shuffle.
@@ -66,9 +77,11 @@ __global__ void __launch_bounds__(256) binCountKernel(const float* __restrict__ 
 
 /// Pass 2 (after an exclusive scan of the counts into offsets): the points in bin order, each as one 16-byte
 /// (x, y, z, original index as float bits) so that a point costs one sector to write.
-__global__ void __launch_bounds__(256) binScatterKernel(const float* __restrict__ xyz, int64_t n, int bits,
-  const uint32_t* __restrict__ rank, const uint32_t* __restrict__ offsets, float4* __restrict__ binned)
+__global__ void __launch_bounds__(256) binScatterKernel(const float* __restrict__ xyz, int64_t capacity, int bits,
+  const uint32_t* __restrict__ rank, const uint32_t* __restrict__ offsets, float4* __restrict__ binned,
+  const uint32_t* liveCount, int64_t liveBase)
 {
+  const int64_t n = binnedPoints(capacity, liveCount, liveBase);
   for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
   {
     const float p[3] = { xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2] };

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace nv
@@ -67,8 +68,14 @@ FwdFn pickForward(int W, int F, bool pre, bool shared, int warps)
   return nullptr; // widths 16 and 32 without shared weights: not instantiated (their weights always fit)
 }
 
-/// Counting sort of m points by Morton bin (2^(3 bits) bins) into dm.bins.binned.
-void binPoints(const DeviceModel& dm, const float* xyz, int64_t m, int bits, cudaStream_t stream)
+__global__ void zeroCountsKernel(uint32_t* __restrict__ counts, int64_t n)
+{
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    counts[i] = 0;
+}
+
+/// Bins for m points (2^(3 bits) bins) and the scan's scratch, allocated if smaller; returns the scratch's size.
+size_t reserveBins(const DeviceModel& dm, int64_t m, int bits)
 {
   PointBins& b = dm.bins;
   const size_t nb = size_t(1) << (3 * bits);
@@ -83,23 +90,46 @@ void binPoints(const DeviceModel& dm, const float* xyz, int64_t m, int bits, cud
     b.offsets.allocate(nb, "bin offsets");
   }
   size_t temp = 0;
-  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, b.counts.get(), b.offsets.get(), static_cast<int>(nb), stream));
+  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, b.counts.get(), b.offsets.get(), static_cast<int>(nb), 0));
   if (b.scanTemp.size() < temp)
     b.scanTemp.allocate(temp, "scan scratch");
-  NV_CUDA(cudaMemsetAsync(b.counts.get(), 0, nb * sizeof(uint32_t), stream));
-  binCountKernel<<<gridFor(m), 256, 0, stream>>>(xyz, m, bits, b.counts.get(), b.rank.get());
+  return temp;
+}
+
+/// Counting sort of m points by Morton bin (2^(3 bits) bins) into dm.bins.binned (liveCount: a device-side count
+/// of points from liveBase on, m the capacity; see FwdArgs::liveCount).
+void binPoints(const DeviceModel& dm, const float* xyz, int64_t m, int bits, cudaStream_t stream,
+  const uint32_t* liveCount, int64_t liveBase)
+{
+  PointBins& b = dm.bins;
+  const size_t nb = size_t(1) << (3 * bits);
+  size_t temp = reserveBins(dm, m, bits);
+  if (liveCount)
+  {
+    // (A kernel, not a memset node: the launch may be captured into a CUDA graph's loop body.)
+    zeroCountsKernel<<<gridFor(int64_t(nb)), 256, 0, stream>>>(b.counts.get(), int64_t(nb));
+    NV_CUDA_LAUNCH();
+  }
+  else
+    NV_CUDA(cudaMemsetAsync(b.counts.get(), 0, nb * sizeof(uint32_t), stream));
+  binCountKernel<<<gridFor(m), 256, 0, stream>>>(xyz, m, bits, b.counts.get(), b.rank.get(), liveCount, liveBase);
   NV_CUDA_LAUNCH();
   NV_CUDA(cub::DeviceScan::ExclusiveSum(b.scanTemp.get(), temp, b.counts.get(), b.offsets.get(), static_cast<int>(nb),
     stream));
-  binScatterKernel<<<gridFor(m), 256, 0, stream>>>(xyz, m, bits, b.rank.get(), b.offsets.get(), b.binned.get());
+  binScatterKernel<<<gridFor(m), 256, 0, stream>>>(xyz, m, bits, b.rank.get(), b.offsets.get(), b.binned.get(),
+    liveCount, liveBase);
   NV_CUDA_LAUNCH();
 }
 
 template <int Lpt>
 void launchEncodeLevelsL(int F, const FwdArgs& a, __half* enc, cudaStream_t stream)
 {
-  const dim3 grid(static_cast<unsigned>((a.sampleCount + 255) / 256),
-    static_cast<unsigned>((a.grid.levels + Lpt - 1) / Lpt));
+  // A device-side count: a grid of what the GPU holds at once, striding over the samples (most of the capacity is
+  // usually empty; a grid per sample would launch its blocks anyway).
+  int64_t blocks = (a.sampleCount + 255) / 256;
+  if (a.liveCount)
+    blocks = std::min<int64_t>(blocks, int64_t(deviceInfo().sms) * 8);
+  const dim3 grid(static_cast<unsigned>(blocks), static_cast<unsigned>((a.grid.levels + Lpt - 1) / Lpt));
   switch (F)
   {
     case 1: encodeLevelsKernel<1, __half, Lpt><<<grid, 256, 0, stream>>>(a, enc); break;
@@ -171,13 +201,50 @@ const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre)
     " KiB of shared memory per block");
 }
 
+namespace
+{
+/// Two-pass mode: samples per chunk (their encodings, D halves each, fit the scratch).
+int64_t forwardChunk(const DeviceModel& dm, bool pre, int64_t n)
+{
+  const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
+  const int64_t scratchBytes = int64_t(std::max(16, dm.options.encodeScratchMiB)) << 20;
+  return pre ? std::max<int64_t>(1, std::min<int64_t>(n, scratchBytes / (2 * D))) : n;
+}
+
+bool forwardPre(const DeviceModel& dm, bool points)
+{
+  const int mode = dm.options.forwardMode >= 0 && dm.options.forwardMode <= 2 ? dm.options.forwardMode : 1;
+  return mode == 2 || (mode == 1 && points);
+}
+} // namespace
+
+int64_t inferenceChunk(const DeviceModel& dm)
+{
+  return forwardChunk(dm, forwardPre(dm, true), std::numeric_limits<int64_t>::max());
+}
+
+void reserveInference(const DeviceModel& dm, int64_t capacity)
+{
+  const bool pre = forwardPre(dm, true);
+  forwardPlan(dm, pre);
+  if (!pre || capacity <= 0)
+    return;
+  const int64_t chunk = forwardChunk(dm, pre, capacity);
+  const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
+  if (dm.encScratch.size() < size_t(chunk * D))
+    dm.encScratch.allocate(size_t(chunk * D), "encoding scratch");
+  const int bits = inferenceBinBits(chunk, dm.options.binBitsPerAxis);
+  if (bits > 0)
+    reserveBins(dm, chunk, bits);
+}
+
 /// Inference and decoding through the forward kernel.
 void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
-  int64_t first, int64_t n, float* out, cudaStream_t stream)
+  int64_t first, int64_t n, float* out, cudaStream_t stream, const uint32_t* liveCount)
 {
+  NV_CHECK(!liveCount || xyz, "a device-side sample count needs a point array");
   const KernelOptions& o = dm.options;
-  const int mode = o.forwardMode >= 0 && o.forwardMode <= 2 ? o.forwardMode : 1;
-  const bool pre = mode == 2 || (mode == 1 && xyz != nullptr);
+  const bool pre = forwardPre(dm, xyz != nullptr);
   const ForwardPlan& plan = forwardPlan(dm, pre);
   const FwdFn fn = reinterpret_cast<FwdFn>(plan.fn);
   const int warps = plan.warps;
@@ -196,8 +263,8 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   a.z0 = z0; // enc, binned, random, seed, step stay zero (a{})
   // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (128 MiB).
   const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
-  const int64_t scratchBytes = int64_t(std::max(16, o.encodeScratchMiB)) << 20;
-  const int64_t chunk = pre ? std::min<int64_t>(n, scratchBytes / (2 * D)) : n;
+  const int64_t chunk = forwardChunk(dm, pre, n);
+  a.liveCount = liveCount;
   if (pre && dm.encScratch.size() < size_t(chunk * D))
     dm.encScratch.allocate(size_t(chunk * D), "encoding scratch");
   for (int64_t b = 0; b < n; b += chunk)
@@ -206,13 +273,14 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
     a.xyz = xyz ? xyz + 3 * b : nullptr;
     a.first = first + b;
     a.sampleCount = m;
+    a.liveBase = b;
     a.out = out + b;
     if (pre)
     {
       const int bits = a.xyz ? inferenceBinBits(m, o.binBitsPerAxis) : 0;
       if (bits > 0)
       {
-        binPoints(dm, a.xyz, m, bits, stream);
+        binPoints(dm, a.xyz, m, bits, stream, liveCount, b);
         a.binned = dm.bins.binned.get();
       }
       a.enc = dm.encScratch.get();

@@ -63,6 +63,9 @@ template <int W, int F, int Warps, int MinBlocks, bool Pre, typename Weights>
 __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __grid_constant__ FwdArgs a)
 {
   extern __shared__ __align__(128) unsigned char smem[];
+  const int64_t n = liveSamples(a); // sampleCount, or a device-side count (the same for every thread)
+  if (int64_t(blockIdx.x) * Warps * 16 >= n)
+    return; // no tile for this block (a grid sized for a device-side count's capacity): skip staging the weights
   const MlpShape& s = a.shape;
   const int warp = threadIdx.x >> 5, lane = threadIdx.x & 31;
   const WarpNet net = stageNet<Weights>(s, a.w16, a.wout, reinterpret_cast<__half*>(smem), a.wOff,
@@ -73,23 +76,23 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
   __syncthreads();
 
   const int g = lane >> 2, t = lane & 3;
-  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile * 16 < a.sampleCount; tile += int64_t(gridDim.x) * Warps)
+  for (int64_t tile = int64_t(blockIdx.x) * Warps + warp; tile * 16 < n; tile += int64_t(gridDim.x) * Warps)
   {
     const int64_t o0 = tile * 16 + g, o1 = o0 + 8;
     // Where this lane's two outputs go: binned points carry their original index (loaded here, used at the end).
     int64_t d0 = o0, d1 = o1;
     if (a.binned && t == 0)
     {
-      if (o0 < a.sampleCount)
+      if (o0 < n)
         d0 = __float_as_uint(a.binned[o0].w);
-      if (o1 < a.sampleCount)
+      if (o1 < n)
         d1 = __float_as_uint(a.binned[o1].w);
     }
     __syncwarp(); // the previous tile's ldmatrix reads of enc are done
     WarpOut<W> out;
     if constexpr (Pre)
     {
-      const PreEncoded src{ a.enc, tile * 16, a.sampleCount };
+      const PreEncoded src{ a.enc, tile * 16, a.sampleCount, a.liveCount ? n : -1 };
       warpForward<W, F, false, Weights>(a.grid, s, net, src, nullptr, enc, a.ldE, lane, NoStage{}, out);
     }
     else
@@ -101,9 +104,9 @@ __global__ void __launch_bounds__(Warps * 32, MinBlocks) forwardKernel(const __g
     }
     if (t == 0)
     {
-      if (o0 < a.sampleCount)
+      if (o0 < n)
         a.out[d0] = out.lo;
-      if (o1 < a.sampleCount)
+      if (o1 < n)
         a.out[d1] = out.hi;
     }
   }

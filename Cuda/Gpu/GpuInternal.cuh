@@ -91,9 +91,18 @@ SmemPlan choosePlan(const MlpShape& s, bool training, const void* fn, int limit,
 /// chosen once per model within sharedMemoryLimit(dm.options).
 const ForwardPlan& forwardPlan(const DeviceModel& dm, bool pre);
 
-/// The forward kernel (GpuForward.cu) on points or grid slices; see launchInference.
+/// The forward kernel (GpuForward.cu) on points or grid slices; see launchInference. liveCount (device memory, with
+/// xyz only): the points are [0, *liveCount) clamped to n, read when the kernels run; n is then the capacity, and
+/// the launch allocates nothing after reserveInference(dm, n) (a CUDA graph may capture it).
 void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t ny, int64_t nz, int64_t z0,
-  int64_t first, int64_t n, float* out, cudaStream_t stream);
+  int64_t first, int64_t n, float* out, cudaStream_t stream, const uint32_t* liveCount = nullptr);
+
+/// Points of one launch chunk of xyz inference (two-pass mode: the encodings scratch's worth; else unbounded).
+int64_t inferenceChunk(const DeviceModel& dm);
+
+/// Everything launchForward allocates for up to `capacity` points (xyz inference), allocated now, and the kernel
+/// plan chosen.
+void reserveInference(const DeviceModel& dm, int64_t capacity);
 
 /// Run the inference kernel: xyz (device, n x 3) or, when xyz is null, the grid points
 /// [first, first + n) of slices starting at z0 of an nx*ny*nz grid. out: device, n floats.

@@ -30,7 +30,21 @@ struct FwdArgs
   const __half* enc; ///< two-pass mode: encodings, level-major (level l of sample i at (l * n + i) * F)
   int woutOff, encOff, ldE; ///< shared-memory layout (bytes, bytes, halves)
   int wOff[kMaxHidden];     ///< layer offsets in shared memory (halves)
+  /// Inference on a point array whose length is known on the device only (Sample Streaming's device-driven loop):
+  /// the samples are [0, *liveCount - liveBase) clamped to [0, sampleCount); sampleCount is then the capacity (and
+  /// the level-major stride of the encodings). Null: sampleCount samples.
+  const uint32_t* liveCount;
+  int64_t liveBase;
 };
+
+/// Samples of this launch: sampleCount, or those of the device-side count (FwdArgs::liveCount).
+__device__ __forceinline__ int64_t liveSamples(const FwdArgs& a)
+{
+  if (!a.liveCount)
+    return a.sampleCount;
+  const int64_t n = static_cast<int64_t>(*a.liveCount) - a.liveBase;
+  return n < 0 ? 0 : (n > a.sampleCount ? a.sampleCount : n);
+}
 
 /// Index of corner c of a level, same value as cornerIndex() (mask for the power-of-two hashed levels; a dense
 /// index is below 2 * entries).
@@ -93,11 +107,11 @@ __device__ __forceinline__ void scatterCorners(G* __restrict__ grad, const Level
   }
 }
 
-/// Coordinates of sample gi (0 beyond n).
+/// Coordinates of sample gi (0 beyond the samples).
 __device__ __forceinline__ void fwdPoint(const FwdArgs& a, int64_t gi, float x[3])
 {
   x[0] = x[1] = x[2] = 0.0f;
-  if (gi >= a.sampleCount)
+  if (gi >= liveSamples(a))
     return;
   if (a.binned)
   {
@@ -130,14 +144,11 @@ __device__ __forceinline__ void fwdPoint(const FwdArgs& a, int64_t gi, float x[3
 /// run in order of blockIdx.y, so the GPU works on Lpt levels' tables (<= 2^log2T entries each) at a time: they stay
 /// in L2 instead of the whole table competing for it (the fused kernel on random points is L2/DRAM bound: 49% L2
 /// hits, ncu); Lpt > 1 reads the coordinates once for several levels.
-template <int F, typename T = __half, int Lpt = 1>
-__global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant__ FwdArgs a, __half* __restrict__ enc)
+template <int F, typename T, int Lpt>
+__device__ __forceinline__ void encodeSampleLevels(const FwdArgs& a, int64_t i, __half* __restrict__ enc)
 {
   using E = Entry<T, F>;
   using V = typename HalfVec<F>::T;
-  const int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x;
-  if (i >= a.sampleCount)
-    return;
   float x[3];
   fwdPoint(a, i, x);
   const T* table = a.table32 ? reinterpret_cast<const T*>(a.table32) : reinterpret_cast<const T*>(a.table16);
@@ -189,6 +200,16 @@ __global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant_
     // Streaming store (evict-first): the encodings are read once by the MLP pass; keep L2 for the level's table.
     __stcs(reinterpret_cast<V*>(enc) + l * a.sampleCount + i, *reinterpret_cast<const V*>(o));
   }
+}
+
+/// Two-pass mode, pass 1 (see encodeSampleLevels). A grid that covers the samples runs one sample per thread; a
+/// smaller one (a device-side count, FwdArgs::liveCount: sized for the capacity) strides over them.
+template <int F, typename T = __half, int Lpt = 1>
+__global__ void __launch_bounds__(256) encodeLevelsKernel(const __grid_constant__ FwdArgs a, __half* __restrict__ enc)
+{
+  const int64_t n = liveSamples(a);
+  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < n; i += int64_t(gridDim.x) * blockDim.x)
+    encodeSampleLevels<F, T, Lpt>(a, i, enc);
 }
 
 /// Two-pass training, pass 3: the table gradient (fp16, unscaled) from dEnc (fp32, level-major like the

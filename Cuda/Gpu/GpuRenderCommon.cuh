@@ -9,6 +9,17 @@ namespace nv
 namespace gpu
 {
 
+/// Sample Streaming's wavefront loop, driven on the device (GpuStreamingLoop.cuh): each batch takes up to `batch`
+/// rays of the current live list from `start` on; after the list's last batch the lists swap.
+struct StreamLoopState
+{
+  unsigned int live[2]; ///< rays in each live list (the other list fills with the rays the batches keep)
+  unsigned int list;    ///< the list the current wavefront consumes
+  unsigned int start;   ///< first ray of the current batch in it
+  unsigned int points;  ///< queries the current batch emitted (the inference's device-side count)
+  unsigned int more;    ///< after a batch: 1 while rays are live (the loop's condition)
+};
+
 /// Per-render counters (device).
 struct RenderCounters
 {
@@ -16,7 +27,9 @@ struct RenderCounters
   unsigned long long plain;     ///< samples a plain marcher would take
   unsigned int maxMajorantBits; ///< float bits of the largest cell majorant (non-negative: ordered as integers)
   unsigned int nextRay;         ///< In-Shader: next ray to hand out
-  unsigned int active[2];       ///< Sample Streaming: live rays after init / consume (double-buffered)
+  StreamLoopState loop;         ///< Sample Streaming: the loop's state (reset per sample)
+  unsigned int batches;         ///< Sample Streaming: batches with live rays (RenderStats::wavefronts)
+  unsigned int truncated;       ///< Sample Streaming: the loop stopped at its safety bound with rays live
 };
 
 /// Sum of a per-lane value over the warp (all lanes must call), added once to a 64-bit counter.

@@ -1,6 +1,6 @@
-// NeuralVolume engine: GPU kernels of the renderer other than In-Shader: macrocells, the Decode path (the ray machine
-// over a 3D texture of the decoded grid), the Sample Streaming wavefront (emit -> batched inference -> consume,
-// compaction of live rays) and image accumulation. All of them run the shared ray machine (Core/RayMachine.h).
+// NeuralVolume engine: GPU kernels of the renderer other than In-Shader and Sample Streaming (GpuStreamingKernels.cuh):
+// macrocells, the Decode path (the ray machine over a 3D texture of the decoded grid) and image accumulation. They
+// run the shared ray machine (Core/RayMachine.h).
 // Included by GpuRenderer.cu only (the kernels are defined here).
 #pragma once
 
@@ -90,93 +90,7 @@ __global__ void __launch_bounds__(256) marchGridKernel(const __grid_constant__ r
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// Sample Streaming
-
-__global__ void initRaysKernel(const __grid_constant__ ray::Params P, uint32_t sample, ray::Ray* __restrict__ rays,
-  uint32_t* __restrict__ active, RenderCounters* counters, float4* image, float4* accum)
-{
-  const int64_t pixels = int64_t(P.width) * P.height;
-  for (int64_t i = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; i < pixels; i += int64_t(gridDim.x) * blockDim.x)
-  {
-    ray::Ray r;
-    ray::initRay(P, static_cast<int>(i % P.width), static_cast<int>(i / P.width), r, sample);
-    if (r.phase == ray::Done)
-    {
-      writePixel(r, image, accum);
-      continue;
-    }
-    rays[i] = r;
-    active[atomicAdd(&counters->active[0], 1u)] = static_cast<uint32_t>(i);
-  }
-}
-
-/// Queries of the next K steps of each live ray, into its slot of `stride` points (one emit per ray, so the count
-/// and the queries come from the same evaluation), and their count.
-__global__ void emitKernel(const __grid_constant__ ray::Params P, const ray::Ray* __restrict__ rays,
-  const uint32_t* __restrict__ active, uint32_t n, int K, int stride, float* __restrict__ slots,
-  uint32_t* __restrict__ counts)
-{
-  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x)
-    counts[i] = static_cast<uint32_t>(
-      ray::emit(P, rays[active[i]], K, reinterpret_cast<ray::V3*>(slots) + size_t(i) * stride));
-}
-
-/// Pack the slots densely: ray i's queries to offsets[i] (exclusive scan of the counts).
-__global__ void packKernel(uint32_t n, int stride, const float* __restrict__ slots,
-  const uint32_t* __restrict__ counts, const uint32_t* __restrict__ offsets, float* __restrict__ points)
-{
-  // One thread per (ray, query) slot.
-  const int64_t items = int64_t(n) * stride;
-  for (int64_t it = blockIdx.x * int64_t(blockDim.x) + threadIdx.x; it < items; it += int64_t(gridDim.x) * blockDim.x)
-  {
-    const int64_t i = it / stride;
-    const int k = static_cast<int>(it - i * stride);
-    if (k >= static_cast<int>(counts[i]))
-      continue;
-    const float* src = slots + 3 * it;
-    float* dst = points + 3 * (int64_t(offsets[i]) + k);
-    dst[0] = src[0];
-    dst[1] = src[1];
-    dst[2] = src[2];
-  }
-}
-
-/// Consume each live ray's values (those of queries outside the source's domain made NaN first, in place; points:
-/// the packed queries); finished rays write their pixel, the others go to the next live list.
-__global__ void consumeKernel(const __grid_constant__ ray::Params P, ray::Ray* __restrict__ rays,
-  const uint32_t* __restrict__ active, uint32_t n, int K, const uint32_t* __restrict__ counts,
-  const uint32_t* __restrict__ offsets, const float* __restrict__ points, float* __restrict__ values,
-  uint32_t* __restrict__ nextActive,
-  unsigned int* nextCount, RenderCounters* counters, float4* image, float4* accum)
-{
-  unsigned long long evaluated = 0, plain = 0;
-  const uint32_t stride = gridDim.x * blockDim.x;
-  for (uint32_t base = blockIdx.x * blockDim.x; base < n; base += stride)
-  {
-    const uint32_t i = base + threadIdx.x;
-    if (i < n)
-    {
-      const uint32_t id = active[i];
-      ray::Ray r = rays[id];
-      ray::maskOutsideDomain(P, reinterpret_cast<const ray::V3*>(points + 3 * size_t(offsets[i])), values + offsets[i],
-        static_cast<int>(counts[i]));
-      ray::consume(P, r, K, values + offsets[i], static_cast<int>(counts[i]));
-      evaluated += counts[i];
-      if (r.phase == ray::Done)
-      {
-        plain += r.plain;
-        writePixel(r, image, accum);
-      }
-      else
-      {
-        rays[id] = r;
-        nextActive[atomicAdd(nextCount, 1u)] = id;
-      }
-    }
-  }
-  warpAdd(&counters->evaluated, evaluated);
-  warpAdd(&counters->plain, plain);
-}
+// Path tracing
 
 /// image = accum / frames (path tracing).
 __global__ void resolveKernel(const float4* __restrict__ accum, int64_t n, float inv, float4* __restrict__ image)

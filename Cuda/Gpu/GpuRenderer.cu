@@ -5,8 +5,6 @@
 #include "GpuRenderInShader.cuh"
 #include "GpuRenderKernels.cuh"
 
-#include <cub/device/device_scan.cuh>
-
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -20,9 +18,6 @@ namespace gpu
 
 namespace
 {
-/// Sample Streaming: queries of one wavefront batch at most (points 12 B + value 4 B each).
-constexpr int64_t kMaxStreamQueries = int64_t(1) << 23;
-
 uint64_t mixKey(uint64_t a, uint64_t b)
 {
   return mix64(a ^ (b * 0x9E3779B97F4A7C15ull));
@@ -92,6 +87,7 @@ void GridTexture::assign(const float* device, int64_t nx, int64_t ny, int64_t nz
 GpuRenderer::GpuRenderer(const DeviceModel& dm, cudaStream_t stream)
   : Network(dm)
   , RenderStream(stream)
+  , Streaming(dm)
 {
   Counters.allocate(1, "render counters");
   HostCounters.allocate(1);
@@ -106,11 +102,8 @@ GpuRenderer::~GpuRenderer()
 int64_t GpuRenderer::deviceMemoryBytes() const
 {
   size_t b = Tf.bytes() + Majorant.bytes() + Lattice.bytes() + GridLinear.bytes() + Depth.bytes() + Range.bytes() +
-    Grid.bytes() + Image.bytes() + Accum.bytes() + Rays.bytes() + Counts.bytes() + Offsets.bytes() + Points.bytes() +
-    Slots.bytes() +
-    Values.bytes() + ScanTemp.bytes() + Active[0].bytes() + Active[1].bytes() + FrameStart.bytes() + Guide.bytes() +
-    Moments.bytes();
-  b += static_cast<size_t>(Denoiser.deviceMemoryBytes());
+    Grid.bytes() + Image.bytes() + Accum.bytes() + FrameStart.bytes() + Guide.bytes() + Moments.bytes();
+  b += static_cast<size_t>(Denoiser.deviceMemoryBytes() + Streaming.deviceMemoryBytes());
   return static_cast<int64_t>(b);
 }
 
@@ -233,79 +226,6 @@ bool GpuRenderer::prepareMajorants(const RenderSetup& s, ray::Params& P)
   return work;
 }
 
-void GpuRenderer::renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum,
-  RenderStats& st)
-{
-  const int64_t pixels = int64_t(P.width) * P.height;
-  const int K = s.streamingSamples;
-  const int qps = ray::queriesPerStep(P);
-  if (Rays.size() < size_t(pixels))
-  {
-    Rays.allocate(size_t(pixels), "wavefront rays");
-    Active[0].allocate(size_t(pixels), "live rays");
-    Active[1].allocate(size_t(pixels), "live rays");
-    Counts.allocate(size_t(pixels), "query counts");
-    Offsets.allocate(size_t(pixels), "query offsets");
-  }
-  size_t temp = 0;
-  NV_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, temp, Counts.get(), Offsets.get(), static_cast<int>(pixels),
-    RenderStream));
-  if (ScanTemp.size() < temp)
-    ScanTemp.allocate(temp, "scan scratch");
-  RenderCounters* c = Counters.get();
-  NV_CUDA(cudaMemsetAsync(c->active, 0, sizeof(c->active), RenderStream));
-  initRaysKernel<<<gridFor(pixels), 256, 0, RenderStream>>>(P, sample, Rays.get(), Active[0].get(), c, Image.get(),
-    accum);
-  NV_CUDA_LAUNCH();
-  uint32_t* h = HostScalars.get();
-  NV_CUDA(cudaMemcpyAsync(h, &c->active[0], sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
-  NV_CUDA(cudaStreamSynchronize(RenderStream));
-  uint32_t live = h[0];
-  // Rays per batch: their slots (K steps of qps queries each) hold at most kMaxStreamQueries points.
-  const int stride = K * qps;
-  const int64_t batch = std::max<int64_t>(1, std::min<int64_t>(pixels, kMaxStreamQueries / stride));
-  const size_t slotPoints = size_t(batch) * stride;
-  if (Slots.size() < 3 * slotPoints)
-  {
-    Slots.allocate(3 * slotPoints, "wavefront query slots");
-    Points.allocate(3 * slotPoints, "wavefront queries");
-    Values.allocate(slotPoints, "wavefront values");
-  }
-  int cur = 0;
-  while (live > 0)
-  {
-    NV_CUDA(cudaMemsetAsync(&c->active[cur ^ 1], 0, sizeof(uint32_t), RenderStream));
-    for (int64_t start = 0; start < live; start += batch)
-    {
-      const uint32_t m = static_cast<uint32_t>(std::min<int64_t>(batch, live - start));
-      const uint32_t* act = Active[cur].get() + start;
-      emitKernel<<<gridFor(m), 256, 0, RenderStream>>>(P, Rays.get(), act, m, K, stride, Slots.get(), Counts.get());
-      NV_CUDA_LAUNCH();
-      NV_CUDA(cub::DeviceScan::ExclusiveSum(ScanTemp.get(), temp, Counts.get(), Offsets.get(), static_cast<int>(m),
-        RenderStream));
-      NV_CUDA(cudaMemcpyAsync(h, Offsets.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
-      NV_CUDA(cudaMemcpyAsync(h + 1, Counts.get() + (m - 1), sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
-      NV_CUDA(cudaStreamSynchronize(RenderStream));
-      const int64_t total = int64_t(h[0]) + h[1];
-      if (total > 0)
-      {
-        packKernel<<<gridFor(int64_t(m) * stride), 256, 0, RenderStream>>>(m, stride, Slots.get(), Counts.get(),
-          Offsets.get(), Points.get());
-        NV_CUDA_LAUNCH();
-        launchInference(Network, Points.get(), 0, 0, 0, 0, 0, total, Values.get(), RenderStream);
-      }
-      consumeKernel<<<gridFor(m), 256, 0, RenderStream>>>(P, Rays.get(), act, m, K, Counts.get(), Offsets.get(),
-        Points.get(), Values.get(), Active[cur ^ 1].get(), &c->active[cur ^ 1], c, Image.get(), accum);
-      NV_CUDA_LAUNCH();
-      ++st.wavefronts;
-    }
-    NV_CUDA(cudaMemcpyAsync(h, &c->active[cur ^ 1], sizeof(uint32_t), cudaMemcpyDeviceToHost, RenderStream));
-    NV_CUDA(cudaStreamSynchronize(RenderStream));
-    live = h[0];
-    cur ^= 1;
-  }
-}
-
 bool GpuRenderer::uploadMasks(const Model& model, uint64_t version, ray::Params& P)
 {
   // A sparse source's occupancy mask and its domain mask, uploaded once per network version.
@@ -393,7 +313,9 @@ void GpuRenderer::traceSamples(const RenderRequest& q, const RenderSetup& s, ray
     }
     else
     {
-      renderStreaming(P, s, static_cast<uint32_t>(sample), accum, st);
+      // The wavefront loop runs on the device (no host wait); its graph is rebuilt for a new picture only.
+      Streaming.trace(P, s.streamingSamples, static_cast<uint32_t>(sample), Image.get(), accum, c, RenderStream,
+        sample == 0, st);
     }
   }
 }
@@ -449,11 +371,14 @@ void GpuRenderer::collectGpuFigures()
   LastGpuFigures.renderMilliseconds = ms;
   LastGpuFigures.samplesEvaluated = static_cast<int64_t>(HostCounters.get()->evaluated);
   LastGpuFigures.samplesPlain = FiguresPathTrace ? 0 : static_cast<int64_t>(HostCounters.get()->plain);
+  LastGpuFigures.wavefronts = static_cast<int64_t>(HostCounters.get()->batches);
   float denoiseMs = 0.0f;
   if (FiguresDenoised)
     NV_CUDA(cudaEventElapsedTime(&denoiseMs, Traced.get(), End.get()));
   LastGpuFigures.denoiseMilliseconds = denoiseMs;
   FiguresPending = false;
+  NV_CHECK(!HostCounters.get()->truncated, "Sample Streaming: the wavefront loop stopped at its bound of " +
+    std::to_string(HostCounters.get()->batches) + " batches with rays still live (the picture is incomplete)");
 }
 
 void GpuRenderer::renderImage(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
@@ -526,6 +451,7 @@ void GpuRenderer::renderImage(const Model& model, uint64_t version, const Render
   st.denoiseMilliseconds = LastGpuFigures.denoiseMilliseconds;
   st.samplesEvaluated = LastGpuFigures.samplesEvaluated;
   st.samplesPlain = LastGpuFigures.samplesPlain;
+  st.wavefronts = LastGpuFigures.wavefronts;
   st.accumulatedFrames = pt ? Frames : 0;
   st.accumulatedPaths = pt ? Paths : 0;
 }

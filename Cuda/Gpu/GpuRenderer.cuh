@@ -9,6 +9,7 @@
 #include "GpuDenoiser.cuh"
 #include "GpuInternal.cuh"
 #include "GpuRenderCommon.cuh"
+#include "GpuStreamingLoop.cuh"
 
 #include <cstdint>
 
@@ -89,7 +90,6 @@ private:
   bool prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
     const uint32_t* occupancy, float background);
   bool prepareMajorants(const RenderSetup& s, ray::Params& P);
-  void renderStreaming(ray::Params& P, const RenderSetup& s, uint32_t sample, float4* accum, RenderStats& st);
 
   const DeviceModel& Network;
   cudaStream_t RenderStream;
@@ -126,11 +126,7 @@ private:
   RenderStats ImageStats;
   DeviceBuffer<RenderCounters> Counters;
   PinnedBuffer<RenderCounters> HostCounters;
-  // Sample Streaming
-  DeviceBuffer<ray::Ray> Rays;
-  DeviceBuffer<uint32_t> Active[2], Counts, Offsets;
-  DeviceBuffer<float> Slots, Points, Values;
-  DeviceBuffer<unsigned char> ScanTemp;
+  StreamingLoop Streaming;   ///< Sample Streaming's wavefront loop and buffers
   PinnedBuffer<uint32_t> HostScalars;
   Event Begin, End;
   Event Traced;               ///< path tracing: the frame's paths done (the denoiser's time runs from it to End)
@@ -138,8 +134,8 @@ private:
   bool FiguresPending = false; ///< the last render's counters and times are not in LastGpuFigures yet
   bool FiguresPathTrace = false;
   bool FiguresDenoised = false; ///< the last render denoised (its denoiseMilliseconds is Traced -> End)
-  RenderStats LastGpuFigures; ///< renderMilliseconds, denoiseMilliseconds, samplesEvaluated, samplesPlain of the last
-                              ///< collected render
+  RenderStats LastGpuFigures; ///< renderMilliseconds, denoiseMilliseconds, samplesEvaluated, samplesPlain,
+                              ///< wavefronts of the last collected render
 };
 
 } // namespace gpu

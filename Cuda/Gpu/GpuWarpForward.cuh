@@ -202,10 +202,12 @@ struct EncodeFrom
   const T* table;
 };
 /// Encoding source: level-major encodings (level l of sample i at (l * sampleCount + i) * F), rows [row, row + 16).
+/// Rows from `live` on (>= 0: a device-side count below the capacity sampleCount) read as zeros.
 struct PreEncoded
 {
   const __half* enc;
   int64_t row, sampleCount;
+  int64_t live = -1;
 };
 
 /// Staging of the activations for a backward pass: X_l (l = 1..H-1) at base + off[l] (ld `ld`) and, when xh is not
@@ -254,7 +256,7 @@ __device__ __forceinline__ void warpEncodings(const GridLayout& grid, const PreE
     const int rr = it & 15, l = it >> 4;
     const int64_t gi = src.row + rr;
     V v{};
-    if (gi < src.sampleCount)
+    if (gi < (src.live >= 0 ? src.live : src.sampleCount))
       v = __ldcs(e + l * src.sampleCount + gi); // streamed: read once
     *reinterpret_cast<V*>(enc + rr * ldE + l * F) = v;
   }

@@ -1,6 +1,7 @@
 // Command-line choice of the GPU kernel variants (nv::KernelOptions) for the benchmarks and GPU tests:
 //   --fwd-mode=0|1|2 --bin-bits=-1..8 --lpt=1|2|4 --scratch-mb=N --two-pass=-1|0|1 --wmma --in-shader-fp32
 //   --smem-limit=BYTES (shared memory per block, e.g. 101376 as on sm_86/89/120, 65536 as on sm_75)
+//   --stream-queries=N (Sample Streaming: queries per wavefront batch at most; default one inference chunk, <= 2^23)
 // Flags are removed from argv so the remaining arguments keep their positions.
 #pragma once
 
@@ -31,6 +32,12 @@ inline nv::KernelOptions parseKernelFlags(int& argc, char** argv)
       value("--lpt=", o.encodeLevelsPerThread) || value("--scratch-mb=", o.encodeScratchMiB) ||
       value("--two-pass=", o.trainTwoPass) || value("--smem-limit=", o.sharedMemoryLimit))
       continue;
+    int streamQueries = 0;
+    if (value("--stream-queries=", streamQueries))
+    {
+      o.streamBatchQueries = streamQueries;
+      continue;
+    }
     if (a == "--wmma")
     {
       o.trainRegisterResident = false;

@@ -113,7 +113,7 @@ struct Bench
     const RenderRequest* base = nullptr)
   {
     std::vector<double> wall, gpu;
-    double evaluated = 0, plain = 0, wavefronts = 0;
+    double evaluated = 0, plain = 0, wavefronts = 0, hostSyncs = 0;
     RenderResult r;
     for (int f = -2; f < frames; ++f)
     {
@@ -133,6 +133,7 @@ struct Bench
       evaluated += double(r.stats.samplesEvaluated);
       plain += double(r.stats.samplesPlain);
       wavefronts += double(r.stats.wavefronts);
+      hostSyncs += double(r.stats.wavefrontHostSyncs);
       if (f == 0 && !outdir.empty())
       {
         if (where == Memory::Device)
@@ -168,10 +169,10 @@ struct Bench
     std::printf("RESULT {\"what\":\"render\",\"label\":\"%s\",\"device\":\"%s\",\"path\":\"%s\",\"mode\":\"%s\","
                 "\"width\":%d,\"height\":%d,\"K\":%d,\"skipping\":%d,\"frames\":%d,\"ms_wall\":%.3f,\"ms_render\":%.3f,"
                 "\"fps_wall\":%.1f,\"samples_evaluated\":%.4g,\"samples_plain\":%.4g,\"plain_over_evaluated\":%.2f,"
-                "\"wavefronts\":%.1f,\"samples_per_s\":%.4g,\"ms_copy_to_host\":%.3f}\n",
+                "\"wavefronts\":%.1f,\"wavefront_host_syncs\":%.1f,\"samples_per_s\":%.4g,\"ms_copy_to_host\":%.3f}\n",
       label.c_str(), deviceName(session->device()), renderPathName(p), shadingModeName(m), width, height,
       base ? base->streamingSamples : 0, base ? int(base->emptySpaceSkipping) : 1, frames, w, g, 1000.0 / w, ev, pl,
-      ev > 0 ? pl / ev : 0.0, wavefronts / frames, ev / (g * 1e-3), copyMs);
+      ev > 0 ? pl / ev : 0.0, wavefronts / frames, hostSyncs / frames, ev / (g * 1e-3), copyMs);
     std::fflush(stdout);
   }
 };
