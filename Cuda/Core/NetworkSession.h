@@ -34,7 +34,8 @@ struct KernelOptions
   int forwardMode = 1;
   int binBitsPerAxis = -1;        ///< Morton binning of point arrays: -1 auto (from 2^18 points), 0 off, 1..8 bits
   int encodeLevelsPerThread = 4;  ///< level-major encode: 1, 2 or 4 levels per thread
-  int encodeScratchMiB = 128;     ///< two-pass inference: encodings scratch
+  int encodeScratchMiB = 512;     ///< two-pass inference: encodings scratch (allocated on first use; 512 MiB holds
+                                  ///< one Sample Streaming batch of 2^23 queries of 32 halves, measured on the H100)
   int trainTwoPass = -1;          ///< -1 auto (tables > 16 MiB and batches > 32768), 0 fused, 1 two passes
   bool trainRegisterResident = true; ///< false: the WMMA training kernel
   bool inShaderHalfAccumulate = true; ///< In-Shader path: fp16 accumulation in the MLP (fewer registers per ray)

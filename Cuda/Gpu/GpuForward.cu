@@ -261,7 +261,7 @@ void launchForward(const DeviceModel& dm, const float* xyz, int64_t nx, int64_t 
   a.ny = ny;
   a.nz = nz;
   a.z0 = z0; // enc, binned, random, seed, step stay zero (a{})
-  // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (128 MiB).
+  // Two-pass mode works in chunks whose encodings (D halves per sample) fit the scratch buffer (encodeScratchMiB).
   const int64_t D = int64_t(dm.grid.levels) * dm.grid.features;
   const int64_t chunk = forwardChunk(dm, pre, n);
   a.liveCount = liveCount;
