@@ -59,6 +59,7 @@
 #include <string>  // for std::string
 
 class vtkDataArray;
+class vtkDataSet;
 class vtkImageData;
 class vtkMultiProcessController;
 class vtkTable;
@@ -412,6 +413,10 @@ protected:
   /// RequestInformation of an input that is not an image (in one process): the extent of the image it is resampled
   /// onto, or a sparse grid's index box; the input brought up to date first when it is empty.
   void AnnounceResampledExtent(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
+  /// RequestInformation under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): decides (a collective,
+  /// when the upstream pipeline, the array or SamplingDimensions changed) whether every rank trains its own piece and
+  /// then announces the whole lattice's extent; false: the input goes to the gather (nothing announced).
+  bool AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   int VectorMode = MAGNITUDE;
@@ -470,6 +475,14 @@ private:
   /// vtkNeuralCompressPiece.cxx.
   void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
+  /// RequestData under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): this rank's piece resampled
+  /// on its region of the whole lattice (samples along the cuts exchanged with the neighbours), then as ExecutePiece.
+  void ExecuteGridPiece(vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
+    vtkTable* metrics, double time);
+  /// ExecutePiece's and ExecuteGridPiece's training of Internals->Piece (when `hasPiece`) and the global figures
+  /// (every rank); `sourceBytes` >= 0: the bytes the rank's share of the compression ratio counts.
+  void TrainPiece(bool hasPiece, int ranksHere, double sourceBytes, vtkInformation* inInfo, vtkImageData* output,
+    vtkTable* log, vtkTable* metrics, double time);
   /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).
   vtkNeuralCompressInternals::PieceSums MeasureCurrentPiece();
   /// ExecutePiece while this rank's run trains in the background: its sums from the output's live PSNR estimate.

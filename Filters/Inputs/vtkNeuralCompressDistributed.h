@@ -54,6 +54,10 @@ vtkMultiProcessController* DistributedController();
 /// RequestUpdateExtent under MPI: the input's request becomes this rank's piece (no ghost levels).
 void RequestLocalPiece(vtkInformation* inInfo);
 
+/// RequestInformation under MPI: the input (`self`'s first connection) brought up to date as this rank's piece
+/// (every rank together: the producer may be a collective such as RedistributeDataSet).
+void UpdateLocalPiece(vtkAlgorithm* self, vtkInformation* inInfo);
+
 /// While it lives (when `active`), this process runs VTK's filters on its own: the global controller is a
 /// one-process one. ParaView's object factory substitutes parallel filters under MPI (vtkResampleToImage becomes
 /// vtkPResampleToImage, which reduces over every rank); rank 0 uses them on the whole input while the other ranks do
