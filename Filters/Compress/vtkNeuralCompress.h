@@ -413,9 +413,8 @@ protected:
   /// RequestInformation of an input that is not an image (in one process): the extent of the image it is resampled
   /// onto, or a sparse grid's index box; the input brought up to date first when it is empty.
   void AnnounceResampledExtent(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
-  /// RequestInformation under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): decides (a collective,
-  /// when the upstream pipeline, the array or SamplingDimensions changed) whether every rank trains its own piece and
-  /// then announces the whole lattice's extent; false: the input goes to the gather (nothing announced).
+  /// RequestInformation under MPI, unstructured grid: whether every rank trains its own piece (a collective when the
+  /// upstream pipeline, array or SamplingDimensions changed) and the lattice's extent; false: gathered instead.
   bool AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
@@ -475,12 +474,12 @@ private:
   /// vtkNeuralCompressPiece.cxx.
   void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
-  /// RequestData under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): this rank's piece resampled
-  /// on its region of the whole lattice (samples along the cuts exchanged with the neighbours), then as ExecutePiece.
+  /// RequestData under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): as ExecutePiece, on this
+  /// rank's piece resampled on its region of the whole lattice.
   void ExecuteGridPiece(vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
-  /// ExecutePiece's and ExecuteGridPiece's training of Internals->Piece (when `hasPiece`) and the global figures
-  /// (every rank); `sourceBytes` >= 0: the bytes the rank's share of the compression ratio counts.
+  /// Trains Internals->Piece (when `hasPiece`), then the global figures (every rank); `sourceBytes` >= 0: the bytes
+  /// the rank's share of the compression ratio counts.
   void TrainPiece(bool hasPiece, int ranksHere, double sourceBytes, vtkInformation* inInfo, vtkImageData* output,
     vtkTable* log, vtkTable* metrics, double time);
   /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).

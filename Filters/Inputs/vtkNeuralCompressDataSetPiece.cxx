@@ -233,7 +233,8 @@ DataSetPiece::Summary DataSetPiece::LocalSummary(vtkDataSet* local, const std::s
   return s;
 }
 
-bool DataSetPiece::Lattice(const std::vector<Summary>& all, const int requested[3], std::string& problem)
+bool DataSetPiece::Lattice(
+  const std::vector<Summary>& all, const std::string& name, const int requested[3], std::string& problem)
 {
   double bounds[6] = { 0, -1, 0, -1, 0, -1 };
   double samples = 0.0;
@@ -245,12 +246,12 @@ bool DataSetPiece::Lattice(const std::vector<Summary>& all, const int requested[
       continue;
     if (s[kHasArray] == 0.0)
     {
-      problem = "the array is missing on a rank that holds cells";
+      problem = "no array '" + name + "' on a rank that holds cells";
       return false;
     }
     if (this->Components && this->Components != int(s[kComponents]))
     {
-      problem = "the array has different numbers of components on different ranks";
+      problem = "array '" + name + "' has different numbers of components on different ranks";
       return false;
     }
     this->Components = int(s[kComponents]);
@@ -498,7 +499,7 @@ bool DataSetPiece::Resolve(vtkDataSet* local, const std::string& name, int assoc
   const Summary mine = this->LocalSummary(local, name, association);
   std::vector<Summary> all(size_t(c->GetNumberOfProcesses()));
   c->AllGather(mine.data(), all.front().data(), vtkIdType(mine.size()));
-  if (!this->Lattice(all, requested, problem))
+  if (!this->Lattice(all, name, requested, problem))
     return false;
   std::copy(this->Dims, this->Dims + 3, dims);
   return true;
@@ -522,18 +523,18 @@ bool DataSetPiece::Prepare(vtkDataSet* local, const std::string& name, int assoc
   this->Prepared = false;
   this->TrainingImage = nullptr;
   this->OutsideMask = nullptr;
-  if (!this->Lattice(all, requested, problem)) // the same on every rank: no collective follows
+  if (!this->Lattice(all, name, requested, problem)) // the same on every rank: no collective follows
     return false;
   this->Regions(all);
   this->OwnedExtent = this->OwnedBoxes[size_t(c->GetLocalProcessId())];
-  std::string local_problem;
-  int failed = this->Resample(local, name, association, local_problem) ? 0 : 1, anyFailed = 0;
+  std::string ownProblem;
+  int failed = this->Resample(local, name, association, ownProblem) ? 0 : 1, anyFailed = 0;
   this->Exchange();
   this->CropToPadded();
   c->AllReduce(&failed, &anyFailed, 1, vtkCommunicator::MAX_OP);
   if (anyFailed)
   {
-    problem = failed ? local_problem : "another rank could not resample its cells";
+    problem = failed ? ownProblem : "another rank could not resample its cells";
     this->TrainingImage = nullptr;
     return false;
   }

@@ -83,7 +83,7 @@ public:
 
 private:
   Summary LocalSummary(vtkDataSet* local, const std::string& name, int association);
-  bool Lattice(const std::vector<Summary>& all, const int requested[3], std::string& problem);
+  bool Lattice(const std::vector<Summary>& all, const std::string& name, const int requested[3], std::string& problem);
   void Regions(const std::vector<Summary>& all);
   bool Resample(vtkDataSet* local, const std::string& name, int association, std::string& problem);
   void Exchange();

@@ -4,13 +4,16 @@ Wavelet [0,40]^3 -> Tetrahedralize (320000 tetrahedra) -> RedistributeDataSet (P
 split, each cell assigned to one region) -> Neural Compress at SamplingDimensions 38^3 (a lattice whose planes do
 not fall on the k-d cut, so each rank's region needs samples of its neighbour's cells). Every rank resamples its own
 piece onto its region of the lattice, trains its own network, draws it clipped to its region; ParaView composites.
-Rank 0 first runs the same pipeline without RedistributeDataSet in a serial pvbatch (this script with
+The same for a domain that is not a box (the Wavelet clipped by a sphere: mixed cells, NaN outside) and for the
+grid redistributed by D3 with a layer of ghost cells (left out of the ranks' own samples and regions).
+Rank 0 first runs the same pipelines without RedistributeDataSet in a serial pvbatch (this script with
 --serial-reference <folder>, a subprocess) and checks:
 - no gather: each rank's network was trained from its own piece (NeuralPieceSourceSamples is the rank's
   RedistributeDataSet piece's point count, less than the whole grid's) and every rank outputs its own network and
   region (the regions partition the lattice exactly);
 - the global figures (NeuralPSNR, NeuralMaxError, NeuralModelBytes, NeuralNetworks) are the same on both ranks and
-  NeuralPSNR is numpy's over the decoded regions against the serial resampling of the grid (within 0.05 dB);
+  NeuralPSNR is numpy's over the decoded regions against the serial resampling of the grid (within 0.05 dB); the
+  decoded regions are NaN (the domain mask) exactly where the serial resampling is outside the cells;
 - the composited picture against the serial one >= 35 dB, and along the cut (seen edge-on) the pixel error no worse
   than 1.5x the rest.
 """
@@ -54,6 +57,36 @@ def grid():
     return Tetrahedralize(Input=Wavelet(WholeExtent=WHOLE))
 
 
+def ball():
+    """A domain that is not a box: the Wavelet's cells inside a sphere (clipped exactly), mixed cell types."""
+    clip = Clip(Input=Wavelet(WholeExtent=WHOLE), ClipType="Sphere", Crinkleclip=0, Invert=1)
+    clip.ClipType.Center = [CENTRE, CENTRE, CENTRE]
+    clip.ClipType.Radius = 18.0
+    return clip
+
+
+def redistribute(source):
+    return RedistributeDataSet(Input=source)
+
+
+def d3_with_ghosts(source):
+    """D3 (ParaView's older redistribution) with a layer of ghost cells on every piece."""
+    return D3(Input=source, MinimumNumberOfGhostLevels=1)
+
+
+# name, source, redistribution, the serial reference's name
+CASES = (("grid", grid, redistribute), ("ball", ball, redistribute), ("grid-d3", grid, d3_with_ghosts))
+SERIAL_CASES = (("grid", grid), ("ball", ball))
+
+
+def own_points(piece):
+    """Points of a piece that are not ghosts."""
+    ghosts = piece.GetPointData().GetArray("vtkGhostType")
+    if ghosts is None:
+        return piece.GetNumberOfPoints()
+    return int(np.sum(vtk_to_numpy(ghosts) == 0))
+
+
 def render(nc, path, edge=False):
     """The Neural Volume picture: an oblique camera, or one looking down z with the cut planes x = const edge-on."""
     view = nvtest.render_view(SIZE, BACKGROUND)
@@ -76,23 +109,26 @@ def render(nc, path, edge=False):
 
 
 def serial_reference(folder):
-    source = grid()
-    nc = NeuralCompress(Input=source, **SETTINGS)
-    nc.UpdatePipeline()
-    data = servermanager.Fetch(nc)
-    resampled = ResampleToImage(Input=source, SamplingDimensions=LATTICE, UseInputBounds=1)
-    image = servermanager.Fetch(resampled)
-    values = vtk_to_numpy(image.GetPointData().GetArray("RTData")).astype(np.float64)
-    valid = vtk_to_numpy(image.GetPointData().GetArray("vtkValidPointMask")) != 0
-    values[~valid] = np.nan
-    np.save(os.path.join(folder, "lattice.npy"), values.reshape(LATTICE[2], LATTICE[1], LATTICE[0]))
-    result = dict(psnr=nvtest.field_value(data, "NeuralPSNR"),
-                  resampled_psnr=nvtest.field_value(data, "NeuralResampledPSNR"),
-                  points=servermanager.Fetch(source).GetNumberOfPoints())
-    nc.OutputMode = "Network only"
-    nc.UpdatePipeline()
-    render(nc, os.path.join(folder, "serial.png"))
-    render(nc, os.path.join(folder, "serial-edge.png"), edge=True)
+    result = {}
+    for name, make in SERIAL_CASES:
+        source = make()
+        nc = NeuralCompress(Input=source, **SETTINGS)
+        nc.UpdatePipeline()
+        data = servermanager.Fetch(nc)
+        resampled = ResampleToImage(Input=source, SamplingDimensions=LATTICE, UseInputBounds=1)
+        image = servermanager.Fetch(resampled)
+        values = vtk_to_numpy(image.GetPointData().GetArray("RTData")).astype(np.float64)
+        valid = vtk_to_numpy(image.GetPointData().GetArray("vtkValidPointMask")) != 0
+        values[~valid] = np.nan
+        np.save(os.path.join(folder, name + ".npy"), values.reshape(LATTICE[2], LATTICE[1], LATTICE[0]))
+        result[name] = dict(psnr=nvtest.field_value(data, "NeuralPSNR"),
+                            resampled_psnr=nvtest.field_value(data, "NeuralResampledPSNR"),
+                            points=servermanager.Fetch(source).GetNumberOfPoints())
+        if name == "grid":
+            nc.OutputMode = "Network only"
+            nc.UpdatePipeline()
+            render(nc, os.path.join(folder, "serial.png"))
+            render(nc, os.path.join(folder, "serial-edge.png"), edge=True)
     with open(os.path.join(folder, "serial.json"), "w") as f:
         json.dump(result, f)
     nvtest.log("serial reference: %s" % result)
@@ -126,10 +162,11 @@ def exclusive_slices(extent, whole):
     return tuple(out)
 
 
-def check_regions_and_figures(nc, redistributed, ranks, reference):
+def check_regions_and_figures(nc, redistributed, ranks, name, reference):
     """Each rank's own piece, region and network; the global figures against numpy. Returns the regions' extents."""
     check, log = nvtest.check, nvtest.log
-    original = np.load(os.path.join(out_dir, "lattice.npy"))
+    log("--- %s" % name)
+    original = np.load(os.path.join(out_dir, name.split("-")[0] + ".npy"))
     whole = [0, LATTICE[0] - 1, 0, LATTICE[1] - 1, 0, LATTICE[2] - 1]
     decoded = np.zeros_like(original)
     owners = np.zeros(original.shape, dtype=np.int32)
@@ -138,11 +175,11 @@ def check_regions_and_figures(nc, redistributed, ranks, reference):
         local = servermanager.Fetch(redistributed, r)
         piece = servermanager.Fetch(nc, r)
         own = nvtest.field_value(piece, "NeuralPieceSourceSamples")
-        log("rank %d: RedistributeDataSet piece %d points, %d cells; trained from %s source samples"
-            % (r, local.GetNumberOfPoints(), local.GetNumberOfCells(), own))
-        check(own == local.GetNumberOfPoints() and own < reference["points"],
+        log("rank %d: redistributed piece %d points (%d not ghosts), %d cells; trained from %s source samples"
+            % (r, local.GetNumberOfPoints(), own_points(local), local.GetNumberOfCells(), own))
+        check(own == own_points(local) and own < reference["points"],
               "rank %d trained from its own piece only (%s samples; its piece %d points, the grid %d)"
-              % (r, own, local.GetNumberOfPoints(), reference["points"]))
+              % (r, own, own_points(local), reference["points"]))
         extent = list(piece.GetExtent())
         extents.append(extent)
         fd = piece.GetFieldData()
@@ -225,19 +262,22 @@ def mpi_run():
     reference = run_serial_reference()
     if reference is None:
         return
-    redistributed = RedistributeDataSet(Input=grid())
-    nc = NeuralCompress(Input=redistributed, **SETTINGS)
-    started = time.time()
-    with nvtest.captured_messages() as messages:
-        nc.UpdatePipeline()
-    log("%d ranks: UpdatePipeline %.1f s" % (ranks, time.time() - started))
-    check("ERROR" not in messages[0], "no error: %r" % messages[0][-400:])
-    extents = check_regions_and_figures(nc, redistributed, ranks, reference)
-    nc.OutputMode = "Network only"
-    nc.UpdatePipeline()
-    render(nc, os.path.join(out_dir, "mpi.png"))
-    render(nc, os.path.join(out_dir, "mpi-edge.png"), edge=True)
-    check_pictures(extents)
+    for name, make, spread in CASES:
+        redistributed = spread(make())
+        nc = NeuralCompress(Input=redistributed, **SETTINGS)
+        started = time.time()
+        with nvtest.captured_messages() as messages:
+            nc.UpdatePipeline()
+        log("%s, %d ranks: UpdatePipeline %.1f s" % (name, ranks, time.time() - started))
+        check("ERROR" not in messages[0], "no error: %r" % messages[0][-400:])
+        extents = check_regions_and_figures(nc, redistributed, ranks, name, reference[name.split("-")[0]])
+        if name == "grid":
+            nc.OutputMode = "Network only"
+            nc.UpdatePipeline()
+            render(nc, os.path.join(out_dir, "mpi.png"))
+            render(nc, os.path.join(out_dir, "mpi-edge.png"), edge=True)
+            check_pictures(extents)
+        Delete(nc)
 
 
 if SERIAL:
