@@ -1,4 +1,4 @@
-"""Neural Compress of an unstructured grid under MPI without a gather (issue 23): `mpiexec -n 2 pvbatch`.
+"""Neural Compress of an unstructured grid under MPI without a gather (issue 23): `mpiexec -n 2` and `-n 4 pvbatch`.
 
 Wavelet [0,40]^3 -> Tetrahedralize (320000 tetrahedra) -> RedistributeDataSet (ParaView 5.11's default: a k-d
 split, each cell assigned to one region) -> Neural Compress at SamplingDimensions 38^3 (a lattice whose planes do
@@ -225,9 +225,9 @@ def check_regions_and_figures(nc, redistributed, ranks, name, reference):
 def check_pictures(extents):
     check, log = nvtest.check, nvtest.log
     nvtest.compare_images(os.path.join(out_dir, "mpi.png"), os.path.join(out_dir, "serial.png"), PICTURE_DB,
-                          "2-rank picture vs serial")
+                          "%d-rank picture vs serial" % len(extents))
     nvtest.compare_images(os.path.join(out_dir, "mpi-edge.png"), os.path.join(out_dir, "serial-edge.png"),
-                          PICTURE_DB, "2-rank edge-on picture vs serial")
+                          PICTURE_DB, "%d-rank edge-on picture vs serial" % len(extents))
     mpi = nvtest.read_png(os.path.join(out_dir, "mpi-edge.png"))
     serial = nvtest.read_png(os.path.join(out_dir, "serial-edge.png"))
     covered = np.abs(serial - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0
@@ -239,6 +239,10 @@ def check_pictures(extents):
         column = int(round(SIZE[0] / 2.0 + (cut * spacing - CENTRE) * pixels_per_unit))
         band[:, max(0, column - BAND_PIXELS):column + BAND_PIXELS + 1] = True
         log("cut x = %.3f at column %d" % (cut * spacing, column))
+    for cut in sorted({e[3] for e in extents if e[3] < LATTICE[1] - 1}):
+        row = int(round(SIZE[1] / 2.0 - (cut * spacing - CENTRE) * pixels_per_unit))
+        band[max(0, row - BAND_PIXELS):row + BAND_PIXELS + 1, :] = True
+        log("cut y = %.3f at row %d" % (cut * spacing, row))
     band &= covered
     rest = covered & ~band
     if not check(band.sum() > 100 and rest.sum() > 1000, "the edge-on picture shows the cut (%d band, %d other "
@@ -254,9 +258,9 @@ def mpi_run():
     check, log = nvtest.check, nvtest.log
     controller = vtkMultiProcessController.GetGlobalController()
     ranks = controller.GetNumberOfProcesses() if controller else 1
-    if ranks != 2:
-        nvtest.skip("this test runs under `mpiexec -n 2 pvbatch` (here %d processes)" % ranks)
-    out_dir = os.path.join(out_dir, "GridMPI")
+    if ranks not in (2, 4):
+        nvtest.skip("this test runs under `mpiexec -n 2` or `-n 4 pvbatch` (here %d processes)" % ranks)
+    out_dir = os.path.join(out_dir, "GridMPI%d" % ranks)  # the 2- and 4-rank tests may run at once
     os.makedirs(out_dir, exist_ok=True)
     nvtest.require_display()
     reference = run_serial_reference()
