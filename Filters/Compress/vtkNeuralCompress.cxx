@@ -31,6 +31,7 @@
 #include "vtkStringArray.h"
 #include "vtkTable.h"
 #include "vtkTypeInt64Array.h"
+#include "vtkUnstructuredGrid.h"
 #include "vtkUnsignedCharArray.h"
 
 #include <algorithm>
@@ -141,6 +142,14 @@ int vtkNeuralCompress::RequestData(
     // MPI, image input: every rank trains its own piece's network (vtkNeuralCompressPartition.h).
     this->ExecutePiece(vtkImageData::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output, log,
       metrics, time);
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
+    return 1;
+  }
+  if (vtkUnstructuredGrid::SafeDownCast(inputObject) && this->Internals->GridPieces)
+  {
+    // MPI, unstructured grid: every rank trains its own piece's network (vtkNeuralCompressDataSetPiece.h).
+    this->ExecuteGridPiece(vtkDataSet::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output,
+      log, metrics, time);
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;
   }

@@ -59,6 +59,7 @@
 #include <string>  // for std::string
 
 class vtkDataArray;
+class vtkDataSet;
 class vtkImageData;
 class vtkMultiProcessController;
 class vtkTable;
@@ -412,6 +413,9 @@ protected:
   /// RequestInformation of an input that is not an image (in one process): the extent of the image it is resampled
   /// onto, or a sparse grid's index box; the input brought up to date first when it is empty.
   void AnnounceResampledExtent(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
+  /// RequestInformation under MPI, unstructured grid: whether every rank trains its own piece (a collective when the
+  /// upstream pipeline, array or SamplingDimensions changed) and the lattice's extent; false: gathered instead.
+  bool AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   int VectorMode = MAGNITUDE;
@@ -470,6 +474,14 @@ private:
   /// vtkNeuralCompressPiece.cxx.
   void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
+  /// RequestData under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): as ExecutePiece, on this
+  /// rank's piece resampled on its region of the whole lattice.
+  void ExecuteGridPiece(vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
+    vtkTable* metrics, double time);
+  /// Trains Internals->Piece (when `hasPiece`), then the global figures (every rank); `sourceBytes` >= 0: the bytes
+  /// the rank's share of the compression ratio counts.
+  void TrainPiece(bool hasPiece, int ranksHere, double sourceBytes, vtkInformation* inInfo, vtkImageData* output,
+    vtkTable* log, vtkTable* metrics, double time);
   /// ExecutePiece: this rank's error sums of the current network (measured once per final network; zero: none).
   vtkNeuralCompressInternals::PieceSums MeasureCurrentPiece();
   /// ExecutePiece while this rank's run trains in the background: its sums from the output's live PSNR estimate.

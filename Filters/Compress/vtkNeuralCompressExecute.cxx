@@ -189,7 +189,14 @@ bool vtkNeuralCompress::RequestInput(
   }
   if (image)
   {
-    request.Array = this->GetInputArrayToProcess(0, inputVector, request.Association);
+    if (this->Internals->GridPieceActive)
+    {
+      // A rank's resampled piece of an unstructured grid (vtkNeuralCompressDataSetPiece.h): its point array.
+      request.Array = image->GetPointData()->GetArray(0);
+      request.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    }
+    else
+      request.Array = this->GetInputArrayToProcess(0, inputVector, request.Association);
     if (image->GetNumberOfPoints() == 0)
     {
       vtkErrorMacro("Neural Compress: the input image has an empty extent; nothing to train on. "
@@ -281,6 +288,8 @@ bool vtkNeuralCompress::PrepareField(
     input.Image = vtkImageData::SafeDownCast(request.Object);
     input.Array = request.Array;
     input.Association = request.Association;
+    if (this->Internals->GridPieceActive)
+      input.Outside = this->Internals->GridPiece.Outside(); // the domain mask, as a resampled input's
   }
   else if (!stage("resampling the input onto an image") ||
     !this->ResampleInput(request, settings.Deterministic ? 0.0 : settings.TimeBudget, input))
@@ -473,7 +482,13 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
     return false;
   }
   field.Description = data.Field.Description;
-  if (input.Outside)
+  if (input.Outside && in.GridPieceActive)
+  {
+    // A rank's piece of an unstructured grid: measured on its lattice samples (the global figures).
+    field.Description = field.Description.empty() ? in.GridPiece.Description()
+                                                  : field.Description + "; " + in.GridPiece.Description();
+  }
+  else if (input.Outside)
   {
     // The source's own samples measure the result; its own array's bytes give the compression ratio.
     field.Samples = in.Resampler.Samples(this->VectorMode, this->VectorComponent);

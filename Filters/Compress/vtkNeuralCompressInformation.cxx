@@ -3,6 +3,7 @@
 // grid's index box, or the whole input's under MPI.
 #include "vtkNeuralCompress.h"
 
+#include "vtkNeuralCompressDataSetPiece.h"
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressInternals.h"
 #include "vtkNeuralCompressResample.h"
@@ -16,8 +17,10 @@
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkUnstructuredGrid.h"
 
 #include <algorithm>
+#include <functional>
 #include <string>
 
 namespace
@@ -85,6 +88,8 @@ int vtkNeuralCompress::RequestInformation(
   {
     if (nvi::DistributedController())
     {
+      if (this->AnnounceGridPieces(inInfo, outInfo, input))
+        return 1;
       // MPI: the extent follows from the whole input, gathered to rank 0 (vtkNeuralCompressDistributed.h).
       this->Internals->Distributed.Announce(
         this, inInfo, outInfo, this->SamplingDimensions, this->OutputResolution, this->Internals->AnnouncedDims);
@@ -143,4 +148,56 @@ void vtkNeuralCompress::AnnounceResampledExtent(vtkInformation* inInfo, vtkInfor
   {
     outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
   }
+}
+
+//------------------------------------------------------------------------------
+bool vtkNeuralCompress::AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input)
+{
+  vtkInternals& in = *this->Internals;
+  if (!vtkUnstructuredGrid::SafeDownCast(input))
+  {
+    in.GridPieces = false; // the same type on every rank: no collective
+    return false;
+  }
+  // A new decision only when every rank sees a change (ParaView changes proxies on every rank together): an
+  // execution of one rank alone (a control of a gathered input's run) reaches no collective here.
+  vtkInformation* ai = this->GetInputArrayInformation(0);
+  const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
+  const int association =
+    ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
+  vtkAlgorithm* producer = this->GetInputAlgorithm(0, 0);
+  auto* executive = producer ? vtkStreamingDemandDrivenPipeline::SafeDownCast(producer->GetExecutive()) : nullptr;
+  uint64_t stamp = reinterpret_cast<uintptr_t>(producer);
+  for (uint64_t v : { uint64_t(executive ? executive->GetPipelineMTime() : 0), uint64_t(association + 2),
+         uint64_t(std::hash<std::string>()(name ? name : "")), uint64_t(this->SamplingDimensions[0] + 1),
+         uint64_t(this->SamplingDimensions[1] + 1), uint64_t(this->SamplingDimensions[2] + 1) })
+    stamp = stamp * 1099511628211ull ^ v;
+  if (!in.GridDecided || stamp != in.GridDecisionStamp)
+  {
+    nvi::UpdateLocalPiece(this, inInfo);
+    input = inInfo->Get(vtkDataObject::DATA_OBJECT());
+    in.GridPieces = nvi::PerRankDataSets(input);
+    std::fill(in.GridDims, in.GridDims + 3, 0);
+    std::string problem;
+    if (in.GridPieces && name && *name &&
+      !in.GridPiece.Resolve(vtkDataSet::SafeDownCast(input), name, association, this->SamplingDimensions,
+        in.GridDims, problem))
+      std::fill(in.GridDims, in.GridDims + 3, 0); // RequestData reports it
+    in.GridDecided = true;
+    in.GridDecisionStamp = stamp;
+  }
+  if (!in.GridPieces)
+    return false;
+  if (in.GridDims[0] <= 0)
+  {
+    outInfo->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    return true;
+  }
+  const int ext[6] = { 0, in.GridDims[0] - 1, 0, in.GridDims[1] - 1, 0, in.GridDims[2] - 1 };
+  const double origin[3] = { 0, 0, 0 }, spacing[3] = { 1, 1, 1 };
+  const nvi::OutputGeometry g = nvi::ComputeGeometry(
+    ext, origin, spacing, false, this->OutputResolution, this->FinestResolution, this->BaseResolution);
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), g.Extent, 6);
+  std::copy(in.GridDims, in.GridDims + 3, in.AnnouncedDims);
+  return true;
 }

@@ -1,5 +1,5 @@
-// vtkNeuralCompress under MPI with an image input: one network per rank on its own piece, the global figures
-// (vtkNeuralCompressPartition.h, vtkNeuralCompressGlobalFigures.h), and the live updates of background training:
+// vtkNeuralCompress under MPI with an image input or an unstructured grid: one network per rank on its own piece,
+// the global figures (vtkNeuralCompressPartition.h, vtkNeuralCompressDataSetPiece.h, vtkNeuralCompressGlobalFigures.h), and the live updates of background training:
 // ParaView's live-source poll asks rank 0 alone (GetNeedsUpdate), rank 0 asks the other ranks by an RMI, and every
 // rank is Modified() when one rank's run has something new, so the update that follows executes on every rank.
 #include "vtkNeuralCompress.h"
@@ -12,6 +12,7 @@
 #include "vtkAbstractArray.h"
 #include "vtkDataArray.h"
 #include "vtkDataObject.h"
+#include "vtkDataSet.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 #include "vtkImageData.h"
@@ -209,11 +210,56 @@ void vtkNeuralCompress::ExecutePiece(
     inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
   else
     local->GetExtent(whole);
-  bool executed = false;
-  nvi::PieceSums sums;
   // Every rank (a collective the first time, which also chooses this rank's GPU: vtkNeuralCudaDevice.h).
   const int ranksHere = nvi::RanksOnThisHost().Count;
   const bool hasPiece = in.Piece.Select(local, whole);
+  this->TrainPiece(hasPiece, ranksHere, -1.0, inInfo, output, log, metrics, time);
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::ExecuteGridPiece(
+  vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
+{
+  vtkInternals& in = *this->Internals;
+  const int ranksHere = nvi::RanksOnThisHost().Count; // a collective the first time (see ExecutePiece)
+  vtkInformation* ai = this->GetInputArrayInformation(0);
+  const char* name = ai && ai->Has(vtkDataObject::FIELD_NAME()) ? ai->Get(vtkDataObject::FIELD_NAME()) : nullptr;
+  const int association =
+    ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
+  std::string problem;
+  // Every rank takes part in the preparation's collectives, whatever its array selection says.
+  const bool prepared = in.GridPiece.Prepare(local, name ? name : "", association, this->SamplingDimensions, problem);
+  if (!prepared)
+  {
+    if (!name || !*name)
+      problem = "no input array; select a numeric point or cell array (SelectInputScalars)";
+    vtkErrorMacro("Neural Compress: cannot resample this rank's piece of the "
+      << (local ? local->GetClassName() : "empty") << " input: " << problem << ". The output is empty.");
+  }
+  const bool hasPiece = prepared && in.GridPiece.HasPiece();
+  if (hasPiece)
+    in.Piece.Adopt(in.GridPiece.Training(), in.GridPiece.Owned(), in.GridPiece.Whole());
+  in.GridPieceActive = hasPiece;
+  this->TrainPiece(hasPiece, ranksHere, hasPiece ? in.GridPiece.SourceBytes() : -1.0, inInfo, output, log, metrics,
+    time);
+  in.GridPieceActive = false;
+  if (output->GetNumberOfPoints() > 0)
+  {
+    // The source samples this rank's network was trained from: its own piece's (no gather).
+    vtkNew<vtkDoubleArray> own;
+    own->SetName("NeuralPieceSourceSamples");
+    own->InsertNextValue(in.GridPiece.SourceSamples());
+    output->GetFieldData()->AddArray(own);
+  }
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralCompress::TrainPiece(bool hasPiece, int ranksHere, double sourceBytes, vtkInformation* inInfo,
+  vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
+{
+  vtkInternals& in = *this->Internals;
+  bool executed = false;
+  nvi::PieceSums sums;
   if (hasPiece)
   {
     // The training image in an input information vector of its own (GetInputArrayToProcess reads the array there).
@@ -244,6 +290,8 @@ void vtkNeuralCompress::ExecutePiece(
       vtkAbstractArray* state = output->GetFieldData()->GetAbstractArray("NeuralTrainingState");
       const bool live = this->TrainingLive() || (state && IsLiveState(state->GetVariantValue(0).ToString()));
       sums = live ? this->EstimateCurrentPiece(output) : this->MeasureCurrentPiece();
+      if (sourceBytes >= 0.0)
+        sums.FieldBytes = sourceBytes; // a resampled grid: the ratio counts the rank's own source samples
     }
   }
   this->ReportEngineWarnings();

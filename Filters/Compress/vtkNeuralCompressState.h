@@ -3,6 +3,7 @@
 #define vtkNeuralCompressState_h
 
 #include "vtkNeuralCompress.h"
+#include "vtkNeuralCompressDataSetPiece.h"
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressGlobalFigures.h"
 #include "vtkNeuralCompressPartition.h"
@@ -33,6 +34,13 @@ struct vtkNeuralCompress::vtkInternals
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
   nvi::DistributedInput Distributed; ///< MPI: the input gathered to rank 0 (vtkNeuralCompressDistributed.h)
   nvi::ImagePiece Piece; ///< MPI, image input: this rank's piece (vtkNeuralCompressPartition.h)
+  nvi::DataSetPiece GridPiece; ///< MPI, unstructured grid: this rank's resampled piece (vtkNeuralCompressDataSetPiece.h)
+  bool GridPieceActive = false; ///< while Execute trains GridPiece's image (its array and domain mask are used)
+  // MPI, unstructured grid: RequestInformation's decision (AnnounceGridPieces), renewed when this stamp changes.
+  uint64_t GridDecisionStamp = 0;
+  bool GridDecided = false;
+  bool GridPieces = false; ///< every rank trains its own piece (RequestData's branch)
+  int GridDims[3] = { 0, 0, 0 }; ///< the whole lattice announced (0: none)
   const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
   nvi::PieceSums MeasuredSums;
   std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)

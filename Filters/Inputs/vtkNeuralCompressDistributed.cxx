@@ -61,6 +61,30 @@ void RequestLocalPiece(vtkInformation* inInfo)
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
 }
 
+void UpdateLocalPiece(vtkAlgorithm* self, vtkInformation* inInfo)
+{
+  vtkAlgorithm* producer = self->GetInputAlgorithm(0, 0);
+  vtkAlgorithmOutput* connection = self->GetInputConnection(0, 0);
+  if (producer && connection)
+  {
+    vtkNew<vtkInformation> request;
+    RequestLocalPiece(request);
+    if (inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+      request->CopyEntry(inInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    if (request->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      int whole[6];
+      request->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+      request->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+      request->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    }
+    vtkNew<vtkInformationVector> requests;
+    requests->SetNumberOfInformationObjects(connection->GetIndex() + 1);
+    requests->SetInformationObject(connection->GetIndex(), request);
+    producer->Update(connection->GetIndex(), requests);
+  }
+}
+
 RootOnlyScope::RootOnlyScope(bool active)
 {
   if (!active)
@@ -229,26 +253,7 @@ void DistributedInput::Announce(vtkAlgorithm* self, vtkInformation* inInfo, vtkI
   {
     // Every rank (the first update, or a new array: the same on every rank): the input brought up to date as this
     // rank's piece, then gathered.
-    vtkAlgorithm* producer = self->GetInputAlgorithm(0, 0);
-    vtkAlgorithmOutput* connection = self->GetInputConnection(0, 0);
-    if (producer && connection)
-    {
-      vtkNew<vtkInformation> request;
-      RequestLocalPiece(request);
-      if (inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-        request->CopyEntry(inInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-      if (request->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
-      {
-        int whole[6];
-        request->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-        request->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-        request->Remove(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-      }
-      vtkNew<vtkInformationVector> requests;
-      requests->SetNumberOfInformationObjects(connection->GetIndex() + 1);
-      requests->SetInformationObject(connection->GetIndex(), request);
-      producer->Update(connection->GetIndex(), requests);
-    }
+    UpdateLocalPiece(self, inInfo);
     this->Sync(self, inInfo->Get(vtkDataObject::DATA_OBJECT()), inInfo, sel.Name, sel.Association);
   }
   if (!this->StatsOk)

@@ -1,7 +1,8 @@
 // Neural Compress under MPI (private header): `mpiexec -n N pvbatch` or a parallel pvserver hands every rank only a
-// piece of the input; the network is trained once, on rank 0, over the whole input. Image inputs no longer come here:
-// every rank trains a network of its own piece (vtkNeuralCompressPartition.h), so the image branch below (pieces
-// stitched by extent, StitchImages) is no longer reached.
+// piece of the input; the network is trained once, on rank 0, over the whole input. Image inputs and unstructured
+// grids no longer come here: every rank trains a network of its own piece (vtkNeuralCompressPartition.h,
+// vtkNeuralCompressDataSetPiece.h), so the image branch below (pieces stitched by extent, StitchImages) is no longer
+// reached; composites, AMR and particle sets are gathered.
 //
 // Design (only when the global vtkMultiProcessController has more than one process; with one process -- the GUI,
 // pvpython, client-server with one server process, builds without MPI -- nothing here runs and the filter behaves as
@@ -53,6 +54,10 @@ vtkMultiProcessController* DistributedController();
 
 /// RequestUpdateExtent under MPI: the input's request becomes this rank's piece (no ghost levels).
 void RequestLocalPiece(vtkInformation* inInfo);
+
+/// RequestInformation under MPI: the input (`self`'s first connection) brought up to date as this rank's piece
+/// (every rank together: the producer may be a collective such as RedistributeDataSet).
+void UpdateLocalPiece(vtkAlgorithm* self, vtkInformation* inInfo);
 
 /// While it lives (when `active`), this process runs VTK's filters on its own: the global controller is a
 /// one-process one. ParaView's object factory substitutes parallel filters under MPI (vtkResampleToImage becomes

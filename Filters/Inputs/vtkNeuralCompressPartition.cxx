@@ -136,6 +136,13 @@ bool ImagePiece::Select(vtkImageData* local, const int wholeExtent[6])
   return true;
 }
 
+void ImagePiece::Adopt(vtkImageData* training, const int owned[6], const int wholeExtent[6])
+{
+  this->TrainingImage = training;
+  std::copy(owned, owned + 6, this->OwnedExtent);
+  std::copy(wholeExtent, wholeExtent + 6, this->WholeExtent);
+}
+
 void ImagePiece::CropOutput(vtkImageData* output) const
 {
   if (!output || output->GetNumberOfPoints() == 0 || !this->TrainingImage)

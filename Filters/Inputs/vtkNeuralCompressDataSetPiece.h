@@ -1,0 +1,121 @@
+// Neural Compress under MPI with an unstructured grid (private header): one network per rank, no gather.
+//
+// Design (only when the global vtkMultiProcessController has more than one process and every rank's input is a
+// vtkUnstructuredGrid that is not a particle set; composites, AMR and particles still go through
+// vtkNeuralCompressDistributed.h's gather to rank 0):
+// - Every rank keeps the piece its input gave it (RequestLocalPiece: piece r of N, no ghost levels; after
+//   RedistributeDataSet or D3 the pieces are spatially compact). One all-gather of 17 numbers a rank -- its bounds,
+//   the box of its own cells' centres (ghost cells left out), its sample count and bytes -- gives every rank the same
+//   lattice: the whole input's bounds sampled at SamplingDimensions or at the serial run's automatic dimensions for
+//   the summed sample count (the serial lattice; the points a redistribution duplicates on the cuts are counted on
+//   both sides).
+// - Regions: a k-d tree rebuilt from the centre boxes: the ranks are split recursively along the axis and at the
+//   position where the two groups' centre boxes are farthest apart (RedistributeDataSet's and D3's k-d cuts leave a
+//   gap there; pieces of any other layout still get a tiling, split where they overlap least), the cut snapped to
+//   the nearest lattice plane. The leaves are point extents of the lattice that share one plane with their
+//   neighbours and tile it exactly, as the image pieces of vtkNeuralCompressPartition.h do; so the rest is that
+//   path's: the owned extent grown by kPieceGhostLayers is trained, the output is cropped to the owned extent with
+//   NeuralPieceBounds (the rays clipped there, ordered compositing by those bounds), the global figures are
+//   all-reduced.
+// - A rank's cells need not cover its region (a cell cut by a k-d plane belongs to one side; the snapped plane moves
+//   the boundary by up to half a lattice step) and ghost layers need cells beyond it. So each rank resamples its
+//   padded extent and, where its cells reach, up to kExchangeLayers more lattice layers (vtkResampleToImage over an
+//   explicit box), then the ranks exchange those samples pairwise (every rank knows every box): a rank's sample
+//   outside its own cells takes a neighbour's value. Only lattice slabs along the cuts travel; no rank receives
+//   another's cells. What stays NaN is outside every rank's cells: the network's domain mask, as in serial.
+#ifndef vtkNeuralCompressDataSetPiece_h
+#define vtkNeuralCompressDataSetPiece_h
+
+#include "vtkImageData.h" // for vtkSmartPointer<vtkImageData>
+#include "vtkSmartPointer.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+class vtkDataObject;
+class vtkDataSet;
+
+namespace vtkNeuralCompressInternals
+{
+/// Lattice layers beyond its padded piece that a rank resamples where its own cells reach, for its neighbours.
+constexpr int kExchangeLayers = 16;
+
+/// True under MPI when every rank's input is an unstructured grid that is not a particle set (an empty piece
+/// counts as one). A collective: every rank calls it in the same pass.
+bool PerRankDataSets(vtkDataObject* local);
+
+/// A rank's piece of an unstructured grid: the lattice, its region and the padded image its network trains on.
+class DataSetPiece
+{
+public:
+  /// RequestInformation (a collective): the whole lattice's dimensions; false with `problem` (the same on every
+  /// rank) when no rank has the array or its values.
+  bool Resolve(vtkDataSet* local, const std::string& name, int association, const int requested[3], int dims[3],
+    std::string& problem);
+
+  /// RequestData (a collective): the lattice, the regions, this rank's resampling and the exchange; false with
+  /// `problem` when any rank failed (the same decision on every rank). Reuses the last piece while no rank's input,
+  /// array or dimensions changed.
+  bool Prepare(vtkDataSet* local, const std::string& name, int association, const int requested[3],
+    std::string& problem);
+
+  /// True when this rank owns part of the lattice (it holds cells).
+  bool HasPiece() const { return this->TrainingImage != nullptr; }
+  /// The padded image to train on (point array named as the input's, NaN outside every rank's cells), its point
+  /// extent in the lattice's index frame.
+  vtkImageData* Training() const { return this->TrainingImage; }
+  const int* Owned() const { return this->OwnedExtent.data(); }
+  const int* Whole() const { return this->WholeExtent.data(); }
+  /// 1 for the training image's samples outside the domain (its NaN samples), for the network's domain mask.
+  std::shared_ptr<std::vector<uint8_t>> Outside() const { return this->OutsideMask; }
+  /// Bytes of this rank's own source samples of the array (ghosts left out): its share of the compression ratio.
+  double SourceBytes() const { return this->OwnBytes; }
+  /// This rank's own source samples of the array (ghosts left out).
+  double SourceSamples() const { return this->OwnSamples; }
+  /// "vtkUnstructuredGrid piece, 81234 cells -> 24 x 49 x 49 (...)".
+  const std::string& Description() const { return this->Text; }
+
+  /// Every rank's summary (kSummaryLength numbers): see the .cxx.
+  using Summary = std::array<double, 17>;
+
+private:
+  Summary LocalSummary(vtkDataSet* local, const std::string& name, int association);
+  bool Lattice(const std::vector<Summary>& all, const std::string& name, const int requested[3], std::string& problem);
+  void Regions(const std::vector<Summary>& all);
+  bool Resample(vtkDataSet* local, const std::string& name, int association, std::string& problem);
+  void Exchange();
+  void CropToPadded();
+
+  // The cached local summary (by the input's stamp).
+  uint64_t SummaryStamp = 0;
+  bool SummaryValid = false;
+  Summary Mine{};
+  // What the last Prepare used (changes on any rank make every rank prepare again).
+  uint64_t PreparedStamp = 0;
+  bool Prepared = false;
+
+  // The lattice and every rank's boxes (point extents in the lattice's index frame; empty: lo > hi).
+  int Dims[3] = { 0, 0, 0 };
+  double Origin[3] = { 0, 0, 0 };
+  double Spacing[3] = { 1, 1, 1 };
+  double Upper[3] = { 0, 0, 0 }; ///< the whole input's upper bounds
+  std::array<int, 6> WholeExtent{ { 0, -1, 0, -1, 0, -1 } };
+  std::array<int, 6> OwnedExtent{ { 0, -1, 0, -1, 0, -1 } };
+  std::vector<std::array<int, 6>> OwnedBoxes, PaddedBoxes, ResampledBoxes;
+  int Components = 1;
+
+  vtkSmartPointer<vtkImageData> ResampledImage; ///< this rank's resampled box (while preparing)
+  vtkSmartPointer<vtkImageData> TrainingImage;
+  std::shared_ptr<std::vector<uint8_t>> OutsideMask;
+  double OwnBytes = 0.0;
+  double OwnSamples = 0.0;
+  int64_t Filled = 0; ///< samples taken from neighbours
+  std::string Text;
+};
+
+} // namespace vtkNeuralCompressInternals
+
+#endif
