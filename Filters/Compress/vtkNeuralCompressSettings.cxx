@@ -47,6 +47,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.ProbePoints = this->ProbePoints;
   s.MemoryBudgetMiB = this->MemoryBudget;
   s.MaxError = this->MaxError;
+  s.SizeForPsnr = this->SizeForPSNR;
   s.ParticleField = this->ParticleField;
   s.ParticleKernel = this->ParticleKernel;
   s.ParticleRadius = this->ParticleRadius;
@@ -77,6 +78,8 @@ std::string Settings::Canonical() const
     s << " memory " << MemoryBudgetMiB; // out-of-core inputs only (others train with 0)
   if (MaxError != 0.0)
     s << " maxerror " << MaxError; // the corrections are part of the stored network; off keeps the v1 string
+  if (SizeForPsnr != 0.0 && Log2TableSize <= 0)
+    s << " sizepsnr " << SizeForPsnr; // the searched size; off (or a set table size) keeps the v1 string
   if (ParticleField != 0 || ParticleKernel != 1 || ParticleRadius != 0.0 || !ParticleRadiusArray.empty())
     s << " particles " << ParticleField << ' ' << ParticleKernel << ' ' << ParticleRadius << " [" << ParticleRadiusArray
       << ']'; // the defaults keep the v1 string
@@ -117,7 +120,13 @@ nv::ModelConfig NetworkConfigOf(const Settings& s, const int64_t* dims, int64_t 
   config.network.hiddenLayers = s.HiddenLayers;
   config.encoding.log2TableSize = s.Log2TableSize > 0 ? s.Log2TableSize : 10;
   nv::validate(config);
-  if (s.Log2TableSize <= 0)
+  if (SizedForPsnr(s))
+  {
+    // Searched by training (the job, nv::searchSizeForPsnr) in this storage: 8-bit for Automatic. The smallest table
+    // until then.
+    storage = s.Precision == vtkNeuralCompress::AUTOMATIC_PRECISION ? nv::Precision::Quantized8 : storage;
+  }
+  else if (s.Log2TableSize <= 0)
   {
     // Automatic (TargetCompressionRatio 0): the largest table that still gives 10:1 (in 8-bit codes with Automatic
     // storage), else, for a small input, the largest that still compresses (1:1); an explicit target out of reach:
@@ -164,6 +173,11 @@ EngineConfigs EngineConfigsFor(const Settings& settings, const int64_t dims[3], 
   configs.Session.lowPriority = lowPriority; // its renders and measurements share the cores with training
   configs.Session.cudaDevice = vtkNeuralCudaDevice::Get(); // under MPI: this rank's GPU
   configs.GpuResident = settings.Strategy == vtkNeuralCompress::STRATEGY_GPU_RESIDENT;
+  if (SizedForPsnr(settings))
+  {
+    // The candidates: 2^10 up to the largest table that still compresses the field (estimated ratio >= 1).
+    configs.SearchMaxLog2 = nv::chooseLog2TableSize(configs.Network, rawBytes, 1.0, configs.Storage);
+  }
   return configs;
 }
 
