@@ -102,7 +102,8 @@ std::string SizeSearchResult::describe(const SizeSearchRequest& request) const
 {
   std::ostringstream s;
   s.precision(4);
-  s << "sized for PSNR " << request.targetPsnr << " dB: 2^" << this->log2TableSize << " " << precisionName(request.storage);
+  s << "sized for PSNR " << request.targetPsnr << " dB: 2^" << this->log2TableSize << " "
+    << precisionName(request.storage);
   if (this->reached)
     s << ", the smallest of 2^" << request.minLog2 << "..2^" << request.maxLog2 << " to reach it in " << request.steps
       << " steps";

@@ -6,8 +6,8 @@
 // table sizes are bisected on the assumption that the PSNR grows with the table. It does, except where it levels off
 // at the largest sizes (a 48^3 Wavelet at 300 CPU steps, 8-bit: 2^12 35.44 dB, 2^13 36.53, 2^14 38.34, 2^15 37.61), so
 // the two largest candidates are trained first: when both miss the target, the search ends there, keeps the better and
-// says so. Between neighbouring sizes in the middle the PSNR may still wiggle by a few tenths of a dB: the size found is
-// the smallest that reaches the target on the bisection's path, and the final network's own PSNR is what counts.
+// says so. Between neighbouring sizes in the middle the PSNR may still wiggle by a few tenths of a dB: the size found
+// is the smallest that reaches the target on the bisection's path, and the final network's own PSNR is what counts.
 //   nv::SizeSearchResult r = nv::searchSizeForPsnr(request, abort);
 //   config.encoding.log2TableSize = r.log2TableSize;   // r.reached: whether any candidate reached the target
 #pragma once

@@ -139,7 +139,8 @@ void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int6
   const int64_t* source = now.model->source.dims;
   const bool correctedGrid =
     now.model->corrections.enabled() && nx == source[0] && ny == source[1] && nz == source[2];
-  if (const std::shared_ptr<const DecodedGrid> grid = correctedGrid ? nullptr : Renderer->decodedGrid(now.version, dims))
+  if (const std::shared_ptr<const DecodedGrid> grid =
+        correctedGrid ? nullptr : Renderer->decodedGrid(now.version, dims))
   {
     std::memcpy(out, grid->values.data() + z0 * nx * ny, static_cast<size_t>((z1 - z0) * nx * ny) * sizeof(float));
     return;

@@ -298,8 +298,18 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
     const nv::ModelConfig config = job.Layout(); // the prologue may be searching the size (SizeForPSNR)
     nvi::InitializePreparingOutputs(output, log, metrics, this->GetOutputInformation(0), job.Source.bounds);
     std::ostringstream text;
-    text << "Preparing: " << (status.State == nvi::RunState::Starting ? "initialising" : "writing") << " the network (2^"
-         << config.encoding.log2TableSize << " table, " << config.encoding.levels << " levels)";
+    bool searching = status.State == nvi::RunState::Starting && job.SearchMaxLog2 > 0;
+    if (searching)
+    {
+      std::lock_guard<std::mutex> lock(job.Mutex); // the prologue writes the note when the search ends
+      searching = job.SizeNote.empty();
+    }
+    if (searching)
+      text << "Preparing: training candidate sizes for PSNR " << job.TrainingSettings.SizeForPsnr << " dB (2^"
+           << config.encoding.log2TableSize << " to 2^" << job.SearchMaxLog2 << " tables)";
+    else
+      text << "Preparing: " << (status.State == nvi::RunState::Starting ? "initialising" : "writing")
+           << " the network (2^" << config.encoding.log2TableSize << " table, " << config.encoding.levels << " levels)";
     in.StatusText = text.str();
     return true;
   }

@@ -33,8 +33,9 @@ def run(**settings):
     out = servermanager.Fetch(nc)
     text = messages[0]
     table = re.search(r"\(2\^(\d+) table, (\w+)\)", text)
-    r = dict(text=text, psnr=nvtest.field_value(out, "NeuralPSNR"), ratio=nvtest.field_value(out, "NeuralCompressionRatio"),
-             log2=int(table.group(1)) if table else None, storage=table.group(2) if table else None)
+    r = dict(text=text, psnr=nvtest.field_value(out, "NeuralPSNR"),
+             ratio=nvtest.field_value(out, "NeuralCompressionRatio"), log2=int(table.group(1)) if table else None,
+             storage=table.group(2) if table else None)
     trained = re.search(r"trained in [\d.eE+-]+ s: ([^)]*)\)", text)
     r["trials"] = {int(m.group(1)): float(m.group(2)) for m in re.finditer(r"2\^(\d+) ([-\d.eE+naif]+) dB",
                                                                            trained.group(1))} if trained else {}
