@@ -90,7 +90,8 @@ namespace
 {
 /// The share of the planned steps that 8-bit storage fine-tunes through the stored network (TrainConfig; within the
 /// annealed part only). Half won more than a fifth (nucleon, 2000 CPU steps: 8-bit 41.26 dB without, 41.31 with a
-/// fifth, 41.89 with half; a 32^3 synthetic field at 600 steps, mean of 3 seeds: +0.06 and +0.14 dB).
+/// fifth, 41.89 with half; a 32^3 synthetic field at 600 steps, mean of 3 seeds: +0.06 and +0.14 dB); where 8-bit
+/// costs little it moves the PSNR within noise (headsq, walnut at 1000 steps: -0.06, -0.03 dB).
 constexpr double kQuantizationAwareFraction = 0.5;
 
 /// The storage precision set (Automatic: fp16 until the automatic size chooses, NetworkConfigOf).
