@@ -118,6 +118,9 @@ void validate(const TrainConfig& c)
     NV_CHECK(o.holdSteps >= 0, "the steps before the rate anneals must be >= 0, got " + std::to_string(o.holdSteps));
   }
   NV_CHECK(c.threads >= 0 && c.threads <= 1024, "threads must be in 0..1024");
+  NV_CHECK(c.quantizationAwareFraction >= 0.0 && c.quantizationAwareFraction <= 1.0,
+    "the quantisation-aware fraction of the steps must be in [0, 1], got " +
+      std::to_string(c.quantizationAwareFraction));
   NV_CHECK(c.importanceGrid == 0 || (c.importanceGrid >= 2 && c.importanceGrid <= 64),
     "importance grid must be 0 (off) or 2..64 cells per axis, got " + std::to_string(c.importanceGrid));
 }

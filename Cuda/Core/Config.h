@@ -134,6 +134,13 @@ struct TrainConfig
   /// The run's CPU threads (the CPU trainer's workers and a background run's own thread) run at a lower scheduling
   /// priority (ThreadPriority.h): an interactive application beside them keeps its share of the cores.
   bool lowPriority = false;
+  /// Quantisation-aware fine-tuning for 8-bit storage (Precision::Quantized8): the last `quantizationAwareFraction` of
+  /// the planned steps (OptimizerConfig::plannedSteps; none when it is 0), where an annealed rate has left its hold
+  /// (OptimizerConfig::holdSteps; none with the step decay), train through the stored network: the
+  /// forward pass reads each hash-table entry as its 8-bit code's value (the level's step chosen as Model::quantize
+  /// chooses it, from the float entries of that step) and the MLP weights rounded to fp16; the gradients update the
+  /// float parameters (a straight-through estimator). In [0, 1]; 0: off. The CPU trainer only.
+  double quantizationAwareFraction = 0.0;
 };
 
 /// Throws nv::Error with a readable message when a configuration is out of range.

@@ -66,7 +66,8 @@ public:
   virtual int64_t deviceMemoryBytes() const { return 0; }
   /// Loss and dL/dparams (Model::params layout: encoding, then MLP) of the current parameters on a given batch of
   /// 1..batchSize samples (xyz: n x 3 host floats in [0,1]^3, normalised targets, valid flags), without an update;
-  /// for gradient checks between backends. Call between steps.
+  /// for gradient checks between backends. Call between steps. When the next step trains through the stored network
+  /// (TrainConfig::quantizationAwareFraction), so does this.
   virtual float lossAndGradient(const float* xyz, const float* targets, const uint8_t* valid, int64_t n,
     std::vector<float>& grad) = 0;
 };

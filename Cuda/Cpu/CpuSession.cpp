@@ -131,8 +131,16 @@ void CpuSession::decodeGrid(int64_t nx, int64_t ny, int64_t nz, int64_t z0, int6
   const Snapshot now = snapshot();
   // The grid the Decode path rendered last (same network, same dims: the same values, decoded by the same code) is
   // copied instead of decoded again -- a script that renders a restored network, then asks for the decoded field.
+  // Not on the source's own grid of a network with error corrections: the renderer's grid holds the corrected field,
+  // and decodeGrid gives the network's own values (decodeGridValues corrects them; copied, they were corrected twice,
+  // and the filter measured the network's own error beside its corrections when the GUI rendered the Decode path
+  // between the phase end's corrections and its measurement).
   const int64_t dims[3] = { nx, ny, nz };
-  if (const std::shared_ptr<const DecodedGrid> grid = Renderer->decodedGrid(now.version, dims))
+  const int64_t* source = now.model->source.dims;
+  const bool correctedGrid =
+    now.model->corrections.enabled() && nx == source[0] && ny == source[1] && nz == source[2];
+  if (const std::shared_ptr<const DecodedGrid> grid =
+        correctedGrid ? nullptr : Renderer->decodedGrid(now.version, dims))
   {
     std::memcpy(out, grid->values.data() + z0 * nx * ny, static_cast<size_t>((z1 - z0) * nx * ny) * sizeof(float));
     return;

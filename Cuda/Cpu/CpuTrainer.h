@@ -51,7 +51,12 @@ public:
   void setBatchSource(BatchSource* source) { Source = source; }
 
 private:
-  float forwardBackward(int64_t n, int64_t nValid, bool measure = false);
+  /// `params`: the parameters the forward and backward passes read (Params, or Stored while quantisation-aware).
+  float forwardBackward(const float* params, int64_t n, int64_t nValid, bool measure = false);
+  /// Whether step `step` trains through the stored network (TrainConfig::quantizationAwareFraction).
+  bool quantizationAware(int64_t step) const;
+  /// Stored: Params as the 8-bit network holds them (the table's codes' values, the MLP in fp16).
+  void quantizeForward();
 
   static constexpr int kTile = 64;
   ModelConfig Config;
@@ -64,6 +69,7 @@ private:
   ThreadPool Pool;
   std::vector<float> Params;
   std::vector<float> Grad;
+  std::vector<float> Stored; ///< quantisation-aware steps: the parameters of the stored network (quantizeForward)
   std::vector<float> TransposedWeights; ///< the MLP's layers transposed, [in][out] (CpuMlp::transpose)
   std::vector<float> Xyz;
   std::vector<float> Targets;

@@ -285,7 +285,7 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   }
   bool live = job.Run && !nvi::isSettled(status.State);
   if (live && job.Run->inBackground() && !job.FirstBytesAwaited &&
-    nv::parameterCount(job.NetworkConfig) <= kFirstBytesWaitParameters)
+    nv::parameterCount(job.Layout()) <= kFirstBytesWaitParameters)
   {
     job.FirstBytesAwaited = true; // once per job: a large network's refreshes do not wait again
     job.WaitForFirstLiveBytes(kFirstBytesWaitSeconds);
@@ -304,11 +304,21 @@ bool vtkNeuralCompress::EmitOutputs(vtkImageData* output, vtkTable* log, vtkTabl
   {
     // The run installs the job's first network in its thread, then its first snapshot is written: the geometry the
     // network will have, no network yet (Neural Volume draws nothing, without an error).
-    const nv::ModelConfig& config = job.NetworkConfig;
+    const nv::ModelConfig config = job.Layout(); // the prologue may be searching the size (SizeForPSNR)
     nvi::InitializePreparingOutputs(output, log, metrics, this->GetOutputInformation(0), job.Source.bounds);
     std::ostringstream text;
-    text << "Preparing: " << (status.State == nvi::RunState::Starting ? "initialising" : "writing") << " the network (2^"
-         << config.encoding.log2TableSize << " table, " << config.encoding.levels << " levels)";
+    bool searching = status.State == nvi::RunState::Starting && job.SearchMaxLog2 > 0;
+    if (searching)
+    {
+      std::lock_guard<std::mutex> lock(job.Mutex); // the prologue writes the note when the search ends
+      searching = job.SizeNote.empty();
+    }
+    if (searching)
+      text << "Preparing: training candidate sizes for PSNR " << job.TrainingSettings.SizeForPsnr << " dB (2^"
+           << config.encoding.log2TableSize << " to 2^" << job.SearchMaxLog2 << " tables)";
+    else
+      text << "Preparing: " << (status.State == nvi::RunState::Starting ? "initialising" : "writing")
+           << " the network (2^" << config.encoding.log2TableSize << " table, " << config.encoding.levels << " levels)";
     in.StatusText = text.str();
     return true;
   }
@@ -482,7 +492,15 @@ void vtkNeuralCompress::ReportFinalNetwork(nvi::Job& job, const nvi::NetworkReco
   {
     vtkWarningMacro("Neural Compress: Max Error " << this->MaxError << ": " << record.Figures.ErrorBoundNote << ".");
   }
-  if (this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
+  const nvi::Settings& settings = job.TrainingSettings;
+  if (nvi::SizedForPsnr(settings) && !(record.Figures.Psnr >= settings.SizeForPsnr))
+  {
+    vtkWarningMacro("Neural Compress: Size For PSNR " << settings.SizeForPsnr << " dB not reached: the network has "
+      << record.Figures.Psnr << " dB with a 2^" << job.NetworkConfig.encoding.log2TableSize << " table in "
+      << record.Figures.Steps << " steps. More Training Steps (or a longer Time Budget), a larger Finest Resolution or "
+      << "more Levels may reach it.");
+  }
+  else if (!nvi::SizedForPsnr(settings) && this->Log2TableSize <= 0 && this->TargetCompressionRatio > 0.0 &&
     record.Figures.Ratio < this->TargetCompressionRatio)
   {
     const std::string advice = nvi::SmallerModelAdvice(job);
@@ -509,6 +527,7 @@ void vtkNeuralCompress::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "Loss: " << this->Loss << "\n"
      << indent << "LearningRateSchedule: " << this->LearningRateSchedule << "\n"
      << indent << "TargetCompressionRatio: " << this->TargetCompressionRatio << "\n"
+     << indent << "SizeForPSNR: " << this->SizeForPSNR << "\n"
      << indent << "Levels: " << this->Levels << "\n"
      << indent << "FeaturesPerLevel: " << this->FeaturesPerLevel << "\n"
      << indent << "Log2TableSize: " << this->Log2TableSize << "\n"

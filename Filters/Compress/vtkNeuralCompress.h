@@ -170,6 +170,16 @@ public:
   ///@}
 
   ///@{
+  /// Sizing for a quality instead of a ratio (Log2TableSize Automatic only; 0 = off): the smallest hash table (in the
+  /// storage StoragePrecision gives: Automatic is 8-bit) whose stored network reaches this PSNR (dB) in TrainingSteps
+  /// steps, found by training candidates before the job's own training (nv::searchSizeForPsnr; TargetCompressionRatio
+  /// is then ignored). Not to be confused with TargetPSNR, which stops a training. The summary says which sizes were
+  /// trained and whether the final network reached the target. Dense image inputs only.
+  vtkSetClampMacro(SizeForPSNR, double, 0.0, 1000.0);
+  vtkGetMacro(SizeForPSNR, double);
+  ///@}
+
+  ///@{
   /// Error-bounded mode: after training, the samples whose decoded value misses the input by more than MaxError
   /// (data units) are stored with the network as a sparse correction list, so that the field decoded on the input's
   /// grid meets |decoded - input| <= MaxError at every sample; the ratio counts the list. 0 = off. A negative or
@@ -428,6 +438,7 @@ protected:
   int Loss = LOSS_L1;
   int LearningRateSchedule = ANNEALED;
   double TargetCompressionRatio = 0.0;
+  double SizeForPSNR = 0.0;
   double MaxError = 0.0;
   int Levels = 16;
   int FeaturesPerLevel = 4;

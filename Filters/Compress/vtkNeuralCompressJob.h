@@ -157,12 +157,28 @@ public:
   double Time = 0.0;
   FieldInfo Field;
   Settings TrainingSettings; ///< the filter's settings this job trains with: the one source of its engine configs
-  nv::ModelConfig NetworkConfig; ///< the layout of the job's network
+  /// The layout of the job's network. SizeForPSNR: written by the run's prologue (SearchSizeForPsnr) under Mutex,
+  /// so the filter's thread reads it with Layout() while the run is Starting.
+  nv::ModelConfig NetworkConfig;
+  /// NetworkConfig, read under Mutex.
+  nv::ModelConfig Layout() const
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    return this->NetworkConfig;
+  }
+  nv::SessionOptions SessionOptions; ///< the options of the job's session (the size search's sessions too)
+  /// SizedForPsnr: the largest table size the search may try (EngineConfigs::SearchMaxLog2); 0: no search.
+  int SearchMaxLog2 = 0;
+  /// SizeForPSNR (SearchMaxLog2 > 0): the smallest table whose stored network reaches the target PSNR, searched by
+  /// training candidates (nv::searchSizeForPsnr) in the run's prologue, before InstallInitialNetwork; sets
+  /// NetworkConfig's table size and SizeNote. Throws nv::Error (the run fails) when aborted or out of memory.
+  void SearchSizeForPsnr(const std::function<bool()>& abort);
   nv::SourceInfo Source;          ///< what the network represents (geometry, value range, raw bytes)
   nv::TrainConfig Train; ///< the optimiser settings of this job (a later Continue trains with them)
   nv::Precision Storage = nv::Precision::Float16;
   std::string DeviceNote;
-  std::string SizeNote; ///< how the automatic size was fitted to an out-of-core input's MemoryBudget ("" if not)
+  /// How the automatic size was fitted to an out-of-core input's MemoryBudget, or searched for SizeForPSNR ("" if not).
+  std::string SizeNote;
   std::atomic<bool> WarmStart{ false }; ///< set where the initial network is installed (the run's prologue)
   std::shared_ptr<nv::NetworkSession> Session;
   std::shared_ptr<TrainingData> Data;

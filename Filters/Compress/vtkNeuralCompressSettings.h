@@ -29,6 +29,7 @@ struct Settings
   bool KeepBest = true;
   double MemoryBudgetMiB = 0.0; ///< out-of-core inputs (vtkNeuralOutOfCoreInput.h); 0: automatic
   double MaxError = 0.0; ///< the error-bounded mode's bound in data units (nv::ErrorCorrections); 0: off
+  double SizeForPsnr = 0.0; ///< the automatic size searched for this PSNR (nv::searchSizeForPsnr); 0: off
   /// Particle inputs (vtkNeuralCompressParticles.h).
   int ParticleField = 0, ParticleKernel = 1;
   double ParticleRadius = 0.0;
@@ -46,7 +47,15 @@ struct EngineConfigs
   nv::Device RequestedDevice = nv::Device::Auto;  ///< before nv::resolveDevice
   nv::SessionOptions Session;                     ///< the options of a session created for the job
   bool GpuResident = false; ///< the field is uploaded to the GPU with the network (its memory counts)
+  /// SizedForPsnr: the largest table size the search may try (the smallest is Network's, 2^10); 0 otherwise.
+  int SearchMaxLog2 = 0;
 };
+
+/// True when the job's table size is searched for a PSNR (SizeForPsnr set, Log2TableSize Automatic).
+inline bool SizedForPsnr(const Settings& settings)
+{
+  return settings.SizeForPsnr > 0.0 && settings.Log2TableSize <= 0;
+}
 
 /// Every engine configuration of a job from `settings` and the trained field's size (`dims`, `rawBytes`);
 /// `lowPriority`: training beside the GUI (TrainInBackground), its threads keep their share of the cores. Throws

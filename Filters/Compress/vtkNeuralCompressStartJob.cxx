@@ -153,6 +153,8 @@ void vtkNeuralCompress::StartJob(const nvi::FieldInfo& field, std::shared_ptr<nv
     nvi::EngineConfigsFor(settings, view.dims, data->Field.RawBytes, this->TrainInBackground != 0);
   job->Storage = configs.Storage;
   job->Train = configs.Train;
+  job->SessionOptions = configs.Session;
+  job->SearchMaxLog2 = configs.SearchMaxLog2;
   const nv::Device device =
     nv::resolveDevice(configs.RequestedDevice, &job->DeviceNote, configs.Session.cudaDevice);
   if (field.OutOfCore && settings.Log2TableSize <= 0)
@@ -265,7 +267,16 @@ void vtkNeuralCompress::StartRun(nvi::Job& job, const nvi::RunLimits& limits, in
   job.Run.reset(new nvi::TrainingRun(job.Session, job.Data, job.Train, limits,
     [jobPtr](nvi::TrainingRun&, const nvi::RunStatus& status) { jobPtr->Finalize(status); }));
   if (job.InitialNetworkPending())
-    job.Run->setPrologue([jobPtr]() { jobPtr->InstallInitialNetwork(); }); // in the run's thread
+  {
+    // In the run's thread: SizeForPSNR's search (stopped by a Stop, an abort or a replacing job), then the network.
+    job.Run->setPrologue([jobPtr]() {
+      jobPtr->SearchSizeForPsnr([jobPtr]() {
+        return jobPtr->Retiring.load() || (jobPtr->DecodeAbort && jobPtr->DecodeAbort()) ||
+          jobPtr->Run->status().State == nvi::RunState::Finishing; // stop() before the first step
+      });
+      jobPtr->InstallInitialNetwork();
+    });
+  }
   job.Run->extend(moreSteps, fastForward); // part of the first phase (Continue / Fast-forward on a network)
   if (this->Internals->StopBeforeStart)
   {

@@ -307,7 +307,10 @@ std::string Summary(
   s << "; model "
     << FormatBytes(static_cast<double>(m.ModelBytes)) << " (2^" << config.encoding.log2TableSize << " table, "
     << nv::precisionName(job.Storage) << "), ratio " << m.Ratio << ":1";
-  if (targetRatio > 0.0)
+  if (SizedForPsnr(job.TrainingSettings))
+    s << "; Size For PSNR " << job.TrainingSettings.SizeForPsnr << " dB "
+      << (m.Psnr >= job.TrainingSettings.SizeForPsnr ? "reached" : "NOT reached");
+  else if (targetRatio > 0.0)
     s << " (target " << targetRatio << ")";
   if (m.ErrorBound > 0.0)
     s << "; error bound " << m.ErrorBound << " (" << m.Corrections << " samples corrected, in the ratio)";

@@ -3,7 +3,7 @@
 //                    [--lr=X] [--decay=step|none] [--decay-interval=N] [--decay-factor=X] [--warmup=N] [--eps=X]
 //                    [--beta2=X] [--plateau=STEPS] [--schedule=step|exp|cos|auto] [--planned=STEPS]
 //                    [--final=X] [--hold=STEPS]
-//                    [--importance=CELLS] [--dump=DIR] [--storage=fp16|q8|both]
+//                    [--importance=CELLS] [--dump=DIR] [--storage=fp16|q8|both] [--qat=FRACTION]
 // Trains the method's network (16x4 levels, finest 2x the largest dimension, 64x4 MLP, the filter's defaults) and, at
 // each step count, stores it as Neural Compress does (fp16, or --storage), decodes the full grid and prints one line
 //   RESULT {"what":"tradeoff", ... "storage", "steps", "train_s", "decode_s", "psnr", "max_error", "ratio", "model_bytes"}
@@ -114,6 +114,8 @@ int tradeoffBenchmark(int argc, char** argv)
       tc.optimizer.finalRateFraction = std::atof(v.c_str());
     else if (option(a, "hold", v))
       tc.optimizer.holdSteps = std::atoi(v.c_str());
+    else if (option(a, "qat", v))
+      tc.quantizationAwareFraction = std::atof(v.c_str()); // TrainConfig::quantizationAwareFraction
     else if (option(a, "importance", v))
       tc.importanceGrid = std::atoi(v.c_str());
     else if (option(a, "dump", v))
@@ -181,13 +183,13 @@ int tradeoffBenchmark(int argc, char** argv)
                   "\"log2T\":%d,\"batch\":%d,\"seed\":%llu,\"loss\":\"%s\",\"storage\":\"%s\",\"steps\":%d,"
                   "\"train_s\":%.4f,"
                   "\"decode_s\":%.5f,\"psnr\":%s,\"max_error\":%s,\"ratio\":%.4f,\"model_bytes\":%lld,"
-                  "\"source_bytes\":%lld,\"dump\":\"%s\"}\n",
+                  "\"source_bytes\":%lld,\"qat\":%g,\"dump\":\"%s\"}\n",
         deviceName(dev), raw.name.c_str(), (long long)nx, (long long)ny, (long long)nz, log2T, tc.batchSize,
         (unsigned long long)tc.seed, tc.loss == LossType::L2 ? "l2" : "l1", precisionName(storage), done, trainTime,
         decodeTime,
         jsonNumber(e.psnr).c_str(), jsonNumber(e.maxAbsError).c_str(),
         double(raw.view.bytes()) / double(stored.parameterBytes()), (long long)stored.parameterBytes(),
-        (long long)raw.view.bytes(), dumped.c_str());
+        (long long)raw.view.bytes(), tc.quantizationAwareFraction, dumped.c_str());
       std::fflush(stdout);
     }
   }

@@ -197,6 +197,42 @@ NV_TEST(cpu_renderer_decoded_grid_applies_the_corrections)
   EXPECT_TRUE(matches < 1e-5);
 }
 
+NV_TEST(a_decode_render_before_decoding_corrects_once)
+{
+  // The GUI race of issue 25 (a summary with the network's own PSNR beside its corrections): the Decode path rendered
+  // the session's corrected grid of the source's dims, then the filter's measurement decoded the source grid; the
+  // session copied the renderer's grid (already corrected) and decodeGridValues corrected it again. Decoding after
+  // such a render must give the values of a session that never rendered.
+  Model m = trained(Precision::Float16);
+  const double bound = 0.005 * (m.source.valueMax - m.source.valueMin);
+  m.corrections = corrections(m, bound);
+  RenderRequest q = nvtest::blobRequest(m, RenderPath::Decode, ShadingMode::RayMarch, 32, 32);
+  q.waitForDecode = true;
+  for (int a = 0; a < 3; ++a)
+    q.decodeResolution[a] = kN; // the source's own grid: the renderer's grid is the corrected field
+  auto rendered = nvtest::session(m, Device::Cpu, 2);
+  RenderResult out;
+  rendered->render(q, out, Memory::Host);
+  auto fresh = nvtest::session(m, Device::Cpu, 2);
+  const int64_t count = int64_t(kN) * kN * kN;
+  std::vector<double> afterRender(static_cast<size_t>(count)), plain(static_cast<size_t>(count));
+  decodeGridValues(*rendered, kN, kN, kN, 0, kN, afterRender.data());
+  decodeGridValues(*fresh, kN, kN, kN, 0, kN, plain.data());
+  double worst = 0.0, apart = 0.0;
+  for (int64_t i = 0; i < count; ++i)
+  {
+    worst = std::max(worst, std::fabs(afterRender[size_t(i)] - double(field()[size_t(i)])));
+    apart = std::max(apart, std::fabs(afterRender[size_t(i)] - plain[size_t(i)]));
+  }
+  const ErrorStats measured = compareToSource(*rendered, nvtest::cubeView(field(), kN));
+  std::printf("  after a Decode render: max error %.4g (bound %.4g), %.3g from a fresh session's decode, "
+              "PSNR %.2f dB, max error measured %.4g\n", worst, bound, apart, measured.psnr, measured.maxAbsError);
+  EXPECT_TRUE(!out.rgba.empty());
+  EXPECT_TRUE(worst <= bound);
+  EXPECT_TRUE(apart < 1e-3 * bound);
+  EXPECT_TRUE(measured.maxAbsError <= bound);
+}
+
 NV_TEST(absurd_bounds_are_refused)
 {
   const Model m = trained(Precision::Float16);

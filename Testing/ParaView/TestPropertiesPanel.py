@@ -108,8 +108,8 @@ EXPECTED_GROUPS = {
     "Data": ["SelectInputScalars", "VectorMode", "VectorComponent", "OutputMode", "OutputResolution", "Sampling",
              "SamplingDimensions", "ProbePoints", "MemoryBudget", "ParticleField", "ParticleKernel", "ParticleRadius",
              "ParticleRadiusArray"],
-    "Size": ["TargetCompressionRatio", "Log2TableSize", "StoragePrecision", "MaxError", "Levels", "FeaturesPerLevel",
-             "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
+    "Size": ["TargetCompressionRatio", "SizeForPSNR", "Log2TableSize", "StoragePrecision", "MaxError", "Levels",
+             "FeaturesPerLevel", "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
     "Advanced": ["BatchSize", "LearningRate", "LearningRateSchedule", "Loss", "Seed", "PSNRInterval",
                  "KeepBestNetwork", "Deterministic", "WarmStart", "NetworkCacheMiB", "Threads", "Device",
                  "TrainingStrategy"]}
@@ -172,7 +172,7 @@ def enum_values(proxy, name):
 # (min, max) the C++ accepts: vtkSetClampMacro limits of the filter and the mapper, and the engine's validation
 # (Cuda/Core/Config.cpp, RenderSetup.cpp); None = the type's limit.
 FILTER_RANGES = {"VectorComponent": (0, 255), "TrainingSteps": (0, None), "TimeBudget": (0, None),
-                 "TargetPSNR": (0, 1000), "BatchSize": (1, 1 << 24), "LearningRate": (1e-9, None),
+                 "TargetPSNR": (0, 1000), "SizeForPSNR": (0, 1000), "BatchSize": (1, 1 << 24), "LearningRate": (1e-9, None),
                  "Seed": (0, None), "TargetCompressionRatio": (0, None), "Levels": (1, 32),
                  "BaseResolution": (2, 4096), "FinestResolution": (0, 1 << 20), "HiddenLayers": (1, 8),
                  "Threads": (0, 1024), "ProbePoints": (0, 1 << 26), "PSNRInterval": (0, None),
@@ -258,11 +258,13 @@ refused("Threads = 1025", Threads=1025)
 
 # Clamped by the filter's setters: one step beyond the domain reads back as the domain's limit.
 ok, text, printed, out = compress(TrainingSteps=-1, ContinueSteps=0, Seed=-1, PSNRInterval=-1, TimeBudget=-1.0,
-                                  TargetCompressionRatio=-1.0, TargetPSNR=1001.0, NetworkCacheMiB=(1 << 20) + 1,
+                                  TargetCompressionRatio=-1.0, TargetPSNR=1001.0, SizeForPSNR=1001.0,
+                                  NetworkCacheMiB=(1 << 20) + 1,
                                   VectorComponent=256, BatchSize=0)
 fields = dict(re.findall(r"^\s*(\w+): (.*)$", printed, re.M))
 for name, expected in (("TrainingSteps", "0"), ("ContinueSteps", "1"), ("Seed", "0"), ("PSNRInterval", "0"),
                        ("TimeBudget", "0"), ("TargetCompressionRatio", "0"), ("TargetPSNR", "1000"),
+                       ("SizeForPSNR", "1000"),
                        ("NetworkCacheMiB", str(1 << 20)), ("VectorComponent", "255"), ("BatchSize", "1")):
     check(fields.get(name) == expected, "%s beyond its domain is clamped to %s (reads %r)"
           % (name, expected, fields.get(name)))
