@@ -14,43 +14,79 @@ namespace nv
 
 namespace
 {
+/// One worker's sums over its range of samples, in locals (the workers' vectors are written once at the end: 16
+/// workers updating neighbouring elements per sample shared their cache lines and serialised the pass).
+struct CompareSums
+{
+  double squared = 0.0, maxAbs = 0.0, maxOfRange = 0.0;
+  int64_t count = 0, bad = 0;
+};
+
+/// Samples [b, e) of a source of type S against the decoded values: a typed loop (no per-sample type switch).
+template <typename T, typename S>
+CompareSums compareRange(const T* decoded, const S* source, int64_t b, int64_t e, const ValueRange& range)
+{
+  CompareSums sums;
+  const bool spans = range.spans();
+  for (int64_t i = b; i < e; ++i)
+  {
+    const double x = static_cast<double>(source[i]);
+    if (!std::isfinite(x))
+      continue;
+    const double d = static_cast<double>(decoded[i]);
+    if (!std::isfinite(d))
+    {
+      ++sums.bad;
+      ++sums.count;
+      continue;
+    }
+    // Difference in normalised units first: stays finite for huge ranges (and ranges wider than DBL_MAX).
+    const double dn = spans ? range.normalize(d) - range.normalize(x) : d - x;
+    sums.squared += dn * dn;
+    sums.maxAbs = std::max(sums.maxAbs, std::fabs(spans ? range.span(dn) : dn));
+    sums.maxOfRange = std::max(sums.maxOfRange, std::fabs(dn));
+    ++sums.count;
+  }
+  return sums;
+}
+
+template <typename T>
+CompareSums compareRangeOf(const T* decoded, const VolumeView& v, int64_t b, int64_t e, const ValueRange& range)
+{
+  switch (v.type)
+  {
+    case ScalarType::Int8: return compareRange(decoded, static_cast<const int8_t*>(v.data), b, e, range);
+    case ScalarType::UInt8: return compareRange(decoded, static_cast<const uint8_t*>(v.data), b, e, range);
+    case ScalarType::Int16: return compareRange(decoded, static_cast<const int16_t*>(v.data), b, e, range);
+    case ScalarType::UInt16: return compareRange(decoded, static_cast<const uint16_t*>(v.data), b, e, range);
+    case ScalarType::Int32: return compareRange(decoded, static_cast<const int32_t*>(v.data), b, e, range);
+    case ScalarType::UInt32: return compareRange(decoded, static_cast<const uint32_t*>(v.data), b, e, range);
+    case ScalarType::Int64: return compareRange(decoded, static_cast<const int64_t*>(v.data), b, e, range);
+    case ScalarType::UInt64: return compareRange(decoded, static_cast<const uint64_t*>(v.data), b, e, range);
+    case ScalarType::Float32: return compareRange(decoded, static_cast<const float*>(v.data), b, e, range);
+    case ScalarType::Float64: return compareRange(decoded, static_cast<const double*>(v.data), b, e, range);
+  }
+  return CompareSums();
+}
+
 template <typename T>
 ErrorStats compareDecodedT(const T* decoded, const VolumeView& v, double valueMin, double valueMax, int threads)
 {
   ErrorStats r;
   const ValueRange range(valueMin, valueMax);
   ThreadPool pool(threads);
-  std::vector<double> se(pool.size(), 0.0), mx(pool.size(), 0.0), mxn(pool.size(), 0.0);
-  std::vector<int64_t> cnt(pool.size(), 0), bad(pool.size(), 0);
+  std::vector<CompareSums> parts(static_cast<size_t>(pool.size()));
   pool.parallelFor(v.count(), [&](int64_t b, int64_t e, int w) {
-    for (int64_t i = b; i < e; ++i)
-    {
-      const double x = v.at(i);
-      if (!std::isfinite(x))
-        continue;
-      if (!std::isfinite(static_cast<double>(decoded[i])))
-      {
-        ++bad[w];
-        ++cnt[w];
-        continue;
-      }
-      // Difference in normalised units first: stays finite for huge ranges (and ranges wider than DBL_MAX).
-      const double dn = range.spans() ? range.normalize(static_cast<double>(decoded[i])) - range.normalize(x)
-                                      : static_cast<double>(decoded[i]) - x;
-      se[w] += dn * dn;
-      mx[w] = std::max(mx[w], std::fabs(range.spans() ? range.span(dn) : dn));
-      mxn[w] = std::max(mxn[w], std::fabs(dn));
-      ++cnt[w];
-    }
+    parts[static_cast<size_t>(w)] = compareRangeOf(decoded, v, b, e, range);
   });
   double sum = 0.0;
-  for (int w = 0; w < pool.size(); ++w)
+  for (const CompareSums& part : parts)
   {
-    sum += se[w];
-    r.maxAbsError = std::max(r.maxAbsError, mx[w]);
-    r.maxErrorOfRange = std::max(r.maxErrorOfRange, mxn[w]);
-    r.count += cnt[w];
-    r.nonFinite += bad[w];
+    sum += part.squared;
+    r.maxAbsError = std::max(r.maxAbsError, part.maxAbs);
+    r.maxErrorOfRange = std::max(r.maxErrorOfRange, part.maxOfRange);
+    r.count += part.count;
+    r.nonFinite += part.bad;
   }
   if (r.nonFinite > 0)
   {

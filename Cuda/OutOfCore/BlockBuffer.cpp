@@ -90,27 +90,44 @@ void BlockBuffer::fillResidents(int64_t resident, bool wholeVolume)
   std::vector<uint64_t> blocks(static_cast<size_t>(resident));
   for (int64_t k = 0; k < resident; ++k)
     blocks[static_cast<size_t>(k)] = wholeVolume ? static_cast<uint64_t>(k) : this->randomBlock(this->NextDraw++);
+  // The slots in the file's order of their blocks, cut into pencils (the blocks of one row of blocks along x): the
+  // random blocks of a large buffer touch most pages of the file, and reading them a block row (32 bytes of 8^3-cell
+  // float32 blocks) at a time made the first fill random 4 KiB reads over the whole file.
+  std::vector<int64_t> order(static_cast<size_t>(resident));
+  for (int64_t k = 0; k < resident; ++k)
+    order[static_cast<size_t>(k)] = k;
+  std::stable_sort(order.begin(), order.end(),
+    [&blocks](int64_t a, int64_t b) { return blocks[static_cast<size_t>(a)] < blocks[static_cast<size_t>(b)]; });
+  std::vector<int64_t> pencils; // where each pencil begins in `order`, then its end
+  const uint64_t perPencil = static_cast<uint64_t>(this->BlocksPerAxis[0]);
+  for (int64_t i = 0; i < resident; ++i)
+    if (i == 0 || blocks[static_cast<size_t>(order[static_cast<size_t>(i)])] / perPencil !=
+        blocks[static_cast<size_t>(order[static_cast<size_t>(i - 1)])] / perPencil)
+      pencils.push_back(i);
+  pencils.push_back(resident);
+  const int64_t pencilCount = static_cast<int64_t>(pencils.size()) - 1;
   std::atomic<int64_t> next{ 0 };
   std::exception_ptr failure;
   std::mutex failureMutex;
   auto work = [&]() {
+    std::vector<float> rows;
     try
     {
-      for (int64_t k = next++; k < resident; k = next++)
-        this->load(k, blocks[static_cast<size_t>(k)]);
+      for (int64_t p = next++; p < pencilCount; p = next++)
+        this->loadPencil(order, blocks, pencils[static_cast<size_t>(p)], pencils[static_cast<size_t>(p + 1)], rows);
     }
     catch (...)
     {
       std::lock_guard<std::mutex> lock(failureMutex);
       failure = std::current_exception();
-      next = resident;
+      next = pencilCount;
     }
   };
   std::vector<std::thread> threads;
   // The first reads are all there is to do: as many threads as the machine has (at least the readers, at most 16).
   const int threadCount = std::min(16, std::max(std::max(1, this->Config.readerThreads),
     static_cast<int>(std::thread::hardware_concurrency())));
-  for (int t = 1; t < threadCount && resident > 64; ++t)
+  for (int t = 1; t < threadCount && pencilCount > 1 && resident > 64; ++t)
   {
     try
     {
@@ -130,6 +147,54 @@ void BlockBuffer::fillResidents(int64_t resident, bool wholeVolume)
     this->Resident.push_back(static_cast<int32_t>(k));
 }
 
+void BlockBuffer::loadPencil(const std::vector<int64_t>& order, const std::vector<uint64_t>& blocks, int64_t begin,
+  int64_t end, std::vector<float>& rows)
+{
+  if (this->Reader.layout().boxSource)
+  {
+    // A chunked source decodes whole chunks per call: a block per call, as the readers load them.
+    for (int64_t i = begin; i < end; ++i)
+      this->load(order[static_cast<size_t>(i)], blocks[static_cast<size_t>(order[static_cast<size_t>(i)])]);
+    return;
+  }
+  // Neighbouring blocks whose gap is at most a page of the file share one read a row; a run's rows hold at most
+  // kRunSamples samples (or one block's).
+  constexpr int64_t kGapBytes = 4096, kRunSamples = int64_t(1) << 18;
+  const int64_t item = static_cast<int64_t>(scalarSize(this->Reader.layout().type));
+  std::vector<std::array<int64_t, 3>> origins(static_cast<size_t>(end - begin)), sizes(origins.size());
+  for (int64_t i = begin; i < end; ++i)
+  {
+    const int64_t slot = order[static_cast<size_t>(i)];
+    this->place(slot, blocks[static_cast<size_t>(slot)], origins[size_t(i - begin)], sizes[size_t(i - begin)]);
+  }
+  for (int64_t first = 0, count = end - begin; first < count;)
+  {
+    const std::array<int64_t, 3>& start = origins[size_t(first)];
+    const int64_t ny = sizes[size_t(first)][1], nz = sizes[size_t(first)][2];
+    int64_t last = first, x1 = start[0] + sizes[size_t(first)][0];
+    while (last + 1 < count && (origins[size_t(last + 1)][0] - x1) * item <= kGapBytes &&
+      (origins[size_t(last + 1)][0] + sizes[size_t(last + 1)][0] - start[0]) * ny <= kRunSamples)
+    {
+      ++last;
+      x1 = std::max(x1, origins[size_t(last)][0] + sizes[size_t(last)][0]);
+    }
+    const int64_t span = x1 - start[0];
+    rows.resize(static_cast<size_t>(span * ny));
+    for (int64_t z = 0; z < nz; ++z)
+    {
+      this->Reader.readBox({ start[0], start[1], start[2] + z }, { span, ny, 1 }, rows.data());
+      for (int64_t k = first; k <= last; ++k)
+      {
+        const int64_t nx = sizes[size_t(k)][0];
+        float* into = this->samplesOf(order[static_cast<size_t>(begin + k)]) + z * ny * nx;
+        for (int64_t y = 0; y < ny; ++y)
+          std::copy_n(rows.data() + y * span + (origins[size_t(k)][0] - start[0]), nx, into + y * nx);
+      }
+    }
+    this->BlocksRead += last - first + 1;
+    first = last + 1;
+  }
+}
 BlockBuffer::~BlockBuffer()
 {
   {
@@ -146,7 +211,8 @@ uint64_t BlockBuffer::randomBlock(uint64_t draw) const
   return static_cast<uint64_t>(randomBankIndex(this->Config.seed, 0xB10C, draw, this->BlockCount));
 }
 
-void BlockBuffer::load(int64_t slotIndex, uint64_t blockIndex)
+void BlockBuffer::place(int64_t slotIndex, uint64_t blockIndex, std::array<int64_t, 3>& origin,
+  std::array<int64_t, 3>& size)
 {
   const int64_t edge = this->Config.blockCells;
   const VolumeFileLayout& layout = this->Reader.layout();
@@ -155,7 +221,6 @@ void BlockBuffer::load(int64_t slotIndex, uint64_t blockIndex)
   block[0] = static_cast<int64_t>(blockIndex) % this->BlocksPerAxis[0];
   block[1] = static_cast<int64_t>(blockIndex) / this->BlocksPerAxis[0] % this->BlocksPerAxis[1];
   block[2] = static_cast<int64_t>(blockIndex) / (this->BlocksPerAxis[0] * this->BlocksPerAxis[1]);
-  std::array<int64_t, 3> origin{}, size{};
   slot.cellCount = 1;
   for (int axis = 0; axis < 3; ++axis)
   {
@@ -165,6 +230,12 @@ void BlockBuffer::load(int64_t slotIndex, uint64_t blockIndex)
     slot.cellCount *= std::max<int32_t>(1, slot.cells[axis]);
     size[axis] = slot.cells[axis] + 1;
   }
+}
+
+void BlockBuffer::load(int64_t slotIndex, uint64_t blockIndex)
+{
+  std::array<int64_t, 3> origin{}, size{};
+  this->place(slotIndex, blockIndex, origin, size);
   this->Reader.readBox(origin, size, this->samplesOf(slotIndex)); // within the slot's share of the arena
   ++this->BlocksRead;
 }

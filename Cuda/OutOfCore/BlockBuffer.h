@@ -12,6 +12,7 @@
 
 #include "VolumeFileReader.h"
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -81,8 +82,14 @@ private:
   float* samplesOf(int64_t slot) { return this->Arena.data() + slot * this->SamplesPerSlot; }
   const float* samplesOf(int64_t slot) const { return this->Arena.data() + slot * this->SamplesPerSlot; }
   void load(int64_t slot, uint64_t blockIndex);
-  /// The first reads: every resident slot, on up to readerThreads threads.
+  /// Sets the slot's place to block `blockIndex`: origin and size (samples per axis) of the box it holds.
+  void place(int64_t slot, uint64_t blockIndex, std::array<int64_t, 3>& origin, std::array<int64_t, 3>& size);
+  /// The first reads: every resident slot, on every core (at most 16), in the file's order a pencil at a time.
   void fillResidents(int64_t resident, bool wholeVolume);
+  /// The first reads of the slots order[begin, end), blocks of one pencil along x sorted by x: the rows of
+  /// neighbouring blocks read at once (`rows` holds them), not a row of each block per call.
+  void loadPencil(const std::vector<int64_t>& order, const std::vector<uint64_t>& blocks, int64_t begin, int64_t end,
+    std::vector<float>& rows);
   /// The resident position of sample `index` of a step: uniform over the resident slots, a smaller block at the far
   /// faces kept with the probability of its share of a full block's cells (O(1), no table of weights).
   int64_t drawPosition(uint64_t seed, uint64_t step, uint64_t index) const;

@@ -18,10 +18,11 @@ namespace nv
 {
 namespace
 {
-/// Slices per slab so that a slab of doubles (and its decoded floats) stays within slabBytes.
-int64_t slicesPerSlab(const VolumeFileLayout& layout, int64_t slabBytes)
+/// Slices per slab so that `doubles` slabs of doubles and one of floats stay within slabBytes.
+int64_t slicesPerSlab(const VolumeFileLayout& layout, int64_t slabBytes, int64_t doubles)
 {
-  const int64_t sliceBytes = layout.dims[0] * layout.dims[1] * static_cast<int64_t>(sizeof(double) + sizeof(float));
+  const int64_t sliceBytes =
+    layout.dims[0] * layout.dims[1] * static_cast<int64_t>(doubles * sizeof(double) + sizeof(float));
   return std::max<int64_t>(1, std::min(layout.dims[2], slabBytes / std::max<int64_t>(1, sliceBytes)));
 }
 
@@ -67,12 +68,47 @@ void forSliceRanges(int64_t slices, int threads, const std::function<void(int64_
   if (failure)
     std::rethrow_exception(failure);
 }
+
+/// One thread's error sums over the exact pass (compareDecoded's, CpuCompareDecoded.cpp).
+struct SlabSums
+{
+  double squared = 0.0, maxAbs = 0.0, maxOfRange = 0.0;
+  int64_t count = 0, bad = 0;
+};
+
+/// Samples [b, e) of a slab against the network's normalised values, de-normalised as a decoded double output is
+/// (range.denormalize), added to `sums` (in locals while the loop runs: the threads' entries share cache lines).
+void compareSlab(const float* normalised, const double* samples, int64_t b, int64_t e, const ValueRange& range,
+  SlabSums& sums)
+{
+  SlabSums local = sums;
+  const bool spans = range.spans();
+  for (int64_t i = b; i < e; ++i)
+  {
+    const double x = samples[i];
+    if (!std::isfinite(x))
+      continue;
+    const double d = range.denormalize(static_cast<double>(normalised[i]));
+    if (!std::isfinite(d))
+    {
+      ++local.bad;
+      ++local.count;
+      continue;
+    }
+    const double dn = spans ? range.normalize(d) - range.normalize(x) : d - x;
+    local.squared += dn * dn;
+    local.maxAbs = std::max(local.maxAbs, std::fabs(spans ? range.span(dn) : dn));
+    local.maxOfRange = std::max(local.maxOfRange, std::fabs(dn));
+    ++local.count;
+  }
+  sums = local;
+}
 } // namespace
 
 FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes, const FileProgress& progress)
 {
   const VolumeFileLayout& layout = reader.layout();
-  const int64_t slices = slicesPerSlab(layout, slabBytes);
+  const int64_t slices = slicesPerSlab(layout, slabBytes, 1);
   const int64_t plane = layout.dims[0] * layout.dims[1];
   const int threads = passThreads(reader);
   std::vector<double> slab(static_cast<size_t>(plane * slices));
@@ -90,7 +126,8 @@ FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes,
         return;
       double* part = slab.data() + k0 * plane;
       reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, part);
-      FileValueRange& r = parts[static_cast<size_t>(t)];
+      // In locals, merged once: the threads' neighbouring entries of `parts` share cache lines.
+      FileValueRange r = parts[static_cast<size_t>(t)];
       for (int64_t i = 0; i < plane * (k1 - k0); ++i)
       {
         const double v = part[i];
@@ -103,6 +140,7 @@ FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes,
         r.max = std::max(r.max, v);
         ++r.finite;
       }
+      parts[static_cast<size_t>(t)] = r;
     });
     report(progress, double(z0 + nz) / double(layout.dims[2]));
   }
@@ -123,39 +161,69 @@ ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader
   int64_t slabBytes, const FileProgress& progress)
 {
   const VolumeFileLayout& layout = reader.layout();
-  const int64_t slices = slicesPerSlab(layout, slabBytes);
+  // Two slabs of samples: the next one is read while this one is decoded and compared.
+  const int64_t slices = slicesPerSlab(layout, slabBytes, 2);
   const int64_t plane = layout.dims[0] * layout.dims[1];
-  std::vector<double> samples(static_cast<size_t>(plane * slices)), decoded(static_cast<size_t>(plane * slices));
+  std::vector<double> samples[2];
+  for (std::vector<double>& slab : samples)
+    slab.resize(static_cast<size_t>(plane * slices));
   std::vector<float> normalised(static_cast<size_t>(plane * slices));
   const ValueRange range(valueMin, valueMax);
   const int threads = passThreads(reader);
-  ErrorStats total;
-  double squaredSum = 0.0;
-  for (int64_t z0 = 0; z0 < layout.dims[2]; z0 += slices)
-  {
+  std::vector<SlabSums> parts(static_cast<size_t>(threads));
+  auto readSlab = [&](int64_t z0, std::vector<double>& into) {
     const int64_t nz = std::min(slices, layout.dims[2] - z0);
     forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int) {
       if (k0 < k1)
-        reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, samples.data() + k0 * plane);
+        reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, into.data() + k0 * plane);
     });
-    session.decodeGrid(layout.dims[0], layout.dims[1], layout.dims[2], z0, z0 + nz, normalised.data());
-    forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int) {
-      for (int64_t i = k0 * plane; i < k1 * plane; ++i)
-        decoded[static_cast<size_t>(i)] = range.denormalize(normalised[static_cast<size_t>(i)]);
-    });
-    VolumeView slab;
-    slab.data = samples.data();
-    slab.type = ScalarType::Float64;
-    slab.dims[0] = layout.dims[0];
-    slab.dims[1] = layout.dims[1];
-    slab.dims[2] = nz;
-    const ErrorStats part = compareDecoded(decoded.data(), slab, valueMin, valueMax, threads);
-    squaredSum += std::isfinite(part.mse) ? part.mse * double(part.count) : 0.0;
+  };
+  readSlab(0, samples[0]);
+  for (int64_t z0 = 0, current = 0; z0 < layout.dims[2]; z0 += slices, current ^= 1)
+  {
+    const int64_t nz = std::min(slices, layout.dims[2] - z0);
+    std::exception_ptr readFailure;
+    std::thread next; // the next slab's reads, beside this one's decoding and comparison
+    if (z0 + slices < layout.dims[2])
+      next = std::thread([&]() {
+        try
+        {
+          readSlab(z0 + slices, samples[current ^ 1]);
+        }
+        catch (...)
+        {
+          readFailure = std::current_exception();
+        }
+      });
+    try
+    {
+      session.decodeGrid(layout.dims[0], layout.dims[1], layout.dims[2], z0, z0 + nz, normalised.data());
+      const double* source = samples[current].data();
+      forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int t) {
+        compareSlab(normalised.data(), source, k0 * plane, k1 * plane, range, parts[static_cast<size_t>(t)]);
+      });
+      report(progress, double(z0 + nz) / double(layout.dims[2]));
+    }
+    catch (...)
+    {
+      if (next.joinable())
+        next.join();
+      throw;
+    }
+    if (next.joinable())
+      next.join();
+    if (readFailure)
+      std::rethrow_exception(readFailure);
+  }
+  ErrorStats total;
+  double squaredSum = 0.0;
+  for (const SlabSums& part : parts)
+  {
+    squaredSum += part.squared;
     total.count += part.count;
-    total.nonFinite += part.nonFinite;
-    total.maxAbsError = std::max(total.maxAbsError, part.maxAbsError);
-    total.maxErrorOfRange = std::max(total.maxErrorOfRange, part.maxErrorOfRange);
-    report(progress, double(z0 + nz) / double(layout.dims[2]));
+    total.nonFinite += part.bad;
+    total.maxAbsError = std::max(total.maxAbsError, part.maxAbs);
+    total.maxErrorOfRange = std::max(total.maxErrorOfRange, part.maxOfRange);
   }
   if (total.nonFinite > 0)
   {

@@ -11,6 +11,7 @@
 #include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Error.h"
+#include "Core/ResourceEstimate.h"
 #include "OutOfCore/FileMeasure.h"
 
 #include "vtkDataObject.h"
@@ -79,14 +80,17 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   this->ReportOutputCap(field.Geometry);
   // The value range normalises the targets: one streamed pass over the file before training (abortable).
   int lastPercent = -1;
+  nvi::OutOfCorePhaseLog rangeLog("value-range pass", "every voxel of " + nv::formatBytes(file->Layout.bytes()));
   const nv::FileValueRange range =
     nv::scanValueRange(*file->Reader, nvi::OutOfCoreSlabBytes(*file), [&](double fraction) {
+      rangeLog.Progress(fraction);
       const int percent = static_cast<int>(fraction * 100.0);
       if (background && percent != lastPercent)
         background->SetStage("scanning the file's value range, " + std::to_string(percent) + "%");
       lastPercent = percent;
       return carryOn();
     });
+  file->ValueRangeSeconds = rangeLog.Finish();
   if (range.finite == 0)
   {
     this->Report(nvi::QueuedMessage::Error, "Neural Compress: all " + std::to_string(range.nonFinite) +

@@ -14,6 +14,7 @@
 #include "OutOfCore/VolumeBoxSource.h"
 
 #include "vtkFieldData.h"
+#include "vtkLogger.h"
 #include "vtkNew.h"
 #include "vtkImageData.h"
 #include "vtkStringArray.h"
@@ -29,8 +30,8 @@ namespace vtkNeuralCompressInternals
 {
 namespace
 {
-/// The budget's shares: the block buffer, the PSNR probe, a streamed pass's slabs (FileMeasure.h holds about 20
-/// bytes per sample of a slab whose doubles and floats it sizes at 12), a chunked dataset's decoded chunks.
+/// The budget's shares: the block buffer, the PSNR probe, a streamed pass's slabs (FileMeasure.cpp: the exact pass
+/// holds two slabs of doubles and one of floats, 20 bytes a sample), a chunked dataset's decoded chunks.
 constexpr int64_t kBufferEighths = 5, kProbeEighths = 1, kSlabEighths = 1, kChunkEighths = 1;
 constexpr int64_t kProbeSamples = 65536;
 constexpr int kMinBlocksPerStep = 16;
@@ -136,6 +137,31 @@ std::unique_ptr<nv::PsnrProbe> RowProbe(const OutOfCoreFile& file, const nv::Val
 }
 } // namespace
 
+OutOfCorePhaseLog::OutOfCorePhaseLog(const std::string& phase, const std::string& detail)
+  : Phase(phase)
+  , Start(std::chrono::steady_clock::now())
+{
+  vtkLogF(INFO, "Neural Compress (out of core): %s started%s%s", this->Phase.c_str(), detail.empty() ? "" : ", ",
+    detail.c_str());
+}
+
+void OutOfCorePhaseLog::Progress(double fraction)
+{
+  const int tenth = static_cast<int>(fraction * 10.0);
+  if (tenth <= this->LoggedTenth || tenth >= 10)
+    return;
+  this->LoggedTenth = tenth;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - this->Start).count();
+  vtkLogF(INFO, "Neural Compress (out of core): %s %d%% (%.1f s)", this->Phase.c_str(), tenth * 10, seconds);
+}
+
+double OutOfCorePhaseLog::Finish()
+{
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - this->Start).count();
+  vtkLogF(INFO, "Neural Compress (out of core): %s done in %.2f s", this->Phase.c_str(), seconds);
+  return seconds;
+}
+
 bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request)
 {
   auto* image = vtkImageData::SafeDownCast(input);
@@ -226,12 +252,17 @@ std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
   config.loadingSlots = static_cast<int>(LoadingSlotsFor(config.memoryBudgetBytes, config.blockCells));
   config.readerThreads = kReaderThreads;
   config.seed = seed;
+  OutOfCorePhaseLog fillLog("first fill of the block buffer",
+    std::to_string(config.blockCells) + "^3-cell blocks in " + nv::formatBytes(config.memoryBudgetBytes));
   auto buffered = std::make_shared<BufferedFile>(file, config, range);
+  file->FirstFillSeconds = fillLog.Finish();
   const nv::BlockBufferStats filled = buffered->Buffer.stats();
   std::ostringstream d;
+  d.precision(3);
   d << "out of core: " << OutOfCoreSummary(layout) << "; block buffer of " << filled.residentBlocks << " resident "
     << config.blockCells << "^3-cell blocks, up to " << config.loadingSlots / 2 << " replaced a step ("
-    << nv::formatBytes(filled.bufferBytes) << " of the " << file->BudgetReason << ")";
+    << nv::formatBytes(filled.bufferBytes) << " of the " << file->BudgetReason << "); value-range pass "
+    << file->ValueRangeSeconds.load() << " s, first fill " << file->FirstFillSeconds.load() << " s";
   data->Field.Description = d.str();
   data->Batches = std::shared_ptr<nv::BatchSource>(buffered, &buffered->Source);
   data->Probe = RowProbe(*file, range, seed);
@@ -281,12 +312,16 @@ void CheckOutOfCoreDecode(const FieldInfo& field, int outputMode)
 nv::ErrorStats MeasureOutOfCore(nv::NetworkSession& session, const OutOfCoreFile& file, double valueMin,
   double valueMax, const std::function<bool()>& abort, const std::function<void(double)>& progress)
 {
-  return nv::measureOnFile(session, *file.Reader, valueMin, valueMax, OutOfCoreSlabBytes(file),
-    [&abort, &progress](double fraction) {
+  OutOfCorePhaseLog log("exact pass", "every voxel of " + nv::formatBytes(file.Layout.bytes()));
+  const nv::ErrorStats figures = nv::measureOnFile(session, *file.Reader, valueMin, valueMax,
+    OutOfCoreSlabBytes(file), [&abort, &progress, &log](double fraction) {
+      log.Progress(fraction);
       if (progress)
         progress(fraction);
       return !(abort && abort());
     });
+  file.ExactPassSeconds = log.Finish();
+  return figures;
 }
 
 } // namespace vtkNeuralCompressInternals

@@ -11,7 +11,10 @@
 #include "Core/Engine.h"
 #include "Core/TrainingData.h"
 
+#include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <limits>
 #include <functional>
 #include <memory>
 #include <string>
@@ -57,6 +60,27 @@ struct OutOfCoreFile
   std::shared_ptr<nv::VolumeFileReader> Reader;
   int64_t BudgetBytes = 0;  ///< what the block buffer, the probe and a measurement's slabs may hold
   std::string BudgetReason; ///< "MemoryBudget 64 MiB", "automatic: 20% of ..."
+  /// Seconds of the phases around training (NaN until run; the output's NeuralValueRangeSeconds,
+  /// NeuralFirstFillSeconds, NeuralExactPassSeconds): the value-range pass, the block buffer's first fill, the last
+  /// exact pass. Set by the passes, which also log their start, progress and end (vtkLogF INFO, on stderr).
+  mutable std::atomic<double> ValueRangeSeconds{ std::numeric_limits<double>::quiet_NaN() };
+  mutable std::atomic<double> FirstFillSeconds{ std::numeric_limits<double>::quiet_NaN() };
+  mutable std::atomic<double> ExactPassSeconds{ std::numeric_limits<double>::quiet_NaN() };
+};
+
+/// A phase around training on the log (vtkLogF INFO, on stderr; a run stopped midway still tells where it was): its
+/// start, each tenth of its progress, its end with its seconds ("Neural Compress (out of core): exact pass 40%").
+class OutOfCorePhaseLog
+{
+public:
+  OutOfCorePhaseLog(const std::string& phase, const std::string& detail);
+  void Progress(double fraction);
+  double Finish(); ///< seconds since the start, logged
+
+private:
+  std::string Phase;
+  std::chrono::steady_clock::time_point Start;
+  int LoggedTenth = 0;
 };
 
 /// The bytes of `memoryBudgetMiB` (0: automatic, kAutomaticBudgetShare of what the host may still allocate, at most

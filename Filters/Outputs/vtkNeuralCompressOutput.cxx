@@ -1,6 +1,7 @@
 #include "vtkNeuralCompressOutput.h"
 
 #include "vtkNeuralNetworkArray.h"
+#include "vtkNeuralOutOfCoreInput.h"
 
 #include "vtkBase64Utilities.h"
 #include "vtkCellData.h"
@@ -95,6 +96,11 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
     // An out-of-core input: 1 once NeuralPSNR and NeuralMaxError are measured over every voxel of the file, 0 for
     // the estimate (on random rows of the file) while training.
     AddFieldValue<vtkIntArray>(fd, "NeuralPSNRExact", m.PsnrFinal ? 1 : 0);
+    // The phases around training (NaN until run): the value-range pass, the block buffer's first fill, the last exact
+    // pass over the file.
+    AddFieldValue<vtkDoubleArray>(fd, "NeuralValueRangeSeconds", field.OutOfCore->ValueRangeSeconds.load());
+    AddFieldValue<vtkDoubleArray>(fd, "NeuralFirstFillSeconds", field.OutOfCore->FirstFillSeconds.load());
+    AddFieldValue<vtkDoubleArray>(fd, "NeuralExactPassSeconds", field.OutOfCore->ExactPassSeconds.load());
   }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
   if (m.ErrorBound > 0.0)

@@ -120,6 +120,29 @@ NV_TEST(samples_sit_where_their_values_say)
   EXPECT_NEAR_REL(double(misplaced(flat, xyz, values)), 0.0, 0.0, 0.0);
 }
 
+NV_TEST(the_first_fill_reads_pencils_and_places_every_block)
+{
+  // 18 x 10 x 8 blocks of 4 cells (the far ones 1 cell in x and y, 2 in z); about 400 of them resident, drawn at
+  // random (some twice): the first fill reads each pencil of blocks along x a row at a time, on several threads.
+  const nv::VolumeFileLayout layout = linearVolume("pencils", 70, 38, 31);
+  nv::BlockBufferConfig config;
+  config.blockCells = 4;
+  config.loadingSlots = 8;
+  config.memoryBudgetBytes = 408 * nv::BlockBuffer::bytesPerSlot(4) + 64; // 400 resident, 8 loading
+  nv::BlockBuffer buffer(layout, config);
+  const nv::BlockBufferStats s = buffer.stats();
+  std::printf("  %lld resident blocks, %lld read, %lld bytes read\n", (long long)s.residentBlocks,
+    (long long)s.blocksRead, (long long)s.bytesRead);
+  // The readers may have filled their 8 slots already.
+  EXPECT_TRUE(s.residentBlocks == 400 && s.blocksRead >= 400 && s.blocksRead <= 408);
+  // At most the rows of every pencil once (80 pencils of 5 x 5 rows of 70 samples) and the readers' 8 blocks.
+  EXPECT_TRUE(s.bytesRead <= 80 * 5 * 5 * 70 * 4 + 8 * 5 * 5 * 5 * 4);
+  const int64_t draws = 200000;
+  std::vector<float> xyz(3 * draws), values(draws);
+  buffer.drawSamples(draws, 13, 0, xyz.data(), values.data());
+  EXPECT_NEAR_REL(double(misplaced(layout, xyz, values)), 0.0, 0.0, 0.0);
+}
+
 NV_TEST(readers_visit_the_whole_volume_within_the_budget)
 {
   const nv::VolumeFileLayout layout = linearVolume("visit", 65, 49, 33); // 8 x 6 x 4 blocks of 8 cells
