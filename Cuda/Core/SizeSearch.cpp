@@ -108,7 +108,8 @@ std::string SizeSearchResult::describe(const SizeSearchRequest& request) const
     s << ", the smallest of 2^" << request.minLog2 << "..2^" << request.maxLog2 << " to reach it in " << request.steps
       << " steps";
   else
-    s << ", the better of the two largest that compress, did not reach it in " << request.steps << " steps";
+    s << ", the better of the two largest that compress: no candidate reached it in " << request.steps
+      << " steps (their own PSNR, before any Max Error correction)";
   s << " (trained in " << this->seconds << " s:";
   for (size_t i = 0; i < this->trials.size(); ++i)
     s << (i ? ", 2^" : " 2^") << this->trials[i].log2TableSize << " " << this->trials[i].psnr << " dB";

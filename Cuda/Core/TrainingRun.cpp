@@ -96,7 +96,8 @@ std::unique_ptr<nv::Trainer> TrainingRun::createTrainer()
     prologue();
     std::lock_guard<std::mutex> lock(this->Mutex);
     if (this->PhaseBudget > 0.0)
-      this->PhaseBudget = std::max(1e-3, this->PhaseBudget - secondsSince(started));
+      this->PhaseBudget =
+        std::max(1e-3, this->PhaseBudget - std::max(0.0, secondsSince(started) - this->PrologueExcluded));
   }
   const TrainingData& d = *this->DataPtr;
   if (d.Batches)

@@ -71,6 +71,9 @@ public:
   /// allocates or initialises a large table. Its seconds count against the first phase's time budget; an exception
   /// fails the run. Set before the run starts.
   void setPrologue(std::function<void()> prologue) { this->Prologue = std::move(prologue); }
+  /// From the prologue: seconds of it that do not count against the first phase's time budget (SizeForPSNR's search
+  /// of candidate sizes, each trained on its own: the network then gets the whole budget).
+  void excludeFromBudget(double seconds) { this->PrologueExcluded += seconds; }
 
   void pause();
   void resume();
@@ -98,6 +101,7 @@ private:
   /// the prologue).
   std::unique_ptr<nv::Trainer> createTrainer();
   std::function<void()> Prologue;
+  double PrologueExcluded = 0.0; ///< excludeFromBudget (the run's thread only)
   void worker();
   /// One phase (TrainingRunPhase.cpp): chunks of steps until a limit, the target PSNR or a stop.
   void runPhase(const std::function<bool()>& abort, const std::function<void(double)>& progress);
