@@ -18,7 +18,6 @@ pvbatch (this script with --serial-reference <folder>, a subprocess) and checks:
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 
@@ -154,34 +153,6 @@ def serial_reference(folder):
     nvtest.log("serial reference: %s" % result)
 
 
-def run_serial_reference():
-    pvbatch = os.environ.get("NV_PVBATCH", "pvbatch")
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
-    started = time.time()
-    serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__), "--serial-reference",
-                             out_dir], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
-    nvtest.log("serial reference pvbatch: exit %d in %.1f s\n%s" % (serial.returncode, time.time() - started,
-                                                                   serial.stdout.decode(errors="replace")[-2000:]))
-    if not nvtest.check(serial.returncode == 0 and os.path.exists(os.path.join(out_dir, "serial.json")),
-                        "the serial reference run succeeded"):
-        return None
-    with open(os.path.join(out_dir, "serial.json")) as f:
-        return json.load(f)
-
-
-def exclusive_slices(extent, whole):
-    """numpy slices (z, y, x) of the samples a piece of point extent `extent` owns alone (a shared upper plane
-    belongs to the next piece)."""
-    out = []
-    for a in (2, 1, 0):
-        lo, hi = extent[2 * a] - whole[2 * a], extent[2 * a + 1] - whole[2 * a]
-        if extent[2 * a + 1] < whole[2 * a + 1]:
-            hi -= 1
-        out.append(slice(lo, hi + 1))
-    return tuple(out)
-
-
 def check_pieces_and_figures(nc, ranks, whole=WHOLE, name="RTData", original=None):
     """Each rank's piece, network and figures; numpy's PSNR over the assembled decoded field (`original`: the whole
     field, z y x; the Wavelet's by default). Returns the extents, the global PSNR and the model bytes."""
@@ -204,7 +175,7 @@ def check_pieces_and_figures(nc, ranks, whole=WHOLE, name="RTData", original=Non
         dims = [extent[1] - extent[0] + 1, extent[3] - extent[2] + 1, extent[5] - extent[4] + 1]
         values = vtk_to_numpy(piece.GetPointData().GetArray(name)).astype(np.float64)
         values = values.reshape(dims[2], dims[1], dims[0])
-        own = exclusive_slices(extent, whole)
+        own = nvtest.exclusive_slices(extent, whole)
         offset = [extent[4 - 2 * i] - whole[4 - 2 * i] for i in range(3)]
         local = tuple(slice(s.start - offset[i], s.stop - offset[i]) for i, s in enumerate(own))
         decoded[own] = values[local]
@@ -309,7 +280,7 @@ def mpi_run():
     out_dir = os.path.join(out_dir, "Distributed%d" % ranks)  # the 2- and 4-rank tests may run at once
     os.makedirs(out_dir, exist_ok=True)
     nvtest.require_display()
-    reference = run_serial_reference()
+    reference = nvtest.run_serial_reference(__file__, out_dir)
     if reference is None:
         return
     before = memory(ranks)

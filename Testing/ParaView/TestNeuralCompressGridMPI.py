@@ -20,7 +20,6 @@ Rank 0 first runs the same pipelines without RedistributeDataSet in a serial pvb
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 
@@ -134,34 +133,6 @@ def serial_reference(folder):
     nvtest.log("serial reference: %s" % result)
 
 
-def run_serial_reference():
-    pvbatch = os.environ.get("NV_PVBATCH", "pvbatch")
-    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
-    started = time.time()
-    serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__), "--serial-reference",
-                             out_dir], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
-    nvtest.log("serial reference pvbatch: exit %d in %.1f s\n%s" % (serial.returncode, time.time() - started,
-                                                                   serial.stdout.decode(errors="replace")[-2000:]))
-    if not nvtest.check(serial.returncode == 0 and os.path.exists(os.path.join(out_dir, "serial.json")),
-                        "the serial reference run succeeded"):
-        return None
-    with open(os.path.join(out_dir, "serial.json")) as f:
-        return json.load(f)
-
-
-def exclusive_slices(extent, whole):
-    """numpy slices (z, y, x) of the samples a region of point extent `extent` owns alone (a shared upper plane
-    belongs to the next region)."""
-    out = []
-    for a in (2, 1, 0):
-        lo, hi = extent[2 * a] - whole[2 * a], extent[2 * a + 1] - whole[2 * a]
-        if extent[2 * a + 1] < whole[2 * a + 1]:
-            hi -= 1
-        out.append(slice(lo, hi + 1))
-    return tuple(out)
-
-
 def check_regions_and_figures(nc, redistributed, ranks, name, reference):
     """Each rank's own piece, region and network; the global figures against numpy. Returns the regions' extents."""
     check, log = nvtest.check, nvtest.log
@@ -190,7 +161,7 @@ def check_regions_and_figures(nc, redistributed, ranks, name, reference):
         dims = [extent[1] - extent[0] + 1, extent[3] - extent[2] + 1, extent[5] - extent[4] + 1]
         values = vtk_to_numpy(piece.GetPointData().GetArray("RTData")).astype(np.float64)
         values = values.reshape(dims[2], dims[1], dims[0])
-        mine = exclusive_slices(extent, whole)
+        mine = nvtest.exclusive_slices(extent, whole)
         offset = [extent[4 - 2 * i] - whole[4 - 2 * i] for i in range(3)]
         decoded[mine] = values[tuple(slice(s.start - offset[i], s.stop - offset[i]) for i, s in enumerate(mine))]
         owners[mine] += 1
@@ -263,7 +234,7 @@ def mpi_run():
     out_dir = os.path.join(out_dir, "GridMPI%d" % ranks)  # the 2- and 4-rank tests may run at once
     os.makedirs(out_dir, exist_ok=True)
     nvtest.require_display()
-    reference = run_serial_reference()
+    reference = nvtest.run_serial_reference(__file__, out_dir)
     if reference is None:
         return
     for name, make, spread in CASES:

@@ -401,3 +401,36 @@ def baseline(test_png, name, threshold_db, label, block=1):
     if not check(os.path.exists(reference), "%s: baseline %s exists" % (label, reference)):
         return -math.inf
     return compare_images(test_png, reference, threshold_db, label, block)
+
+
+def run_serial_reference(script, out_dir):
+    """The MPI tests' serial reference: `script --serial-reference out_dir` in a pvbatch of its own, without the MPI
+    launcher's environment (it would make that pvbatch a rank); returns its serial.json, or None (checked) on failure."""
+    import json
+    import subprocess
+    import time
+    pvbatch = os.environ.get("NV_PVBATCH", "pvbatch")
+    launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
+    started = time.time()
+    serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(script), "--serial-reference",
+                             out_dir], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
+    log("serial reference pvbatch: exit %d in %.1f s\n%s" % (serial.returncode, time.time() - started,
+                                                             serial.stdout.decode(errors="replace")[-2000:]))
+    if not check(serial.returncode == 0 and os.path.exists(os.path.join(out_dir, "serial.json")),
+                 "the serial reference run succeeded"):
+        return None
+    with open(os.path.join(out_dir, "serial.json")) as f:
+        return json.load(f)
+
+
+def exclusive_slices(extent, whole):
+    """numpy slices (z, y, x) of the samples a piece of point extent `extent` owns alone (a shared upper plane
+    belongs to the next piece)."""
+    out = []
+    for a in (2, 1, 0):
+        lo, hi = extent[2 * a] - whole[2 * a], extent[2 * a + 1] - whole[2 * a]
+        if extent[2 * a + 1] < whole[2 * a + 1]:
+            hi -= 1
+        out.append(slice(lo, hi + 1))
+    return tuple(out)
