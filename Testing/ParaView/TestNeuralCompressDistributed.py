@@ -27,7 +27,6 @@ import nvtest  # noqa: E402
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
-from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
 
 SERIAL = "--serial-reference" in sys.argv
@@ -160,31 +159,9 @@ def check_pieces_and_figures(nc, ranks, whole=WHOLE, name="RTData", original=Non
     nc.OutputMode = "Decoded, float32"
     nc.UpdatePipeline()
     original = wavelet_values() if original is None else original
-    decoded = np.zeros_like(original)
-    owners = np.zeros(original.shape, dtype=np.int32)
-    extents, figures = [], []
-    for r in range(ranks):
-        piece = servermanager.Fetch(nc, r)
-        extent = list(piece.GetExtent())
-        extents.append(extent)
-        fd = piece.GetFieldData()
-        networks = len([i for i in range(fd.GetNumberOfArrays()) if fd.GetArrayName(i) == "NeuralNetwork"])
-        check(networks == 1, "rank %d's output carries its own network (%d)" % (r, networks))
-        figures.append(tuple(nvtest.field_value(piece, k) for k in
-                             ("NeuralPSNR", "NeuralMaxError", "NeuralModelBytes", "NeuralNetworks")))
-        dims = [extent[1] - extent[0] + 1, extent[3] - extent[2] + 1, extent[5] - extent[4] + 1]
-        values = vtk_to_numpy(piece.GetPointData().GetArray(name)).astype(np.float64)
-        values = values.reshape(dims[2], dims[1], dims[0])
-        own = nvtest.exclusive_slices(extent, whole)
-        offset = [extent[4 - 2 * i] - whole[4 - 2 * i] for i in range(3)]
-        local = tuple(slice(s.start - offset[i], s.stop - offset[i]) for i, s in enumerate(own))
-        decoded[own] = values[local]
-        owners[own] += 1
-        log("rank %d: extent %s, piece PSNR %.3f dB" % (r, extent, nvtest.field_value(piece, "NeuralPiecePSNR")))
-    check(np.all(owners == 1), "the ranks' pieces partition the whole extent (samples owned 0 times: %d, twice or "
-          "more: %d)" % (int(np.sum(owners == 0)), int(np.sum(owners > 1))))
-    check(len(set(figures)) == 1, "the global figures are the same on every rank: %s" % figures)
-    psnr, max_error, model_bytes, networks = figures[0]
+    decoded, extents, figures = nvtest.assemble_pieces([servermanager.Fetch(nc, r) for r in range(ranks)], name,
+                                                       whole, original.shape)
+    psnr, max_error, model_bytes, networks = figures
     check(networks == ranks, "NeuralNetworks %s == %d ranks" % (networks, ranks))
     span = original.max() - original.min()
     numpy_psnr = 10.0 * math.log10(span ** 2 / float(np.mean((decoded - original) ** 2)))

@@ -139,37 +139,19 @@ def check_regions_and_figures(nc, redistributed, ranks, name, reference):
     log("--- %s" % name)
     original = np.load(os.path.join(out_dir, name.split("-")[0] + ".npy"))
     whole = [0, LATTICE[0] - 1, 0, LATTICE[1] - 1, 0, LATTICE[2] - 1]
-    decoded = np.zeros_like(original)
-    owners = np.zeros(original.shape, dtype=np.int32)
-    extents, figures = [], []
+    pieces = []
     for r in range(ranks):
         local = servermanager.Fetch(redistributed, r)
         piece = servermanager.Fetch(nc, r)
+        pieces.append(piece)
         own = nvtest.field_value(piece, "NeuralPieceSourceSamples")
         log("rank %d: redistributed piece %d points (%d not ghosts), %d cells; trained from %s source samples"
             % (r, local.GetNumberOfPoints(), own_points(local), local.GetNumberOfCells(), own))
         check(own == own_points(local) and own < reference["points"],
               "rank %d trained from its own piece only (%s samples; its piece %d points, the grid %d)"
               % (r, own, own_points(local), reference["points"]))
-        extent = list(piece.GetExtent())
-        extents.append(extent)
-        fd = piece.GetFieldData()
-        networks = len([i for i in range(fd.GetNumberOfArrays()) if fd.GetArrayName(i) == "NeuralNetwork"])
-        check(networks == 1, "rank %d's output carries its own network (%d)" % (r, networks))
-        figures.append(tuple(nvtest.field_value(piece, k) for k in
-                             ("NeuralPSNR", "NeuralMaxError", "NeuralModelBytes", "NeuralNetworks")))
-        dims = [extent[1] - extent[0] + 1, extent[3] - extent[2] + 1, extent[5] - extent[4] + 1]
-        values = vtk_to_numpy(piece.GetPointData().GetArray("RTData")).astype(np.float64)
-        values = values.reshape(dims[2], dims[1], dims[0])
-        mine = nvtest.exclusive_slices(extent, whole)
-        offset = [extent[4 - 2 * i] - whole[4 - 2 * i] for i in range(3)]
-        decoded[mine] = values[tuple(slice(s.start - offset[i], s.stop - offset[i]) for i, s in enumerate(mine))]
-        owners[mine] += 1
-        log("rank %d: region %s, piece PSNR %.3f dB" % (r, extent, nvtest.field_value(piece, "NeuralPiecePSNR")))
-    check(np.all(owners == 1), "the ranks' regions partition the lattice (samples owned 0 times: %d, twice or more: "
-          "%d)" % (int(np.sum(owners == 0)), int(np.sum(owners > 1))))
-    check(len(set(figures)) == 1, "the global figures are the same on every rank: %s" % figures)
-    psnr, max_error, model_bytes, networks = figures[0]
+    decoded, extents, figures = nvtest.assemble_pieces(pieces, "RTData", whole, original.shape)
+    psnr, max_error, model_bytes, networks = figures
     check(networks == ranks, "NeuralNetworks %s == %d ranks" % (networks, ranks))
     inside = ~np.isnan(original)
     check(np.array_equal(np.isnan(decoded), ~inside), "the decoded regions are NaN exactly where the serial "

@@ -434,3 +434,35 @@ def exclusive_slices(extent, whole):
             hi -= 1
         out.append(slice(lo, hi + 1))
     return tuple(out)
+
+
+def assemble_pieces(pieces, name, whole, shape):
+    """The MPI tests' decoded pieces (one vtkImageData a rank, fetched) placed into one array of `shape` (z, y, x) over
+    the point extent `whole`, each sample from the piece that owns it alone; checks that every piece carries its own
+    network, that the pieces partition `whole` and that the global figures are the same on every rank. Returns
+    (decoded, extents, figures: NeuralPSNR, NeuralMaxError, NeuralModelBytes, NeuralNetworks of the first)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    decoded = np.zeros(shape)
+    owners = np.zeros(shape, dtype=np.int32)
+    extents, figures = [], []
+    for rank, piece in enumerate(pieces):
+        extent = list(piece.GetExtent())
+        extents.append(extent)
+        fd = piece.GetFieldData()
+        networks = len([i for i in range(fd.GetNumberOfArrays()) if fd.GetArrayName(i) == "NeuralNetwork"])
+        check(networks == 1, "rank %d's output carries its own network (%d)" % (rank, networks))
+        figures.append(tuple(field_value(piece, k) for k in
+                             ("NeuralPSNR", "NeuralMaxError", "NeuralModelBytes", "NeuralNetworks")))
+        dims = [extent[1] - extent[0] + 1, extent[3] - extent[2] + 1, extent[5] - extent[4] + 1]
+        values = vtk_to_numpy(piece.GetPointData().GetArray(name)).astype(np.float64)
+        values = values.reshape(dims[2], dims[1], dims[0])
+        own = exclusive_slices(extent, whole)
+        offset = [extent[4 - 2 * i] - whole[4 - 2 * i] for i in range(3)]
+        decoded[own] = values[tuple(slice(s.start - offset[i], s.stop - offset[i]) for i, s in enumerate(own))]
+        owners[own] += 1
+        log("rank %d: extent %s, piece PSNR %.3f dB" % (rank, extent, field_value(piece, "NeuralPiecePSNR")))
+    check(np.all(owners == 1), "the ranks' pieces partition the whole extent (samples owned 0 times: %d, twice or "
+          "more: %d)" % (int(np.sum(owners == 0)), int(np.sum(owners > 1))))
+    check(len(set(figures)) == 1, "the global figures are the same on every rank: %s" % figures)
+    return decoded, extents, figures[0]
