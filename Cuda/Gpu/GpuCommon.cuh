@@ -110,10 +110,25 @@ using DeviceBuffer = CudaBuffer<T, false>;
 template <typename T>
 using PinnedBuffer = CudaBuffer<T, true>;
 
+/// The scheduling priority of a stream's kernels: a GPU shared by a training run and the renders of a view it is
+/// shown in gives the renders' blocks the SMs first as they free up (training's kernels are short, so a frame waits
+/// for at most the blocks already running, not for the steps queued behind them).
+enum class StreamPriority
+{
+  Normal,  ///< the device's lowest (the default): training, background work
+  Highest, ///< the device's highest: work a view waits for (renders, the Decode path's grid)
+};
+
 class Stream
 {
 public:
-  Stream() { NV_CUDA(cudaStreamCreateWithFlags(&Handle, cudaStreamNonBlocking)); }
+  explicit Stream(StreamPriority priority = StreamPriority::Normal)
+  {
+    int lowest = 0, highest = 0;
+    NV_CUDA(cudaDeviceGetStreamPriorityRange(&lowest, &highest));
+    NV_CUDA(cudaStreamCreateWithPriority(
+      &Handle, cudaStreamNonBlocking, priority == StreamPriority::Highest ? highest : lowest));
+  }
   ~Stream()
   {
     if (Handle)

@@ -339,7 +339,8 @@ private:
   std::shared_ptr<const ErrorCorrections> Corrections; ///< of HostModel's parameters; null once a trainer publishes
   bool HostStale = false;
   uint64_t Version = 1;
-  Stream ComputeStream, CopyStream;
+  Stream ComputeStream{ StreamPriority::Highest }; ///< renders and inference: a view waits for them
+  Stream CopyStream{ StreamPriority::Highest };
   DeviceModel Network;
   DeviceBuffer<float> Params32;
   DeviceModel BackNetwork;               ///< publish(): the next network, packed while renders use Network

@@ -97,7 +97,8 @@ def frames(source, array, nc, size):
 
 
 def path_tracing_still(view, neural, tag):
-    """Path tracing + NEE still renders of one view (Decode; times: medians of 3, the single pass of 5): one pass, the still render to TargetSamples paths with
+    """Path tracing + NEE still renders of one view (Decode; times: medians of 3, the single pass of 5, each until the
+    GPU has finished the picture): one pass, the still render to TargetSamples paths with
     the denoiser (the default) and without, and a raw reference of 2 x 1024 paths; every picture's PSNR against the
     reference over the pixels the volume covers. The reference's own noise is measured, not assumed away: its first
     1024 paths (A) and the whole 2048 (C) give MSE(C, truth) ~ MSE(A, B) / 4 = MSE(A, C) (B, the second half, = 2C - A),
@@ -128,6 +129,9 @@ def path_tracing_still(view, neural, tag):
             neural.Denoise = denoise
             started = time.perf_counter()
             Render(view)
+            # Through interop Render() returns before the GPU has drawn (the engine's work is queued): the time of
+            # a still picture is until it is on the view, for one pass as for many.
+            view.GetRenderWindow().WaitForCompletion()
             times.append(1000 * (time.perf_counter() - started))
         png = shot("%d_%s" % (target, "denoised" if denoise else "raw"))
         return {"ms": round(statistics.median(times), 3), "ms_each": [round(t, 3) for t in times],

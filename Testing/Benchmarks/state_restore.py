@@ -6,7 +6,8 @@ SaveScreenshot does), the steps trained on load (must be 0), and whether the dec
 Sources: "wavelet" (ParaView's Wavelet, regenerated on load) or "file" (a 256^3 float32 raw volume written by numpy and
 read by ParaView's NRRD reader: the source's cost is then reading 64 MB, not computing the field).
 With --stock the same source is also saved shown as ParaView's stock Volume, and that state is loaded the same way: the
-figure the network's restore is compared with. --device CUDA trains (and so renders) on the GPU.
+figure the network's restore is compared with; and the network's state without its networks' bytes is loaded (LoadState
+alone), which says what ParaView's state loading spends on those bytes. --device CUDA trains (and so renders) on the GPU.
 Usage: xvfb-run -a pvbatch --force-offscreen-rendering state_restore.py <plugin.so> <out folder>
                  [--source wavelet|file] [--n 256] [--steps 100] [--repeat 3] [--device CPU|CUDA] [--stock]
 GUI: Testing/Benchmarks/state_restore_gui.sh <plugin.so> <out folder>/restore_<source>.pvsm"""
@@ -32,6 +33,10 @@ def load(plugin, state, npy):
     t0 = time.time()
     LoadState(state)
     loadstate = time.time() - t0
+    if state.endswith("_stripped.pvsm"):  # LoadState alone: the state without its networks' bytes
+        print("RESULT " + json.dumps(dict(what="paraview_stripped_state_load", loadstate_s=round(loadstate, 3))),
+              flush=True)
+        os._exit(0)
     nc = FindSource("Restore")
     if nc is None:  # the stock state: the source shown as Volume
         view = GetRenderViews()[0]
@@ -160,6 +165,15 @@ def main():
         if lines:
             print(lines[-1], flush=True)
             stock_runs.append(json.loads(lines[-1][7:]))
+    stripped_runs = []
+    for k in range(a.repeat if a.stock else 0):
+        stripped = strip_networks(state)
+        child = subprocess.run(["pvbatch", "--force-offscreen-rendering", os.path.abspath(__file__), a.plugin, a.out,
+                                "--load", stripped], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        lines = [l for l in child.stdout.decode(errors="replace").splitlines() if l.startswith("RESULT ")]
+        if lines:
+            print(lines[-1], flush=True)
+            stripped_runs.append(json.loads(lines[-1][7:]))
     keys = ["loadstate_s", "source_s", "filter_s", "network_restored_s", "first_picture_s", "full_picture_s",
             "decoded_after_render_s"]
     summary = {k: [min(r[k] for r in runs), max(r[k] for r in runs)] for k in keys if runs}
@@ -171,8 +185,22 @@ def main():
                                             max(r["first_picture_s"] for r in stock_runs)]
         summary["stock_full_picture_s"] = [min(r["full_picture_s"] for r in stock_runs),
                                            max(r["full_picture_s"] for r in stock_runs)]
+    if stripped_runs:
+        summary["stripped_loadstate_s"] = [min(r["loadstate_s"] for r in stripped_runs),
+                                           max(r["loadstate_s"] for r in stripped_runs)]
     print("RESULT " + json.dumps(summary), flush=True)
     os._exit(0)
+
+
+def strip_networks(state):
+    """A copy of the state whose TrainedNetworks value is empty: its LoadState time, against the whole state's, is
+    what ParaView's state loading spends on the networks' bytes (read, parsed, checked, pushed)."""
+    text = open(state).read()
+    start = text.find('value="', text.find('name="TrainedNetworks"')) + len('value="')
+    stripped = state[:-len(".pvsm")] + "_stripped.pvsm"
+    with open(stripped, "w") as f:
+        f.write(text[:start] + text[text.find('"', start):])
+    return stripped
 
 
 main()
