@@ -71,16 +71,16 @@ private:
   /// A GPU image copied from the texture to Image (the texture's context current).
   void ReadBack();
 
-  /// A texture and its CUDA registration. Two slots: a turning view alternates between the interactive image size
-  /// (InteractiveImageScale) and the still one, and registering a texture with CUDA costs ~25 ms on the H100 -- each
-  /// size keeps its own.
+  /// A texture and its CUDA registration. Four slots: a turning view alternates between an interactive image size
+  /// (InteractiveImageScale, or one of its two smaller levels: AdaptiveInteractiveScale) and the still one, and
+  /// registering a texture with CUDA costs ~25 ms on the H100 -- each size keeps its own.
   struct TextureSlot
   {
     vtkSmartPointer<vtkTextureObject> Texture;
     std::unique_ptr<nv::GlImageTarget> Target; ///< the texture registered with CUDA (SetDeviceImage)
     uint64_t LastUse = 0;
   };
-  static constexpr int kTextureSlots = 2;
+  static constexpr int kTextureSlots = 4;
   TextureSlot Slots[kTextureSlots];
   int Current = 0;    ///< the slot of the current image
   uint64_t Uses = 0;  ///< PrepareTexture calls (the slots' clock)

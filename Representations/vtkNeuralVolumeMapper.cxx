@@ -24,6 +24,7 @@
 #include "vtkVolumeProperty.h"
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <set>
@@ -263,7 +264,7 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     {
       return;
     }
-    const double scale = interactive ? this->InteractiveImageScale : 1.0;
+    const double scale = interactive ? std::max(0.05, this->InteractiveImageScale * in.DetailFactor) : 1.0;
     nv::RenderRequest q;
     const std::string refused = this->BuildRequest(ren, vol, image, interactive, scale, q);
     if (!refused.empty())
@@ -321,24 +322,39 @@ void vtkNeuralVolumeMapper::PaceInteractiveFrame()
   if (this->MaximumInteractiveFrameRate <= 0.0)
   {
     in.NextInteractiveSlot = {};
+    in.DetailFactor = in.Detail.next(0.0, 0.0, 0.0); // unpaced: full detail
     return;
   }
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
     std::chrono::duration<double>(1.0 / this->MaximumInteractiveFrameRate));
   const bool cadence = in.NextInteractiveSlot.time_since_epoch().count() != 0;
+  // How late this frame is for its slot (negative: early), for the interactive image's level of detail; NaN when the
+  // view was still before it (no interactive frame for a quarter of a second: not a late frame).
+  double lateSeconds = std::numeric_limits<double>::quiet_NaN();
+  const bool turning = now - in.LastInteractiveFrame < std::chrono::milliseconds(250);
+  in.LastInteractiveFrame = now;
   if (cadence && now < in.NextInteractiveSlot)
   {
+    lateSeconds = -std::chrono::duration<double>(in.NextInteractiveSlot - now).count();
     std::this_thread::sleep_until(in.NextInteractiveSlot);
     in.NextInteractiveSlot += period;
   }
   else if (cadence && now < in.NextInteractiveSlot + period)
   {
+    lateSeconds = std::chrono::duration<double>(now - in.NextInteractiveSlot).count();
     in.NextInteractiveSlot += period;
   }
   else
   {
+    if (cadence && turning)
+      lateSeconds = std::chrono::duration<double>(now - in.NextInteractiveSlot).count(); // a slow frame
     in.NextInteractiveSlot = now + period;
   }
+  // The previous frame's engine time: its GPU time (through interop, the frame before's), or the engine call's.
+  const double engineSeconds = std::max(in.Timings[1], in.Timings[7]) / 1000.0;
+  in.DetailFactor = this->AdaptiveInteractiveScale
+    ? in.Detail.next(lateSeconds, engineSeconds, 1.0 / this->MaximumInteractiveFrameRate)
+    : 1.0;
 }
 
 //------------------------------------------------------------------------------
@@ -568,6 +584,7 @@ void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "DecodeResolution: " << this->DecodeResolution[0] << " " << this->DecodeResolution[1] << " "
      << this->DecodeResolution[2] << "\n"
      << indent << "InteractiveImageScale: " << this->InteractiveImageScale << "\n"
+     << indent << "AdaptiveInteractiveScale: " << this->AdaptiveInteractiveScale << "\n"
      << indent << "MaximumInteractiveFrameRate: " << this->MaximumInteractiveFrameRate << "\n"
      << indent << "ProgressiveRefinement: " << this->ProgressiveRefinement << "\n"
      << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n"

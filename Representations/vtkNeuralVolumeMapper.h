@@ -156,6 +156,11 @@ public:
   /// Fraction of the viewport size rendered by an interactive render (0.05 - 1).
   vtkSetClampMacro(InteractiveImageScale, double, 0.05, 1.0);
   vtkGetMacro(InteractiveImageScale, double);
+  /// Paced interactive renders (MaximumInteractiveFrameRate > 0) that keep missing their slot while the engine's time
+  /// is a large part of it render a smaller image (0.7 then 0.5 of InteractiveImageScale per axis), and a larger one
+  /// again once frames have time to spare (nv::InteractiveDetail). Still renders are always full size. Default on.
+  vtkSetMacro(AdaptiveInteractiveScale, bool);
+  vtkGetMacro(AdaptiveInteractiveScale, bool);
   ///@}
 
   ///@{
@@ -271,6 +276,7 @@ protected:
   bool EmptySpaceSkipping = true;
   int DecodeResolution[3] = { 0, 0, 0 };
   double InteractiveImageScale = 0.5;
+  bool AdaptiveInteractiveScale = true;
   double MaximumInteractiveFrameRate = 60.0;
   bool ProgressiveRefinement = false;
   double FrameBudget = 50.0;

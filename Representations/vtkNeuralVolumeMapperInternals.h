@@ -10,6 +10,7 @@
 #include "vtkNeuralImageCompositor.h"
 #include "vtkNeuralProgressiveRenderer.h"
 
+#include "Core/InteractiveDetail.h"
 #include "Core/NetworkSession.h"
 #include "Core/Render.h"
 
@@ -106,6 +107,9 @@ struct vtkNeuralVolumeMapper::vtkInternals
   // The last frame: where its time went (GetLastFrameTimings) and how its image reached the view.
   double Timings[vtkNeuralVolumeMapper::FrameTimingCount] = {};
   std::chrono::steady_clock::time_point NextInteractiveSlot; ///< when the next interactive frame may start (pacing)
+  std::chrono::steady_clock::time_point LastInteractiveFrame; ///< when the last paced interactive frame was asked for
+  nv::InteractiveDetail Detail; ///< the interactive image's level of detail (AdaptiveInteractiveScale)
+  double DetailFactor = 1.0;    ///< of InteractiveImageScale, for the current interactive frame
   std::string DisplayPath = "none";
   std::string InteropRefused; ///< why CUDA-OpenGL interop is not possible in this view ("" until it was refused)
 };

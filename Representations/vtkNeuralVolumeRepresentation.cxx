@@ -88,6 +88,10 @@ void vtkNeuralVolumeRepresentation::SetInteractiveImageScale(double scale)
 {
   this->NeuralMapper->SetInteractiveImageScale(scale);
 }
+void vtkNeuralVolumeRepresentation::SetAdaptiveInteractiveScale(int adaptive)
+{
+  this->NeuralMapper->SetAdaptiveInteractiveScale(adaptive != 0);
+}
 void vtkNeuralVolumeRepresentation::SetMaximumInteractiveFrameRate(double framesPerSecond)
 {
   this->NeuralMapper->SetMaximumInteractiveFrameRate(framesPerSecond);

@@ -44,6 +44,7 @@ public:
   void SetEmptySpaceSkipping(int skip);
   void SetDecodeResolution(int x, int y, int z);
   void SetInteractiveImageScale(double scale);
+  void SetAdaptiveInteractiveScale(int adaptive);
   void SetMaximumInteractiveFrameRate(double framesPerSecond);
   void SetProgressiveRefinement(int progressive);
   void SetCudaGLInterop(int interop);

@@ -148,7 +148,7 @@ check(render_groups.get("Neural Volume") == ["RenderPath", "ShadingMode", "Strea
                                               "TargetSamples", "Denoise"]
       and render_groups.get("Neural Volume Lighting") == ["FollowViewLight", "LightDirection", "MaxBounces"]
       and render_groups.get("Neural Volume Quality") == ["SampleDistance", "DecodeResolution",
-                                                         "EmptySpaceSkipping", "InteractiveImageScale",
+                                                         "EmptySpaceSkipping", "InteractiveImageScale", "AdaptiveInteractiveScale",
                                                          "MaximumInteractiveFrameRate", "CudaGLInterop"],
       "render settings grouped: %r" % render_groups)
 
