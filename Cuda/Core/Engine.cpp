@@ -16,6 +16,20 @@ int cudaDeviceCount()
   return cudaBackendDeviceCount();
 }
 
+void cudaCreateContext(int cudaDevice) noexcept
+{
+  try
+  {
+    int64_t freeBytes = 0, totalBytes = 0;
+    if (cudaBackendUsable(nullptr, cudaDevice))
+      cudaDeviceMemory(freeBytes, totalBytes, cudaDevice); // its first call on a device creates the context
+  }
+  catch (...)
+  {
+    // A context that cannot be made now is made (and its error reported) by the first session.
+  }
+}
+
 Device resolveDevice(Device requested, std::string* message, int cudaDevice)
 {
   std::string why;

@@ -25,6 +25,10 @@ bool cudaAvailable(std::string* why = nullptr, int cudaDevice = -1);
 /// CUDA devices this process sees (0 in a build without CUDA, without a driver or a GPU). The CUDA runtime reads
 /// CUDA_VISIBLE_DEVICES, which a launcher may set per process; the engine reads no environment variable itself.
 int cudaDeviceCount();
+/// Creates the CUDA context of device `cudaDevice` (-1: the calling thread's current one) when CUDA is usable there,
+/// so that the first session made afterwards does not wait for it (0.2 s on an H100); callable from any thread (a
+/// background thread while a state loads); nothing in a build without CUDA or without a GPU. Never throws.
+void cudaCreateContext(int cudaDevice = -1) noexcept;
 /// Auto -> Cuda when device `cudaDevice` is available, else Cpu. Cuda when unavailable throws.
 Device resolveDevice(Device requested, std::string* message = nullptr, int cudaDevice = -1);
 

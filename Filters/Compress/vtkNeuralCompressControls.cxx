@@ -3,6 +3,7 @@
 
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralCudaDevice.h"
 
 #include "Core/Engine.h"
 #include "Core/Error.h"
@@ -228,6 +229,12 @@ void vtkNeuralCompress::SetTrainedNetworks(const char* value)
   }
   in.TrainedNetworksSet = text;
   std::string error;
+  if (!text.empty() && this->Device != DEVICE_CPU)
+  {
+    // A state brings networks back: their sessions will be made once the input has updated; the CUDA context is
+    // made meanwhile.
+    vtkNeuralCudaDevice::CreateContextInBackground();
+  }
   std::map<uint64_t, std::vector<uint8_t>> networks = nvi::DecodeNetworks(text, error);
   if (!error.empty())
   {

@@ -26,6 +26,11 @@ public:
   /// process sees (-1 when it sees none). Returns the choice.
   static int ChooseForLocalRank(int localRank);
 
+  /// Serial runs (one process): creates the CUDA context of Get()'s device on a background thread, once per
+  /// process, so that a state being loaded (its networks come back without training) does not wait for it when the
+  /// first session is made. Under MPI it does nothing: a rank's device is chosen later, in its first execution.
+  static void CreateContextInBackground();
+
   vtkNeuralCudaDevice() = delete;
 };
 
