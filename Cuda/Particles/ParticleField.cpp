@@ -191,11 +191,12 @@ int64_t ParticleField::candidates(const double x[3]) const
   return visited;
 }
 
-bool ParticleField::evaluate(const double x[3], double& value) const
+void ParticleField::sumsAt(const double x[3], double& sumWeighted, double& sumWeight) const
 {
   const double u[3] = { (x[0] - this->Bounds[0]) * this->Scale, (x[1] - this->Bounds[2]) * this->Scale,
     (x[2] - this->Bounds[4]) * this->Scale };
-  double sumWeight = 0.0, sumWeighted = 0.0;
+  sumWeight = 0.0;
+  sumWeighted = 0.0;
   const ParticleKernel kernel = this->Options.Kernel;
   this->forEachNear(u, [&](const ParticleRecord& r) {
     const double dx = u[0] - r.x, dy = u[1] - r.y, dz = u[2] - r.z;
@@ -206,12 +207,41 @@ bool ParticleField::evaluate(const double x[3], double& value) const
     sumWeight += w;
     sumWeighted += w * r.value;
   });
+}
+
+bool ParticleField::evaluate(const double x[3], double& value) const
+{
+  double sumWeight = 0.0, sumWeighted = 0.0;
+  this->sumsAt(x, sumWeighted, sumWeight);
   if (!(sumWeight > 0.0))
     return false;
   // Density: the records' 1 / R^3 are in box units; Scale^3 turns them into the data's.
   value = this->Options.Mode == ParticleFieldMode::Density ? sumWeighted * this->Scale * this->Scale * this->Scale
                                                            : sumWeighted / sumWeight;
   return true;
+}
+
+void ParticleField::kernelSums(const double* xyz, int64_t count, double* weighted, double* weights, int threads) const
+{
+  if (count <= 0)
+    return;
+  const int cores = std::max(1, int(std::thread::hardware_concurrency()));
+  const int n = int(std::min<int64_t>(threads > 0 ? threads : cores, std::max<int64_t>(1, count / 4096)));
+  const double scale3 = this->Scale * this->Scale * this->Scale; // 1 / R^3 from box units to the data's
+  auto work = [&](int t) {
+    for (int64_t i = count * t / n; i < count * (t + 1) / n; ++i)
+    {
+      this->sumsAt(xyz + 3 * i, weighted[i], weights[i]);
+      weighted[i] *= scale3;
+      weights[i] *= scale3;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < n; ++t)
+    pool.emplace_back(work, t);
+  work(0);
+  for (std::thread& t : pool)
+    t.join();
 }
 
 int64_t ParticleField::evaluateMany(const double* xyz, int64_t count, double* values, int threads) const

@@ -77,6 +77,12 @@ public:
   /// Returns the number of points inside the support.
   int64_t evaluateMany(const double* xyz, int64_t count, double* values, int threads) const;
 
+  /// The kernel sums at count points (interleaved xyz), in the data's units: weighted[i] = sum_j f_j W_j(x_i) and
+  /// weights[i] = sum_j W_j(x_i), both 0 outside every support. The field is weighted / weights (Interpolate) or
+  /// weighted (Density) where weights > 0, and the sums of fields built on disjoint parts of one particle set (the
+  /// same radii) add up to the whole set's: how the ranks of a distributed set combine their particles' sums.
+  void kernelSums(const double* xyz, int64_t count, double* weighted, double* weights, int threads) const;
+
   const ParticleCounts& counts() const { return this->Counts; }
   const ParticleOptions& options() const { return this->Options; }
   /// The box of the particles used (finite positions), xmin xmax ymin ymax zmin zmax.
@@ -97,6 +103,8 @@ public:
 private:
   std::vector<ParticleRecord> Gather(const ParticleInput& input);
   void BuildLocator(std::vector<ParticleRecord> records, const double extent[3]);
+  /// The kernel sums at world point x in the records' units (1 / R^3 in box units).
+  void sumsAt(const double x[3], double& sumWeighted, double& sumWeight) const;
   template <class Visit>
   void forEachNear(const double u[3], Visit&& visit) const
   {

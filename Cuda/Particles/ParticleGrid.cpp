@@ -62,44 +62,61 @@ int64_t ParticleGrid::bytes() const
   return int64_t(this->Records.size() * sizeof(ParticleRecord) + this->Start.size() * sizeof(int64_t));
 }
 
-double meanParticleSpacing(const std::vector<ParticleRecord>& records, const double extent[3])
+SpacingGrid::SpacingGrid(int64_t count, const double extent[3])
 {
   const double largest = std::max({ extent[0], extent[1], extent[2] });
-  const int64_t n = int64_t(records.size());
-  if (n == 0 || !(largest > 0.0))
-    return 0.0;
-  int active = 0;
+  if (count <= 0 || !(largest > 0.0))
+    return;
   double measure = 1.0;
   for (int a = 0; a < 3; ++a)
     if (extent[a] > 1e-6 * largest)
     {
-      ++active;
+      ++this->Active;
       measure *= extent[a];
     }
-  // About 8 particles per cell, at most 2^24 cells (a bit each).
-  const double cells = std::min(std::max(double(n) / 8.0, 1.0), double(1 << 24));
-  const double edge = std::pow(measure / cells, 1.0 / active);
-  int dims[3];
+  const double cells = std::min(std::max(double(count) / 8.0, 1.0), double(1 << 24));
+  this->Edge = std::pow(measure / cells, 1.0 / this->Active);
   for (int a = 0; a < 3; ++a)
-    dims[a] = extent[a] > 1e-6 * largest ? int(std::min(std::floor(extent[a] / edge) + 1.0, 1e6)) : 1;
-  const int64_t total = int64_t(dims[0]) * dims[1] * dims[2];
-  NV_CHECK(total > 0 && total <= (int64_t(1) << 26), "the spacing grid has " + std::to_string(total) + " cells");
-  std::vector<uint8_t> occupied(size_t(total), 0);
+    this->Dims[a] = extent[a] > 1e-6 * largest ? int(std::min(std::floor(extent[a] / this->Edge) + 1.0, 1e6)) : 1;
+  NV_CHECK(this->cells() > 0 && this->cells() <= (int64_t(1) << 26),
+    "the spacing grid has " + std::to_string(this->cells()) + " cells");
+}
+
+int64_t SpacingGrid::cellOf(const float p[3]) const
+{
+  int64_t index = 0, stride = 1;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int i = std::min(std::max(int(std::floor(double(p[a]) / this->Edge)), 0), this->Dims[a] - 1);
+    index += int64_t(i) * stride;
+    stride *= this->Dims[a];
+  }
+  return index;
+}
+
+double SpacingGrid::spacing(int64_t occupied, int64_t count) const
+{
+  if (!(this->Edge > 0.0) || count <= 0)
+    return 0.0;
+  return std::pow(double(occupied) * std::pow(this->Edge, this->Active) / double(count), 1.0 / this->Active);
+}
+
+double meanParticleSpacing(const std::vector<ParticleRecord>& records, const double extent[3])
+{
+  const int64_t n = int64_t(records.size());
+  const SpacingGrid grid(n, extent);
+  if (!(grid.Edge > 0.0))
+    return 0.0;
+  std::vector<uint8_t> occupied(size_t(grid.cells()), 0);
   int64_t count = 0;
   for (const ParticleRecord& r : records)
   {
     const float p[3] = { r.x, r.y, r.z };
-    int64_t index = 0, stride = 1;
-    for (int a = 0; a < 3; ++a)
-    {
-      const int i = std::min(std::max(int(std::floor(double(p[a]) / edge)), 0), dims[a] - 1);
-      index += int64_t(i) * stride;
-      stride *= dims[a];
-    }
+    const int64_t index = grid.cellOf(p);
     count += occupied[size_t(index)] ? 0 : 1;
     occupied[size_t(index)] = 1;
   }
-  return std::pow(double(count) * std::pow(edge, active) / double(n), 1.0 / active);
+  return grid.spacing(count, n);
 }
 
 } // namespace nv

@@ -79,6 +79,22 @@ private:
   std::vector<ParticleRecord> Records;
 };
 
+/// The occupancy grid of meanParticleSpacing for `count` particles over a box [0, extent]: about 8 particles per
+/// cell (at most 2^24 cells) over the axes that are not flat. Split from it so that ranks of a distributed set can
+/// mark their own particles' cells in the whole set's grid and count the occupied cells together.
+struct SpacingGrid
+{
+  double Edge = 0.0; ///< 0: no particle, or all at one point
+  int Dims[3] = { 1, 1, 1 };
+  int Active = 0; ///< axes that are not flat
+  SpacingGrid(int64_t count, const double extent[3]);
+  /// The cell of a position in the records' frame (clamped to the grid), x fastest.
+  int64_t cellOf(const float p[3]) const;
+  int64_t cells() const { return int64_t(this->Dims[0]) * this->Dims[1] * this->Dims[2]; }
+  /// The spacing d with count * d^k = the measure of `occupied` cells.
+  double spacing(int64_t occupied, int64_t count) const;
+};
+
 /// The mean particle spacing of `count` positions (relative to `lo`, in a box of `extent`): the d with
 /// count * d^k = the measure of the cells that hold a particle, in a grid of about 8 particles per cell over the k
 /// axes that are not flat. 0 when every particle lies at one point.

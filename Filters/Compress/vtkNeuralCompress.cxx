@@ -31,6 +31,7 @@
 #include "vtkStringArray.h"
 #include "vtkTable.h"
 #include "vtkTypeInt64Array.h"
+#include "vtkPointSet.h"
 #include "vtkUnstructuredGrid.h"
 #include "vtkUnsignedCharArray.h"
 
@@ -145,9 +146,10 @@ int vtkNeuralCompress::RequestData(
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;
   }
-  if (vtkUnstructuredGrid::SafeDownCast(inputObject) && this->Internals->GridPieces)
+  if (vtkPointSet::SafeDownCast(inputObject) && this->Internals->GridPieces)
   {
-    // MPI, unstructured grid: every rank trains its own piece's network (vtkNeuralCompressDataSetPiece.h).
+    // MPI, unstructured grid or particle set: every rank trains its own piece's network
+    // (vtkNeuralCompressDataSetPiece.h, vtkNeuralCompressParticlePiece.h).
     this->ExecuteGridPiece(vtkDataSet::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output,
       log, metrics, time);
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);

@@ -57,8 +57,6 @@ struct SelectedInput
 };
 } // namespace vtkNeuralCompressInternals
 
-namespace
-{
 /// The filter's particle properties (particle inputs; ignored by the others).
 nvi::ParticleSettings ParticleSettingsOf(vtkNeuralCompress* filter)
 {
@@ -72,6 +70,8 @@ nvi::ParticleSettings ParticleSettingsOf(vtkNeuralCompress* filter)
   return s;
 }
 
+namespace
+{
 /// Automatic sampling dimensions under a TimeBudget: resampling takes at most this share of it, probing at most
 /// kProbeBudgetShare (both measured on the input).
 constexpr double kResampleBudgetShare = 0.25;
@@ -289,7 +289,7 @@ bool vtkNeuralCompress::PrepareField(
     input.Array = request.Array;
     input.Association = request.Association;
     if (this->Internals->GridPieceActive)
-      input.Outside = this->Internals->GridPiece.Outside(); // the domain mask, as a resampled input's
+      input.Outside = this->Internals->PieceOutside(); // the domain mask, as a resampled input's
   }
   else if (!stage("resampling the input onto an image") ||
     !this->ResampleInput(request, settings.Deterministic ? 0.0 : settings.TimeBudget, input))
@@ -485,8 +485,8 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   if (input.Outside && in.GridPieceActive)
   {
     // A rank's piece of an unstructured grid: measured on its lattice samples (the global figures).
-    field.Description = field.Description.empty() ? in.GridPiece.Description()
-                                                  : field.Description + "; " + in.GridPiece.Description();
+    field.Description = field.Description.empty() ? in.PieceDescription()
+                                                  : field.Description + "; " + in.PieceDescription();
   }
   else if (input.Outside)
   {

@@ -17,6 +17,7 @@
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkPolyData.h"
 #include "vtkUnstructuredGrid.h"
 
 #include <algorithm>
@@ -154,9 +155,9 @@ void vtkNeuralCompress::AnnounceResampledExtent(vtkInformation* inInfo, vtkInfor
 bool vtkNeuralCompress::AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input)
 {
   vtkInternals& in = *this->Internals;
-  if (!vtkUnstructuredGrid::SafeDownCast(input))
+  if (!vtkUnstructuredGrid::SafeDownCast(input) && !vtkPolyData::SafeDownCast(input))
   {
-    in.GridPieces = false; // the same type on every rank: no collective
+    in.GridPieces = in.ParticlePieces = false; // the same type on every rank: no collective
     return false;
   }
   // A new decision only when every rank sees a change (ParaView changes proxies on every rank together): an
@@ -177,12 +178,19 @@ bool vtkNeuralCompress::AnnounceGridPieces(vtkInformation* inInfo, vtkInformatio
     nvi::UpdateLocalPiece(this, inInfo);
     input = inInfo->Get(vtkDataObject::DATA_OBJECT());
     in.GridPieces = nvi::PerRankDataSets(input);
+    // A particle set: its own pieces (vtkNeuralCompressParticlePiece.h), trained as a grid's are.
+    in.ParticlePieces = !in.GridPieces && nvi::PerRankParticles(input);
     std::fill(in.GridDims, in.GridDims + 3, 0);
     std::string problem;
     if (in.GridPieces && name && *name &&
       !in.GridPiece.Resolve(vtkDataSet::SafeDownCast(input), name, association, this->SamplingDimensions,
         in.GridDims, problem))
       std::fill(in.GridDims, in.GridDims + 3, 0); // RequestData reports it
+    if (in.ParticlePieces && name && *name &&
+      !in.Particles.Resolve(input, name, association, this->SamplingDimensions, ParticleSettingsOf(this),
+        in.GridDims, problem))
+      std::fill(in.GridDims, in.GridDims + 3, 0);
+    in.GridPieces = in.GridPieces || in.ParticlePieces;
     in.GridDecided = true;
     in.GridDecisionStamp = stamp;
   }

@@ -228,7 +228,10 @@ void vtkNeuralCompress::ExecuteGridPiece(
     ai && ai->Has(vtkDataObject::FIELD_ASSOCIATION()) ? ai->Get(vtkDataObject::FIELD_ASSOCIATION()) : -1;
   std::string problem;
   // Every rank takes part in the preparation's collectives, whatever its array selection says.
-  const bool prepared = in.GridPiece.Prepare(local, name ? name : "", association, this->SamplingDimensions, problem);
+  const bool prepared = in.ParticlePieces
+    ? in.Particles.Prepare(local, name ? name : "", association, this->SamplingDimensions, ParticleSettingsOf(this),
+        problem)
+    : in.GridPiece.Prepare(local, name ? name : "", association, this->SamplingDimensions, problem);
   if (!prepared)
   {
     if (!name || !*name)
@@ -236,20 +239,32 @@ void vtkNeuralCompress::ExecuteGridPiece(
     vtkErrorMacro("Neural Compress: cannot resample this rank's piece of the "
       << (local ? local->GetClassName() : "empty") << " input: " << problem << ". The output is empty.");
   }
-  const bool hasPiece = prepared && in.GridPiece.HasPiece();
-  if (hasPiece)
+  const bool particles = in.ParticlePieces;
+  const bool hasPiece = prepared && (particles ? in.Particles.HasPiece() : in.GridPiece.HasPiece());
+  if (hasPiece && particles)
+    in.Piece.Adopt(in.Particles.Training(), in.Particles.Owned(), in.Particles.Whole());
+  else if (hasPiece)
     in.Piece.Adopt(in.GridPiece.Training(), in.GridPiece.Owned(), in.GridPiece.Whole());
   in.GridPieceActive = hasPiece;
-  this->TrainPiece(hasPiece, ranksHere, hasPiece ? in.GridPiece.SourceBytes() : -1.0, inInfo, output, log, metrics,
-    time);
+  const double sourceBytes = particles ? in.Particles.SourceBytes() : in.GridPiece.SourceBytes();
+  this->TrainPiece(hasPiece, ranksHere, hasPiece ? sourceBytes : -1.0, inInfo, output, log, metrics, time);
   in.GridPieceActive = false;
   if (output->GetNumberOfPoints() > 0)
   {
     // The source samples this rank's network was trained from: its own piece's (no gather).
     vtkNew<vtkDoubleArray> own;
     own->SetName("NeuralPieceSourceSamples");
-    own->InsertNextValue(in.GridPiece.SourceSamples());
+    own->InsertNextValue(particles ? in.Particles.SourceSamples() : in.GridPiece.SourceSamples());
     output->GetFieldData()->AddArray(own);
+    if (particles)
+    {
+      // The reconstruction this rank trained on, over its own region (vtkNeuralCompressParticlePiece.h).
+      vtkNew<vtkDoubleArray> sums;
+      sums->SetName("NeuralPieceTrainingSums");
+      for (double v : in.Particles.OwnedSums())
+        sums->InsertNextValue(v);
+      output->GetFieldData()->AddArray(sums);
+    }
   }
 }
 

@@ -5,6 +5,7 @@
 #include "vtkNeuralCompress.h"
 #include "vtkNeuralCompressDataSetPiece.h"
 #include "vtkNeuralCompressDistributed.h"
+#include "vtkNeuralCompressParticlePiece.h"
 #include "vtkNeuralCompressGlobalFigures.h"
 #include "vtkNeuralCompressPartition.h"
 #include "vtkNeuralCompressJob.h"
@@ -19,6 +20,9 @@
 #include <vector>
 
 namespace nvi = vtkNeuralCompressInternals;
+
+/// The filter's particle properties (particle inputs; ignored by the others).
+nvi::ParticleSettings ParticleSettingsOf(vtkNeuralCompress* filter);
 
 //------------------------------------------------------------------------------
 struct vtkNeuralCompress::vtkInternals
@@ -41,6 +45,17 @@ struct vtkNeuralCompress::vtkInternals
   bool GridDecided = false;
   bool GridPieces = false; ///< every rank trains its own piece (RequestData's branch)
   int GridDims[3] = { 0, 0, 0 }; ///< the whole lattice announced (0: none)
+  nvi::ParticlePiece Particles; ///< MPI, particle set: this rank's reconstruction (vtkNeuralCompressParticlePiece.h)
+  bool ParticlePieces = false;  ///< GridPieces of a particle set: Particles rather than GridPiece
+  /// The domain mask and description of the resampled piece GridPieceActive trains.
+  std::shared_ptr<std::vector<uint8_t>> PieceOutside() const
+  {
+    return this->ParticlePieces ? this->Particles.Outside() : this->GridPiece.Outside();
+  }
+  const std::string& PieceDescription() const
+  {
+    return this->ParticlePieces ? this->Particles.Description() : this->GridPiece.Description();
+  }
   const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
   nvi::PieceSums MeasuredSums;
   std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)

@@ -159,6 +159,18 @@ void SplitRegion(const std::vector<DataSetPiece::Summary>& all, std::vector<int>
 } // namespace
 
 //------------------------------------------------------------------------------
+std::vector<std::array<int, 6>> LatticeRegions(const std::vector<std::array<double, 6>>& centres,
+  const std::vector<int>& holders, const std::array<int, 6>& whole, const double origin[3], const double spacing[3])
+{
+  std::vector<DataSetPiece::Summary> all(centres.size());
+  for (size_t r = 0; r < centres.size(); ++r)
+    std::copy(centres[r].begin(), centres[r].end(), all[r].begin() + kCentres);
+  std::vector<Box> owned(centres.size(), Box{ { 0, -1, 0, -1, 0, -1 } });
+  SplitRegion(all, holders, whole, origin, spacing, owned);
+  return owned;
+}
+
+//------------------------------------------------------------------------------
 bool PerRankDataSets(vtkDataObject* local)
 {
   vtkMultiProcessController* c = DistributedController();

@@ -47,6 +47,12 @@ constexpr int kExchangeLayers = 16;
 /// counts as one). A collective: every rank calls it in the same pass.
 bool PerRankDataSets(vtkDataObject* local);
 
+/// The ranks' regions of a lattice by the k-d split above: `centres[r]` the box (xmin xmax ymin ymax zmin zmax) of
+/// rank r's own samples, `holders` the ranks that hold samples; point extents of `whole`, empty (lo > hi) for the
+/// other ranks. Particle sets use it too (vtkNeuralCompressParticlePiece.h).
+std::vector<std::array<int, 6>> LatticeRegions(const std::vector<std::array<double, 6>>& centres,
+  const std::vector<int>& holders, const std::array<int, 6>& whole, const double origin[3], const double spacing[3]);
+
 /// A rank's piece of an unstructured grid: the lattice, its region and the padded image its network trains on.
 class DataSetPiece
 {

@@ -140,18 +140,22 @@ bool ResolveParticleDimensions(vtkDataObject* input, const std::string& name, in
   return true;
 }
 
-std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input, const std::string& name,
-  const ParticleSettings& settings, int64_t& sourceBytes, std::string& problem)
+bool CollectParticles(vtkDataObject* input, const std::string& name, const ParticleSettings& settings,
+  ParticleArrays& arrays, std::string& problem)
 {
   // Positions, values and radii as doubles (40 bytes a particle at most), allocated at once and filled by every core
   // (reading VTK arrays is thread-safe).
-  sourceBytes = 0;
+  arrays.SourceBytes = 0;
   const std::vector<vtkDataSet*> leaves = InputLeaves(input);
   int64_t total = 0, filled = 0;
   for (vtkDataSet* leaf : leaves)
     total += leaf->GetPointData()->GetArray(name.c_str()) ? int64_t(leaf->GetNumberOfPoints()) : 0;
-  std::vector<double> xyz(static_cast<size_t>(3 * total)), values(static_cast<size_t>(total));
-  std::vector<double> radii(settings.RadiusArray.empty() ? 0 : static_cast<size_t>(total));
+  std::vector<double>& xyz = arrays.Xyz;
+  std::vector<double>& values = arrays.Values;
+  std::vector<double>& radii = arrays.Radii;
+  xyz.assign(static_cast<size_t>(3 * total), 0.0);
+  values.assign(static_cast<size_t>(total), 0.0);
+  radii.assign(settings.RadiusArray.empty() ? 0 : static_cast<size_t>(total), 0.0);
   for (vtkDataSet* leaf : leaves)
   {
     vtkDataArray* array = leaf->GetPointData()->GetArray(name.c_str());
@@ -162,11 +166,11 @@ std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input
     if (!settings.RadiusArray.empty() && !radius)
     {
       problem = "no point array '" + settings.RadiusArray + "' of particle radii (ParticleRadiusArray)";
-      return nullptr;
+      return false;
     }
     auto* pointSet = vtkPointSet::SafeDownCast(leaf);
     vtkDataArray* positions = pointSet && pointSet->GetPoints() ? pointSet->GetPoints()->GetData() : nullptr;
-    sourceBytes += (positions ? int64_t(positions->GetNumberOfValues()) * positions->GetDataTypeSize() : 0) +
+    arrays.SourceBytes += (positions ? int64_t(positions->GetNumberOfValues()) * positions->GetDataTypeSize() : 0) +
       int64_t(array->GetNumberOfValues()) * std::max(1, array->GetDataTypeSize());
     const int64_t offset = filled;
     ParallelRanges(leaf->GetNumberOfPoints(), [&](int64_t first, int64_t last) {
@@ -180,6 +184,20 @@ std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input
     });
     filled += leaf->GetNumberOfPoints();
   }
+  return true;
+}
+
+std::shared_ptr<const nv::ParticleField> BuildParticleField(vtkDataObject* input, const std::string& name,
+  const ParticleSettings& settings, int64_t& sourceBytes, std::string& problem)
+{
+  ParticleArrays arrays;
+  sourceBytes = 0;
+  if (!CollectParticles(input, name, settings, arrays, problem))
+    return nullptr;
+  sourceBytes = arrays.SourceBytes;
+  const std::vector<double>& xyz = arrays.Xyz;
+  const std::vector<double>& values = arrays.Values;
+  const std::vector<double>& radii = arrays.Radii;
   nv::ParticleOptions options;
   options.Mode = static_cast<nv::ParticleFieldMode>(std::min(std::max(settings.Field, 0), 1));
   options.Kernel = static_cast<nv::ParticleKernel>(std::min(std::max(settings.Kernel, 0), 2));

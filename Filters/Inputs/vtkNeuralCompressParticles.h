@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 class vtkDataObject;
 
@@ -46,6 +47,20 @@ bool IsParticleSet(vtkDataObject* input);
 /// association is not points, or the particles span no box.
 bool ResolveParticleDimensions(vtkDataObject* input, const std::string& name, int association,
   const int requested[3], int dims[3], std::string& problem);
+
+/// A particle set's arrays as the engine reads them: positions (interleaved xyz), the scalar (its magnitude or a
+/// component as the settings say) and the radii when ParticleRadiusArray names them, as doubles; the bytes a user
+/// counts for the particles (positions and the scalar, in their own types).
+struct ParticleArrays
+{
+  std::vector<double> Xyz, Values, Radii;
+  int64_t SourceBytes = 0;
+};
+
+/// Fills `arrays` from every leaf of `input` with point array `name`; false with `problem` when a leaf lacks the
+/// radius array.
+bool CollectParticles(vtkDataObject* input, const std::string& name, const ParticleSettings& settings,
+  ParticleArrays& arrays, std::string& problem);
 
 /// The engine's particle field of array `name` (its magnitude or a component as the settings say) and the bytes a
 /// user counts for the particles (positions and the scalar, in their own types). Null with `problem` set when it

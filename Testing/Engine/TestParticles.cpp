@@ -307,4 +307,61 @@ NV_TEST(HugeRadiiStayCheap)
   EXPECT_TRUE(clamped.evaluate(far, outside) && outside > 0.0 && outside < inside);
 }
 
+NV_TEST(KernelSumsOfParts)
+{
+  // A set split in two at x = 0.5 (as two ranks hold it): the parts' kernel sums, added, give the whole set's field
+  // in both modes, inside and outside the support (the distributed reconstruction, vtkNeuralCompressParticlePiece.h).
+  const Lattice lattice(16, 0.8);
+  const int64_t n = int64_t(lattice.values.size());
+  std::vector<double> xyz[2], values[2];
+  for (int64_t i = 0; i < n; ++i)
+  {
+    const int side = lattice.xyz[size_t(3 * i)] < 0.5 ? 0 : 1;
+    xyz[side].insert(xyz[side].end(), &lattice.xyz[size_t(3 * i)], &lattice.xyz[size_t(3 * i)] + 3);
+    values[side].push_back(lattice.values[size_t(i)]);
+  }
+  for (ParticleFieldMode mode : { ParticleFieldMode::Interpolate, ParticleFieldMode::Density })
+  {
+    const ParticleOptions options{ mode, ParticleKernel::WendlandC2, 0.09 };
+    const ParticleField whole(lattice.input(), options);
+    const ParticleField left({ xyz[0].data(), values[0].data(), nullptr, int64_t(values[0].size()) }, options);
+    const ParticleField right({ xyz[1].data(), values[1].data(), nullptr, int64_t(values[1].size()) }, options);
+    const int64_t q = 2000;
+    std::vector<double> points(static_cast<size_t>(3 * q)), expected(static_cast<size_t>(q));
+    std::vector<double> sums[4] = { std::vector<double>(size_t(q)), std::vector<double>(size_t(q)),
+      std::vector<double>(size_t(q)), std::vector<double>(size_t(q)) };
+    for (int64_t i = 0; i < q; ++i)
+    {
+      float u[3];
+      randomPoint(31, 3, uint64_t(i), u);
+      for (int a = 0; a < 3; ++a)
+        points[size_t(3 * i + a)] = 1.2 * u[a] - 0.1; // beyond the support near the box's faces too
+    }
+    whole.evaluateMany(points.data(), q, expected.data(), 1);
+    left.kernelSums(points.data(), q, sums[0].data(), sums[1].data(), 2);
+    right.kernelSums(points.data(), q, sums[2].data(), sums[3].data(), 2);
+    double worst = 0.0, peak = 0.0; // the largest |difference| and |value|: the tolerance is relative to the range
+    for (double v : expected)
+      peak = std::isnan(v) ? peak : std::max(peak, std::fabs(v));
+    int64_t mismatched = 0, outside = 0;
+    for (size_t i = 0; i < size_t(q); ++i)
+    {
+      const double weight = sums[1][i] + sums[3][i], weighted = sums[0][i] + sums[2][i];
+      outside += std::isnan(expected[i]) ? 1 : 0;
+      if (std::isnan(expected[i]) != !(weight > 0.0))
+        ++mismatched;
+      else if (weight > 0.0)
+      {
+        const double value = mode == ParticleFieldMode::Density ? weighted : weighted / weight;
+        worst = std::max(worst, std::fabs(value - expected[i]) / peak);
+      }
+    }
+    const char* modeName = mode == ParticleFieldMode::Density ? "density" : "interpolate";
+    std::printf("  %s: %lld of %lld points outside the support, support mismatches %lld, worst |diff| %.2e of the "
+                "largest |value|\n",
+      modeName, (long long)outside, (long long)q, (long long)mismatched, worst);
+    EXPECT_TRUE(mismatched == 0 && outside > 0 && outside < q && worst < 1e-5);
+  }
+}
+
 NV_TEST_MAIN()
