@@ -103,6 +103,30 @@ void compareSlab(const float* normalised, const double* samples, int64_t b, int6
   }
   sums = local;
 }
+
+/// The threads' sums as compareDecoded's figures.
+ErrorStats mergeSums(const std::vector<SlabSums>& parts)
+{
+  ErrorStats total;
+  double squaredSum = 0.0;
+  for (const SlabSums& part : parts)
+  {
+    squaredSum += part.squared;
+    total.count += part.count;
+    total.nonFinite += part.bad;
+    total.maxAbsError = std::max(total.maxAbsError, part.maxAbs);
+    total.maxErrorOfRange = std::max(total.maxErrorOfRange, part.maxOfRange);
+  }
+  if (total.nonFinite > 0)
+  {
+    total.mse = total.psnr = std::numeric_limits<double>::quiet_NaN();
+    total.maxAbsError = total.maxErrorOfRange = std::numeric_limits<double>::infinity();
+    return total;
+  }
+  total.mse = total.count > 0 ? squaredSum / double(total.count) : 0.0;
+  total.psnr = total.mse > 0.0 ? 10.0 * std::log10(1.0 / total.mse) : std::numeric_limits<double>::infinity();
+  return total;
+}
 } // namespace
 
 FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes, const FileProgress& progress)
@@ -160,31 +184,45 @@ FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes,
 ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader, double valueMin, double valueMax,
   int64_t slabBytes, const FileProgress& progress)
 {
+  const int64_t* dims = reader.layout().dims;
+  const int64_t lo[3] = { 0, 0, 0 }, hi[3] = { dims[0] - 1, dims[1] - 1, dims[2] - 1 };
+  return measureBoxOnFile(session, reader, lo, hi, valueMin, valueMax, slabBytes, progress);
+}
+
+ErrorStats measureBoxOnFile(NetworkSession& session, const VolumeFileReader& reader, const int64_t lo[3],
+  const int64_t hi[3], double valueMin, double valueMax, int64_t slabBytes, const FileProgress& progress)
+{
   const VolumeFileLayout& layout = reader.layout();
+  for (int axis = 0; axis < 3; ++axis)
+    NV_CHECK(lo[axis] >= 0 && lo[axis] <= hi[axis] && hi[axis] < layout.dims[axis],
+      "the box measured must lie inside the volume");
   // Two slabs of samples: the next one is read while this one is decoded and compared.
   const int64_t slices = slicesPerSlab(layout, slabBytes, 2);
-  const int64_t plane = layout.dims[0] * layout.dims[1];
+  const int64_t bx = hi[0] - lo[0] + 1, by = hi[1] - lo[1] + 1, depth = hi[2] - lo[2] + 1;
+  const int64_t plane = bx * by, gridPlane = layout.dims[0] * layout.dims[1];
+  const bool wholePlanes = plane == gridPlane;
   std::vector<double> samples[2];
   for (std::vector<double>& slab : samples)
     slab.resize(static_cast<size_t>(plane * slices));
-  std::vector<float> normalised(static_cast<size_t>(plane * slices));
+  std::vector<float> decoded(static_cast<size_t>(gridPlane * slices));
+  std::vector<float> boxed(wholePlanes ? 0 : static_cast<size_t>(plane * slices));
   const ValueRange range(valueMin, valueMax);
   const int threads = passThreads(reader);
   std::vector<SlabSums> parts(static_cast<size_t>(threads));
   auto readSlab = [&](int64_t z0, std::vector<double>& into) {
-    const int64_t nz = std::min(slices, layout.dims[2] - z0);
+    const int64_t nz = std::min(slices, depth - z0);
     forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int) {
       if (k0 < k1)
-        reader.readBox({ 0, 0, z0 + k0 }, { layout.dims[0], layout.dims[1], k1 - k0 }, into.data() + k0 * plane);
+        reader.readBox({ lo[0], lo[1], lo[2] + z0 + k0 }, { bx, by, k1 - k0 }, into.data() + k0 * plane);
     });
   };
   readSlab(0, samples[0]);
-  for (int64_t z0 = 0, current = 0; z0 < layout.dims[2]; z0 += slices, current ^= 1)
+  for (int64_t z0 = 0, current = 0; z0 < depth; z0 += slices, current ^= 1)
   {
-    const int64_t nz = std::min(slices, layout.dims[2] - z0);
+    const int64_t nz = std::min(slices, depth - z0);
     std::exception_ptr readFailure;
     std::thread next; // the next slab's reads, beside this one's decoding and comparison
-    if (z0 + slices < layout.dims[2])
+    if (z0 + slices < depth)
       next = std::thread([&]() {
         try
         {
@@ -197,12 +235,16 @@ ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader
       });
     try
     {
-      session.decodeGrid(layout.dims[0], layout.dims[1], layout.dims[2], z0, z0 + nz, normalised.data());
+      session.decodeGrid(layout.dims[0], layout.dims[1], layout.dims[2], lo[2] + z0, lo[2] + z0 + nz, decoded.data());
+      for (int64_t row = 0; !wholePlanes && row < nz * by; ++row) // the box's rows of the decoded planes
+        std::copy_n(decoded.data() + (row / by) * gridPlane + (lo[1] + row % by) * layout.dims[0] + lo[0], bx,
+          boxed.data() + row * bx);
+      const float* normalised = wholePlanes ? decoded.data() : boxed.data();
       const double* source = samples[current].data();
       forSliceRanges(nz, threads, [&](int64_t k0, int64_t k1, int t) {
-        compareSlab(normalised.data(), source, k0 * plane, k1 * plane, range, parts[static_cast<size_t>(t)]);
+        compareSlab(normalised, source, k0 * plane, k1 * plane, range, parts[static_cast<size_t>(t)]);
       });
-      report(progress, double(z0 + nz) / double(layout.dims[2]));
+      report(progress, double(z0 + nz) / double(depth));
     }
     catch (...)
     {
@@ -215,25 +257,7 @@ ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader
     if (readFailure)
       std::rethrow_exception(readFailure);
   }
-  ErrorStats total;
-  double squaredSum = 0.0;
-  for (const SlabSums& part : parts)
-  {
-    squaredSum += part.squared;
-    total.count += part.count;
-    total.nonFinite += part.bad;
-    total.maxAbsError = std::max(total.maxAbsError, part.maxAbs);
-    total.maxErrorOfRange = std::max(total.maxErrorOfRange, part.maxOfRange);
-  }
-  if (total.nonFinite > 0)
-  {
-    total.mse = total.psnr = std::numeric_limits<double>::quiet_NaN();
-    total.maxAbsError = total.maxErrorOfRange = std::numeric_limits<double>::infinity();
-    return total;
-  }
-  total.mse = total.count > 0 ? squaredSum / double(total.count) : 0.0;
-  total.psnr = total.mse > 0.0 ? 10.0 * std::log10(1.0 / total.mse) : std::numeric_limits<double>::infinity();
-  return total;
+  return mergeSums(parts);
 }
 
 } // namespace nv

@@ -28,4 +28,9 @@ FileValueRange scanValueRange(const VolumeFileReader& reader, int64_t slabBytes,
 ErrorStats measureOnFile(NetworkSession& session, const VolumeFileReader& reader, double valueMin, double valueMax,
   int64_t slabBytes, const FileProgress& progress = nullptr);
 
+/// measureOnFile over the samples lo..hi (inclusive, per axis, indices of the reader's volume) alone: only that box is
+/// read (the network is still decoded on the whole volume's grid, the planes of the box). One MPI rank's own samples.
+ErrorStats measureBoxOnFile(NetworkSession& session, const VolumeFileReader& reader, const int64_t lo[3],
+  const int64_t hi[3], double valueMin, double valueMax, int64_t slabBytes, const FileProgress& progress = nullptr);
+
 } // namespace nv

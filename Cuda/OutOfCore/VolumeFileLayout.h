@@ -20,6 +20,7 @@
 namespace nv
 {
 class VolumeBoxSource;
+class FileReadTally;
 
 struct VolumeFileLayout
 {
@@ -36,9 +37,22 @@ struct VolumeFileLayout
   /// Decodes boxes where the samples are not one raw block at dataOffset (VolumeBoxSource.h: an HDF5 chunked
   /// dataset); null for the raw layouts, which VolumeFileReader reads with pread.
   std::shared_ptr<const VolumeBoxSource> boxSource;
+  /// A sub-box of the file (volumeFileSubBox): `dims` samples from sample `boxOrigin` of the file's `fileDims`; every
+  /// reader of this layout reads only them, sample (0,0,0) being the file's boxOrigin. origin and spacing stay the
+  /// file's (sample i of the box lies at origin + (boxOrigin + i) * spacing). The whole file: boxOrigin 0, fileDims 0.
+  int64_t boxOrigin[3] = { 0, 0, 0 };
+  int64_t fileDims[3] = { 0, 0, 0 };
+  /// Optional: every reader made from (a copy of) this layout adds its reads to it (VolumeFileReader.h).
+  std::shared_ptr<FileReadTally> readTally;
 
   int64_t samples() const { return dims[0] * dims[1] * dims[2]; }
   int64_t bytes() const { return samples() * static_cast<int64_t>(scalarSize(type)); }
+  /// Samples of the file itself along `axis` (dims[axis] unless this is a sub-box).
+  int64_t fileDim(int axis) const { return fileDims[axis] > 0 ? fileDims[axis] : dims[axis]; }
+  int64_t fileBytes() const
+  {
+    return fileDim(0) * fileDim(1) * fileDim(2) * static_cast<int64_t>(scalarSize(type));
+  }
 };
 
 /// Reads the header of `path` (by its extension: .nhdr, .nrrd, .bov, .vti) and checks it: three positive sizes whose
@@ -46,5 +60,10 @@ struct VolumeFileLayout
 /// header promises (the message names both figures when it does not). `arrayName`: the .vti point array to use (empty:
 /// the active scalars, else the first single-component array). Throws nv::Error.
 VolumeFileLayout readVolumeFileLayout(const std::string& path, const std::string& arrayName = std::string());
+
+/// The box of `layout` at `origin` (sample indices of `layout`) of `size` samples per axis, which must lie inside it:
+/// a layout whose readers, block buffers and passes see only that box (one rank's piece of the file under MPI).
+/// Throws nv::Error.
+VolumeFileLayout volumeFileSubBox(const VolumeFileLayout& layout, const int64_t origin[3], const int64_t size[3]);
 
 } // namespace nv

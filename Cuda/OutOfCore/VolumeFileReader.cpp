@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
+#include <limits>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -65,6 +66,56 @@ bool hostIsBigEndian()
 }
 } // namespace
 
+FileReadTally::FileReadTally()
+{
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    this->Lo[axis] = std::numeric_limits<int64_t>::max();
+    this->Hi[axis] = -1;
+  }
+}
+
+void FileReadTally::add(const std::array<int64_t, 3>& fileOrigin, const std::array<int64_t, 3>& size, int64_t bytes)
+{
+  this->Bytes += bytes;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    const int64_t lo = fileOrigin[axis], hi = fileOrigin[axis] + size[axis] - 1;
+    int64_t seen = this->Lo[axis].load();
+    while (lo < seen && !this->Lo[axis].compare_exchange_weak(seen, lo))
+    {
+    }
+    seen = this->Hi[axis].load();
+    while (hi > seen && !this->Hi[axis].compare_exchange_weak(seen, hi))
+    {
+    }
+  }
+}
+
+bool FileReadTally::box(int64_t lo[3], int64_t hi[3]) const
+{
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    lo[axis] = this->Lo[axis].load();
+    hi[axis] = this->Hi[axis].load();
+  }
+  return hi[0] >= lo[0] && hi[1] >= lo[1] && hi[2] >= lo[2];
+}
+
+VolumeFileLayout volumeFileSubBox(const VolumeFileLayout& layout, const int64_t origin[3], const int64_t size[3])
+{
+  VolumeFileLayout box = layout;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    NV_CHECK(origin[axis] >= 0 && size[axis] >= 1 && origin[axis] + size[axis] <= layout.dims[axis],
+      "a sub-box must lie inside the volume file's samples");
+    box.fileDims[axis] = layout.fileDim(axis);
+    box.boxOrigin[axis] = layout.boxOrigin[axis] + origin[axis];
+    box.dims[axis] = size[axis];
+  }
+  return box;
+}
+
 VolumeFileReader::VolumeFileReader(const VolumeFileLayout& layout)
   : Layout(layout)
 {
@@ -108,14 +159,19 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
     NV_CHECK(origin[axis] >= 0 && size[axis] >= 1 && origin[axis] + size[axis] <= this->Layout.dims[axis],
       "the box must lie inside the volume");
   const int64_t bytes = static_cast<int64_t>(scalarSize(this->Layout.type));
+  // The box in the file's own samples (a sub-box layout reads only within its box).
+  const std::array<int64_t, 3> at = { origin[0] + this->Layout.boxOrigin[0], origin[1] + this->Layout.boxOrigin[1],
+    origin[2] + this->Layout.boxOrigin[2] };
+  if (this->Layout.readTally)
+    this->Layout.readTally->add(at, size, size[0] * size[1] * size[2] * bytes);
   if (this->Layout.boxSource)
   {
-    this->Layout.boxSource->readBox(origin, size, out); // chunks decoded by the source
+    this->Layout.boxSource->readBox(at, size, out); // chunks decoded by the source
     this->BytesRead += size[0] * size[1] * size[2] * bytes;
     return;
   }
   const bool swap = bytes > 1 && this->Layout.bigEndian != hostIsBigEndian();
-  const int64_t nx = this->Layout.dims[0], ny = this->Layout.dims[1];
+  const int64_t nx = this->Layout.fileDim(0), ny = this->Layout.fileDim(1);
   // Whole rows are contiguous across y: one read a run of rows (up to kRunBytes, held per call: a pass's threads hold
   // at most 16 MiB), not one a row (a streamed pass of a 2176^2-sample float32 plane: 19 reads, not 2176).
   constexpr int64_t kRunBytes = int64_t(1) << 20;
@@ -126,7 +182,7 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
     for (int64_t y = 0; y < size[1]; y += rowsPerRun)
     {
       const int64_t rows = std::min(rowsPerRun, size[1] - y);
-      const int64_t first = ((origin[2] + z) * ny + origin[1] + y) * nx + origin[0];
+      const int64_t first = ((at[2] + z) * ny + at[1] + y) * nx + at[0];
       this->readBytes(this->Layout.dataOffset + first * bytes, rows * size[0] * bytes, run.data());
       convertRow(run.data(), rows * size[0], this->Layout.type, swap, out + (z * size[1] + y) * size[0]);
     }

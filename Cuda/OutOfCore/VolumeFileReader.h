@@ -16,6 +16,23 @@
 namespace nv
 {
 
+/// What the readers of one layout read (VolumeFileLayout::readTally), from any thread: the bytes, and the bounding box
+/// of every sample read, in the file's own sample indices.
+class FileReadTally
+{
+public:
+  FileReadTally();
+  void add(const std::array<int64_t, 3>& fileOrigin, const std::array<int64_t, 3>& size, int64_t bytes);
+  int64_t bytes() const { return this->Bytes.load(); }
+  /// The box read (inclusive lo..hi per axis); false while nothing was read.
+  bool box(int64_t lo[3], int64_t hi[3]) const;
+
+private:
+  std::atomic<int64_t> Bytes{ 0 };
+  std::atomic<int64_t> Lo[3];
+  std::atomic<int64_t> Hi[3];
+};
+
 class VolumeFileReader
 {
 public:
@@ -27,7 +44,7 @@ public:
 
   const VolumeFileLayout& layout() const { return Layout; }
   /// The samples of the box at `origin` (sample indices) of `size` samples per axis, in the file's units, x fastest;
-  /// the box must lie inside the volume. Throws nv::Error when the file cannot be read (it shrank, an I/O error).
+  /// the box must lie inside the volume (the layout's sub-box, if it is one: indices relative to it). Throws nv::Error when the file cannot be read (it shrank, an I/O error).
   void readBox(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, float* out) const;
   void readBox(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, double* out) const;
   /// Bytes read from the file so far (all threads).

@@ -183,6 +183,7 @@ bool vtkNeuralCompress::RequestInput(
     // A file that is never loaded (vtkNeuralOutOfCoreInput.h): no array to select; the file names its field.
     request.OutOfCorePath = file.Path;
     request.OutOfCoreArray = file.Array;
+    image->GetExtent(request.OutOfCoreExtent); // the whole file, or this rank's padded piece under MPI
     request.ArrayName = "file:" + file.Path + "|" + file.Array;
     request.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
     return true;

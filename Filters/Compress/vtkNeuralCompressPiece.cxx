@@ -6,6 +6,7 @@
 
 #include "vtkNeuralCompressOutput.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralOutOfCoreInput.h"
 
 #include "Core/Volume.h"
 
@@ -150,10 +151,28 @@ nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
   vtkInternals& in = *this->Internals;
   nvi::Job* job = in.Current.get();
   std::shared_ptr<const nvi::NetworkRecord> final = job ? job->Final() : nullptr;
-  if (!final || !job->Session || !job->Data || !job->Data->Field.View.data)
+  if (!final || !job->Session || !job->Data || (!job->Data->Field.View.data && !job->Field.OutOfCore))
     return nvi::PieceSums();
   if (in.MeasuredRecord == final.get())
     return in.MeasuredSums;
+  if (job->Field.OutOfCore)
+  {
+    // An out-of-core piece (vtkNeuralOutOfCoreInput.h): its own samples read from the file, never in memory.
+    try
+    {
+      in.MeasuredSums = nvi::MeasureOutOfCorePiece(*job->Session, *job->Field.OutOfCore, job->Field,
+        in.Piece.Owned(), in.Piece.Whole(), static_cast<double>(final->Figures.ModelBytes));
+    }
+    catch (const std::exception& e)
+    {
+      vtkErrorMacro("Neural Compress: measuring this rank's piece of the file failed: " << e.what());
+      in.MeasuredSums = nvi::PieceSums();
+      in.MeasuredSums.Failed = 1.0;
+      return in.MeasuredSums; // measured again next time
+    }
+    in.MeasuredRecord = final.get();
+    return in.MeasuredSums;
+  }
   const nv::VolumeView& view = job->Data->Field.View;
   const double bytesPerSample =
     view.count() > 0 ? static_cast<double>(job->Data->Field.RawBytes) / static_cast<double>(view.count()) : 0.0;
@@ -317,7 +336,7 @@ void vtkNeuralCompress::TrainPiece(bool hasPiece, int ranksHere, double sourceBy
     nvi::InitializeLog(log);
     nvi::InitializeMetrics(metrics);
   }
-  sums.Failed = hasPiece && !executed ? 1.0 : 0.0;
+  sums.Failed = (hasPiece && !executed) || sums.Failed > 0.0 ? 1.0 : 0.0; // a failed measurement: reported
   // Every rank, every execution: the whole field's figures, and the other ranks' networks to rank 0 for a saved state.
   const nvi::GlobalFigures global = nvi::ReduceFigures(sums);
   this->GatherPeerNetworks();

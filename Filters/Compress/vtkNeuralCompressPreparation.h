@@ -36,6 +36,9 @@ struct InputRequest
   /// An out-of-core reader's output (vtkNeuralOutOfCoreInput.h): the file it names and the array asked for; the
   /// path is empty for every other input.
   std::string OutOfCorePath, OutOfCoreArray;
+  /// The out-of-core image's extent (sample indices of the file): the whole file, or under MPI the rank's padded
+  /// piece (vtkNeuralCompressPartition.h), the only part of the file this rank reads.
+  int OutOfCoreExtent[6] = { 0, -1, 0, -1, 0, -1 };
   const void* Source = nullptr; ///< the pipeline's input object (Object may be a copy of it)
   /// Images: the input's modification time; other inputs: InputStamp (vtkNeuralCompressResample.h), also the
   /// resampler's cache key.

@@ -3,7 +3,9 @@
 
 #include "vtkNeuralCompressDistributed.h"
 
+#include "Core/Engine.h"
 #include "Core/NetworkSession.h"
+#include "Core/ValueRange.h"
 #include "Core/Volume.h"
 
 #include "vtkDataArray.h"
@@ -65,29 +67,60 @@ void SetValue(vtkFieldData* fd, const char* name, double value)
 } // namespace
 
 //------------------------------------------------------------------------------
+bool ExclusiveSamples(const int trainExtent[6], const int64_t dims[3], const int owned[6], const int whole[6],
+  bool cells, int lo[3], int hi[3], double& samples, double& wholeSamples)
+{
+  samples = wholeSamples = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    ExclusiveRange(owned, whole, cells, a, lo[a], hi[a]);
+    lo[a] = std::max(lo[a] - trainExtent[2 * a], 0);
+    hi[a] = static_cast<int>(std::min<int64_t>(hi[a] - trainExtent[2 * a], dims[a] - 1));
+    if (lo[a] > hi[a])
+      return false;
+  }
+  samples = wholeSamples = 1.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int points = whole[2 * a + 1] - whole[2 * a] + 1;
+    wholeSamples *= cells ? std::max(points - 1, 1) : points;
+    samples *= hi[a] - lo[a] + 1;
+  }
+  return true;
+}
+
+PieceSums SumsOfMeasurement(const nv::ErrorStats& error, double valueMin, double valueMax, double samples,
+  double wholeSamples, double rawBytesPerSample, double modelBytes)
+{
+  PieceSums sums;
+  sums.Samples = samples;
+  sums.WholeSamples = wholeSamples;
+  sums.Count = static_cast<double>(error.count);
+  sums.NonFinite = static_cast<double>(error.nonFinite);
+  sums.ValueMin = valueMin;
+  sums.ValueMax = valueMax;
+  // The error's mse is normalised by the network's range where it spans one (FileMeasure.cpp), in source units else.
+  const nv::ValueRange range(valueMin, valueMax);
+  const double unit = range.spans() ? range.span(1.0) : 1.0;
+  if (error.nonFinite == 0 && std::isfinite(error.mse))
+    sums.SquaredError = error.mse * sums.Count * unit * unit;
+  sums.MaxError = error.nonFinite == 0 ? error.maxAbsError : 0.0;
+  sums.FieldBytes = sums.Count * rawBytesPerSample;
+  sums.ModelBytes = modelBytes;
+  sums.Networks = 1.0;
+  return sums;
+}
+
 PieceSums MeasurePiece(nv::NetworkSession& session, const nv::VolumeView& view, const int trainExtent[6],
   const int owned[6], const int whole[6], bool cells, double rawBytesPerSample, double modelBytes)
 {
   PieceSums sums;
   int lo[3], hi[3];
-  for (int a = 0; a < 3; ++a)
-  {
-    ExclusiveRange(owned, whole, cells, a, lo[a], hi[a]);
-    lo[a] -= trainExtent[2 * a];
-    hi[a] -= trainExtent[2 * a];
-    lo[a] = std::max(lo[a], 0);
-    hi[a] = std::min<int>(hi[a], static_cast<int>(view.dims[a]) - 1);
-    if (lo[a] > hi[a])
-      return sums;
-  }
-  sums.WholeSamples = 1.0;
-  sums.Samples = 1.0;
-  for (int a = 0; a < 3; ++a)
-  {
-    const int points = whole[2 * a + 1] - whole[2 * a] + 1;
-    sums.WholeSamples *= cells ? std::max(points - 1, 1) : points;
-    sums.Samples *= hi[a] - lo[a] + 1;
-  }
+  double samples = 0.0, wholeSamples = 0.0;
+  if (!ExclusiveSamples(trainExtent, view.dims, owned, whole, cells, lo, hi, samples, wholeSamples))
+    return sums;
+  sums.Samples = samples;
+  sums.WholeSamples = wholeSamples;
   const int64_t nx = view.dims[0], ny = view.dims[1], nz = view.dims[2];
   std::vector<double> slab(static_cast<size_t>(nx * ny));
   sums.ValueMin = std::numeric_limits<double>::infinity();

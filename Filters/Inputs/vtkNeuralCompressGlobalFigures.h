@@ -14,6 +14,7 @@ class vtkTable;
 
 namespace nv
 {
+struct ErrorStats;
 class NetworkSession;
 struct VolumeView;
 }
@@ -55,6 +56,18 @@ struct GlobalFigures
   bool Estimated = false; ///< some rank still trains: Psnr from the ranks' estimates (NaN until each has one),
                           ///< MaxError unknown (NaN)
 };
+
+/// The samples of a training grid (`dims` samples, sample (0,0,0) at point/cell index trainExtent[0,2,4]) that
+/// `owned` holds exclusively: lo..hi per axis (inclusive, grid indices), their count and the whole extent's (`samples`,
+/// `wholeSamples`); false when the grid holds none of them.
+bool ExclusiveSamples(const int trainExtent[6], const int64_t dims[3], const int owned[6], const int whole[6],
+  bool cells, int lo[3], int hi[3], double& samples, double& wholeSamples);
+
+/// This rank's sums from a measurement of its exclusive samples whose figures are normalised by the network's range
+/// valueMin..valueMax (nv::ErrorStats: an out-of-core piece measured on the file, vtkNeuralOutOfCoreInput.h);
+/// `valueMin`, `valueMax` also stand for the measured samples' range (the ranks' maxima give the whole field's).
+PieceSums SumsOfMeasurement(const nv::ErrorStats& error, double valueMin, double valueMax, double samples,
+  double wholeSamples, double rawBytesPerSample, double modelBytes);
 
 /// This rank's sums: the session's network decoded over the exclusively owned samples of `view` (the field the
 /// network was trained on, sample (0,0,0) at point/cell index trainExtent[0,2,4]); `owned` and `whole` are point

@@ -65,10 +65,21 @@ bool PerRankNetworks(vtkDataObject* input)
   return DistributedController() && vtkImageData::SafeDownCast(input);
 }
 
+namespace
+{
+HostRanks KnownHost;       ///< RanksOnThisHost's answer, once known
+bool HostKnown = false;
+} // namespace
+
+int KnownRanksOnThisHost()
+{
+  return HostKnown ? KnownHost.Count : 1;
+}
+
 HostRanks RanksOnThisHost()
 {
-  static HostRanks host;
-  static bool known = false;
+  HostRanks& host = KnownHost;
+  bool& known = HostKnown;
   if (known)
     return host;
   vtkMultiProcessController* c = DistributedController();

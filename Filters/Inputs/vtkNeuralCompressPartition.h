@@ -50,6 +50,10 @@ struct HostRanks
 /// first call also chooses this process's CUDA device from the index (vtkNeuralCudaDevice.h).
 HostRanks RanksOnThisHost();
 
+/// The ranks on this host as RanksOnThisHost found them (1 before it ran, and without MPI); never a collective. The
+/// automatic MemoryBudget of an out-of-core piece shares the host's memory among them (vtkNeuralOutOfCoreInput.h).
+int KnownRanksOnThisHost();
+
 /// A rank's piece of an image input: the extent it owns and the padded image its network trains on.
 class ImagePiece
 {

@@ -6,6 +6,7 @@
 
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressPreparation.h"
+#include "vtkNeuralCompressPartition.h"
 #include "vtkNeuralCompressState.h"
 #include "vtkNeuralHdf5Layout.h"
 #include "vtkNeuralOutOfCoreInput.h"
@@ -51,7 +52,12 @@ void DescribeFile(const std::shared_ptr<const nvi::OutOfCoreFile>& file, const i
   field.Name = layout.arrayName.empty() ? "Scalars" : layout.arrayName;
   field.Cells = false;
   field.VtkType = VtkTypeOf(layout.type);
-  const int ext[6] = { 0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1) };
+  int ext[6]; // the file's samples, or the rank's piece of them (a sub-box: vtkNeuralOutOfCoreInput.h)
+  for (int a = 0; a < 3; ++a)
+  {
+    ext[2 * a] = static_cast<int>(layout.boxOrigin[a]);
+    ext[2 * a + 1] = static_cast<int>(layout.boxOrigin[a] + layout.dims[a] - 1);
+  }
   field.Geometry = nvi::ComputeGeometry(ext, layout.origin, layout.spacing, false, outputResolution, finest, base);
   std::copy(ext, ext + 6, field.InputExtent);
   std::copy(layout.origin, layout.origin + 3, field.InputOrigin);
@@ -72,15 +78,20 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
     background->SetStage("reading the file's header");
   auto file = std::make_shared<nvi::OutOfCoreFile>();
   file->Layout = nvi::ReadOutOfCoreLayout(request.OutOfCorePath, request.OutOfCoreArray); // nv::Error: reported
+  // Under MPI the rank's padded piece alone: every read below (value range, block buffer, probe, exact pass) stays in it.
+  file->Layout = nvi::OutOfCorePiece(file->Layout, request.OutOfCoreExtent);
+  file->Layout.readTally = std::make_shared<nv::FileReadTally>();
   file->Reader = std::make_shared<nv::VolumeFileReader>(file->Layout);
-  file->BudgetBytes = nvi::OutOfCoreBudgetBytes(settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason);
+  file->BudgetBytes = nvi::OutOfCoreBudgetBytes(
+    settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason, nvi::KnownRanksOnThisHost());
   nvi::CheckOutOfCoreStorage(*file); // chunks the budget cannot decode: nv::Error, reported
   nvi::FieldInfo& field = prepared.Field;
   DescribeFile(file, this->OutputResolution, this->FinestResolution, this->BaseResolution, field);
   this->ReportOutputCap(field.Geometry);
   // The value range normalises the targets: one streamed pass over the file before training (abortable).
   int lastPercent = -1;
-  nvi::OutOfCorePhaseLog rangeLog("value-range pass", "every voxel of " + nv::formatBytes(file->Layout.bytes()));
+  nvi::OutOfCorePhaseLog rangeLog("value-range pass", "every voxel of " + nv::formatBytes(file->Layout.bytes()) +
+      (file->Layout.fileBytes() > file->Layout.bytes() ? " (this rank's piece)" : ""));
   const nv::FileValueRange range =
     nv::scanValueRange(*file->Reader, nvi::OutOfCoreSlabBytes(*file), [&](double fraction) {
       rangeLog.Progress(fraction);

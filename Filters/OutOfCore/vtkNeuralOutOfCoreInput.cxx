@@ -1,5 +1,6 @@
 #include "vtkNeuralOutOfCoreInput.h"
 
+#include "vtkNeuralCompressGlobalFigures.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressSettings.h"
 
@@ -177,7 +178,45 @@ std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout)
   text << layout.format << ", " << layout.dims[0] << " x " << layout.dims[1] << " x " << layout.dims[2] << " "
        << nv::scalarTypeName(layout.type) << ", " << (layout.bigEndian ? "big" : "little") << " endian, "
        << nv::formatBytes(layout.bytes()) << " ('" << layout.arrayName << "')";
+  if (layout.fileBytes() > layout.bytes())
+    text << ", the piece at sample " << layout.boxOrigin[0] << ", " << layout.boxOrigin[1] << ", "
+         << layout.boxOrigin[2] << " of the file's " << layout.fileDim(0) << " x " << layout.fileDim(1) << " x "
+         << layout.fileDim(2) << " (" << nv::formatBytes(layout.fileBytes()) << ")";
   return text.str();
+}
+
+nv::VolumeFileLayout OutOfCorePiece(const nv::VolumeFileLayout& layout, const int extent[6])
+{
+  int64_t origin[3], size[3];
+  bool whole = true;
+  for (int a = 0; a < 3; ++a)
+  {
+    origin[a] = extent[2 * a];
+    size[a] = int64_t(extent[2 * a + 1]) - extent[2 * a] + 1;
+    if (size[a] < 1 || origin[a] < 0 || origin[a] + size[a] > layout.dims[a])
+      throw nv::Error("the out-of-core input's extent " + std::to_string(extent[0]) + ".." + std::to_string(extent[1]) +
+        ", " + std::to_string(extent[2]) + ".." + std::to_string(extent[3]) + ", " + std::to_string(extent[4]) + ".." +
+        std::to_string(extent[5]) + " does not lie in the file's samples (" + OutOfCoreSummary(layout) +
+        "): the file changed since its header was read; update the reader");
+    whole = whole && origin[a] == 0 && size[a] == layout.dims[a];
+  }
+  return whole ? layout : nv::volumeFileSubBox(layout, origin, size);
+}
+
+PieceSums MeasureOutOfCorePiece(nv::NetworkSession& session, const OutOfCoreFile& file, const FieldInfo& field,
+  const int owned[6], const int whole[6], double modelBytes)
+{
+  int lo[3], hi[3];
+  double samples = 0.0, wholeSamples = 0.0;
+  if (!ExclusiveSamples(field.InputExtent, file.Layout.dims, owned, whole, false, lo, hi, samples, wholeSamples))
+    return PieceSums();
+  const int64_t from[3] = { lo[0], lo[1], lo[2] }, to[3] = { hi[0], hi[1], hi[2] };
+  OutOfCorePhaseLog log("this rank's own samples", std::to_string(int64_t(samples)) + " samples of its piece");
+  const nv::ErrorStats error = nv::measureBoxOnFile(
+    session, *file.Reader, from, to, field.Stats.min, field.Stats.max, OutOfCoreSlabBytes(file));
+  log.Finish();
+  const double bytesPerSample = static_cast<double>(nv::scalarSize(file.Layout.type));
+  return SumsOfMeasurement(error, field.Stats.min, field.Stats.max, samples, wholeSamples, bytesPerSample, modelBytes);
 }
 
 void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray)
@@ -190,8 +229,9 @@ void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, cons
   image->GetFieldData()->AddArray(marker);
 }
 
-int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason)
+int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason, int processesOnHost)
 {
+  const int ranks = std::max(1, processesOnHost);
   const nv::HostMemoryBudget host = nv::hostMemoryBudget();
   std::ostringstream text;
   if (memoryBudgetMiB > 0.0)
@@ -207,11 +247,12 @@ int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::str
   }
   const int64_t share = host.bytes == std::numeric_limits<int64_t>::max()
     ? int64_t(1) << 30
-    : static_cast<int64_t>(double(host.bytes) * kAutomaticBudgetShare);
+    : static_cast<int64_t>(double(host.bytes) * kAutomaticBudgetShare / ranks);
   // A file the budget holds twice over needs no more (its blocks, the probe and the slabs all fit).
   const int64_t budget = std::max<int64_t>(int64_t(16) << 20, std::min(share, nv::saturatingMul(fileBytes, 3)));
   text << "automatic: " << nv::formatBytes(budget) << " (at most " << int(kAutomaticBudgetShare * 100) << "% of "
-       << nv::formatBytes(host.bytes) << (host.reason.empty() ? "" : ", " + host.reason) << ")";
+       << nv::formatBytes(host.bytes) << (host.reason.empty() ? "" : ", " + host.reason)
+       << (ranks > 1 ? ", shared by the " + std::to_string(ranks) + " ranks on this host" : std::string()) << ")";
   reason = text.str();
   return budget;
 }
@@ -277,6 +318,9 @@ uint64_t OutOfCoreKey(const OutOfCoreFile& file, const FieldInfo& field, const S
   identity << "out-of-core " << layout.headerPath << '|' << layout.dataPath << '|' << layout.dataOffset << '|'
            << static_cast<int>(layout.type) << '|' << layout.bigEndian << '|' << layout.arrayName << '|'
            << file.BudgetBytes;
+  if (layout.fileBytes() > layout.bytes()) // a rank's piece (the whole file's key is unchanged by it)
+    identity << "|piece " << layout.boxOrigin[0] << ',' << layout.boxOrigin[1] << ',' << layout.boxOrigin[2] << " of "
+             << layout.fileDim(0) << ',' << layout.fileDim(1) << ',' << layout.fileDim(2);
   struct stat info;
   if (::stat(layout.dataPath.c_str(), &info) == 0)
     identity << '|' << int64_t(info.st_size) << '|' << int64_t(info.st_mtim.tv_sec) << '.'

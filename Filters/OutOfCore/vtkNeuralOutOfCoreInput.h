@@ -3,6 +3,9 @@
 // Neural Compress then trains from the engine's random block buffer on that file (Cuda/OutOfCore/BlockBuffer.h, within
 // MemoryBudget), estimates the PSNR on random rows of it while training, and measures its exact figures in one
 // streamed pass over every voxel (Cuda/OutOfCore/FileMeasure.h) at the end of a phase or on MeasureNow.
+// Under MPI the reader's output is an image like any other (vtkNeuralCompressPartition.h): each rank asks for its padded
+// piece and everything here -- passes, block buffer, probe, the measurement of its own samples -- reads only that
+// sub-box of the file (OutOfCorePiece, nv::volumeFileSubBox).
 #ifndef vtkNeuralOutOfCoreInput_h
 #define vtkNeuralOutOfCoreInput_h
 
@@ -30,6 +33,8 @@ class NetworkSession;
 namespace vtkNeuralCompressInternals
 {
 struct FieldInfo;
+struct OutOfCoreFile;
+struct PieceSums;
 struct Settings;
 
 /// The reader's output names the file in one field-data string array named after the file's field (so that Neural
@@ -50,8 +55,19 @@ bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request);
 /// The reader's output: the file's geometry, no samples, the file named in field data (with its summary figures).
 void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray);
 
-/// "NRRD (detached header), 64 x 64 x 64 uint16, big endian, 524 kB".
+/// "NRRD (detached header), 64 x 64 x 64 uint16, big endian, 524 kB"; a piece adds where it lies in the file.
 std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout);
+
+/// The part of the file `extent` (the out-of-core image's extent, in the file's sample indices) covers: the layout
+/// itself when it is the whole file, else its sub-box (nv::volumeFileSubBox): under MPI one rank's padded piece
+/// (vtkNeuralCompressPartition.h), so that the rank's passes, block buffer and probe read only that box of the file.
+/// Throws nv::Error when the extent is empty or leaves the file (the file changed since the reader's header).
+nv::VolumeFileLayout OutOfCorePiece(const nv::VolumeFileLayout& layout, const int extent[6]);
+
+/// Under MPI (vtkNeuralCompressGlobalFigures.h): this rank's sums over the samples of the file it owns alone (the
+/// box `owned` within `whole`, point extents), read and decoded in one streamed pass of that box.
+PieceSums MeasureOutOfCorePiece(nv::NetworkSession& session, const OutOfCoreFile& file, const FieldInfo& field,
+  const int owned[6], const int whole[6], double modelBytes);
 
 /// An open out-of-core file, shared by the job's training data and its measurements.
 struct OutOfCoreFile
@@ -83,9 +99,10 @@ private:
   int LoggedTenth = 0;
 };
 
-/// The bytes of `memoryBudgetMiB` (0: automatic, kAutomaticBudgetShare of what the host may still allocate, at most
-/// the file's bytes plus a margin); throws nv::Error when the budget asked exceeds what the host may allocate.
-int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason);
+/// The bytes of `memoryBudgetMiB` (0: automatic, kAutomaticBudgetShare of what the host may still allocate shared
+/// among the `processesOnHost` MPI ranks there, at most the file's -- a rank's piece's -- bytes plus a margin); throws
+/// nv::Error when the budget asked exceeds what the host may allocate. An explicit budget is each rank's.
+int64_t OutOfCoreBudgetBytes(double memoryBudgetMiB, int64_t fileBytes, std::string& reason, int processesOnHost = 1);
 constexpr double kAutomaticBudgetShare = 0.25;
 
 /// A chunked HDF5 dataset whose chunk decoding (VolumeBoxSource::workingBytes) exceeds the budget's share for it (an

@@ -13,6 +13,8 @@
 #include "vtkObjectFactory.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 
+#include <algorithm>
+
 namespace nvi = vtkNeuralCompressInternals;
 
 vtkStandardNewMacro(vtkNeuralOutOfCoreReader);
@@ -92,7 +94,22 @@ int vtkNeuralOutOfCoreReader::RequestData(
     // The header again (cheap): the file may have changed since RequestInformation; the samples stay on disk.
     const nv::VolumeFileLayout layout =
       nvi::ReadOutOfCoreLayout(this->FileName, this->ArrayName ? this->ArrayName : "");
-    output->SetExtent(0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1));
+    // The extent asked for within the file's (under MPI, Neural Compress asks each rank's padded piece: the rank's
+    // Neural Compress then reads only that box of the file); the whole file by default.
+    int extent[6] = { 0, int(layout.dims[0] - 1), 0, int(layout.dims[1] - 1), 0, int(layout.dims[2] - 1) };
+    if (outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))
+    {
+      int asked[6];
+      outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), asked);
+      for (int a = 0; a < 3; ++a)
+      {
+        extent[2 * a] = std::max(extent[2 * a], asked[2 * a]);
+        extent[2 * a + 1] = std::min(extent[2 * a + 1], asked[2 * a + 1]);
+      }
+      if (extent[0] > extent[1] || extent[2] > extent[3] || extent[4] > extent[5])
+        return 1; // an empty piece: an empty output (this rank has no piece of the file)
+    }
+    output->SetExtent(extent);
     output->SetSpacing(layout.spacing);
     output->SetOrigin(layout.origin);
     nvi::MarkOutOfCore(output, layout, this->ArrayName ? this->ArrayName : "");

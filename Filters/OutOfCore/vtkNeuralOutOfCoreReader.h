@@ -7,7 +7,8 @@
  * size. The output is an image with the file's extent, spacing and origin and NO samples: one field-data string array,
  * named after the file's field, names the file and describes it (vtkNeuralOutOfCoreInput.h).
  * Neural Compress on this output trains from the file through a random block buffer within its MemoryBudget and
- * measures its figures in streamed passes over the file. Sample types: uint8, int16, uint16, int32, float32,
+ * measures its figures in streamed passes over the file. The output has the extent asked of it (the whole file by
+ * default; under MPI each rank's Neural Compress asks for its padded piece, and reads only that part). Sample types: uint8, int16, uint16, int32, float32,
  * float64, either byte order. A header the reader cannot use, or a data file shorter than the header says, gives
  * one error and an empty output.
  */

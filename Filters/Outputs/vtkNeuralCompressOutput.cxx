@@ -11,6 +11,7 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkIntArray.h"
+#include "vtkNew.h"
 #include "vtkPointData.h"
 #include "vtkStringArray.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
@@ -57,6 +58,32 @@ std::string FormatBytes(double bytes)
     s << bytes << " B";
   return s.str();
 }
+/// What this process read from an out-of-core file so far (every pass, the block buffer, the probe): the bytes
+/// (NeuralFileBytesRead; the block buffer's replacements re-read blocks, so it grows with training) and the box of
+/// every sample read, in the file's sample indices (NeuralFileReadBox: xmin xmax ymin ymax zmin zmax; under MPI the
+/// rank's padded piece), with its bytes (NeuralFileReadBoxBytes) against the file's (NeuralFileBytes).
+void AddFileReads(vtkFieldData* fd, const nv::VolumeFileLayout& layout)
+{
+  if (!layout.readTally)
+    return;
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralFileBytesRead", layout.readTally->bytes());
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralFileBytes", layout.fileBytes());
+  int64_t lo[3], hi[3];
+  if (!layout.readTally->box(lo, hi))
+    return;
+  vtkNew<vtkTypeInt64Array> box;
+  box->SetName("NeuralFileReadBox");
+  box->SetNumberOfTuples(6);
+  int64_t bytes = static_cast<int64_t>(nv::scalarSize(layout.type));
+  for (int a = 0; a < 3; ++a)
+  {
+    box->SetValue(2 * a, lo[a]);
+    box->SetValue(2 * a + 1, hi[a]);
+    bytes *= hi[a] - lo[a] + 1;
+  }
+  fd->AddArray(box);
+  AddFieldValue<vtkTypeInt64Array>(fd, "NeuralFileReadBoxBytes", bytes);
+}
 } // namespace
 
 void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord& record, vtkDataArray* decoded,
@@ -101,6 +128,7 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
     AddFieldValue<vtkDoubleArray>(fd, "NeuralValueRangeSeconds", field.OutOfCore->ValueRangeSeconds.load());
     AddFieldValue<vtkDoubleArray>(fd, "NeuralFirstFillSeconds", field.OutOfCore->FirstFillSeconds.load());
     AddFieldValue<vtkDoubleArray>(fd, "NeuralExactPassSeconds", field.OutOfCore->ExactPassSeconds.load());
+    AddFileReads(fd, field.OutOfCore->Layout);
   }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
   if (m.ErrorBound > 0.0)

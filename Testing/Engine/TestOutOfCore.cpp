@@ -1,7 +1,8 @@
 // Out-of-core training (issue 22), the engine's part: a network trained from a volume file through the random block
 // buffer with every block resident reaches the PSNR of the same training from memory within 1.5 dB; with a quarter
 // of the bytes it trains (the gap recorded); the streamed measurement of a network over the file equals the in-memory
-// one to 1e-6 dB; the streamed value range is the field's; a stopped pass stops.   nvTestOutOfCore [case]
+// one to 1e-6 dB; the streamed value range is the field's; a stopped pass stops; a sub-box of the file (one MPI
+// rank's piece) reads and measures only its samples.   nvTestOutOfCore [case]
 #include "Core/Error.h"
 #include "MirrorBatchSource.h"
 #include "OutOfCore/BlockBufferSource.h"
@@ -10,7 +11,9 @@
 #include "TempFolder.h"
 #include "TestHarness.h"
 
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -177,6 +180,67 @@ NV_TEST(a_stopped_pass_stops)
   int slabs = 0;
   EXPECT_THROW_MSG(nv::scanValueRange(reader, 32 << 10, [&](double) { return ++slabs < 2; }), "stopped");
   EXPECT_TRUE(slabs == 2);
+}
+
+NV_TEST(a_sub_box_reads_and_measures_only_its_samples)
+{
+  // One MPI rank's piece of a file (VolumeFileLayout::boxOrigin): its readers see only the box, every read lands in
+  // it (the tally's box), a box of a box composes, and the measurement of a box adds up to the whole's.
+  const std::vector<float> values = field();
+  const nv::VolumeFileLayout layout = writeField(values);
+  const int64_t origin[3] = { 5, 7, 9 }, size[3] = { 20, 17, 13 };
+  nv::VolumeFileLayout box = nv::volumeFileSubBox(layout, origin, size);
+  box.readTally = std::make_shared<nv::FileReadTally>();
+  EXPECT_TRUE(box.dims[0] == 20 && box.fileDim(0) == kSide && box.bytes() == 20 * 17 * 13 * 4 &&
+    box.fileBytes() == layout.bytes());
+  nv::VolumeFileReader reader(box);
+  const nv::FileValueRange range = nv::scanValueRange(reader, 4 << 10); // slabs of one plane
+  std::vector<float> read(static_cast<size_t>(box.samples()));
+  reader.readBox({ 0, 0, 0 }, { 20, 17, 13 }, read.data());
+  double lo = 1e300, hi = -1e300;
+  bool same = true;
+  for (int64_t z = 0; z < 13; ++z)
+    for (int64_t y = 0; y < 17; ++y)
+      for (int64_t x = 0; x < 20; ++x)
+      {
+        const float v = values[static_cast<size_t>((x + 5) + kSide * ((y + 7) + kSide * (z + 9)))];
+        same = same && read[static_cast<size_t>(x + 20 * (y + 17 * z))] == v;
+        lo = std::min(lo, double(v));
+        hi = std::max(hi, double(v));
+      }
+  EXPECT_TRUE(same && range.min == lo && range.max == hi && range.finite == box.samples());
+  int64_t boxLo[3], boxHi[3];
+  EXPECT_TRUE(box.readTally->box(boxLo, boxHi) && boxLo[0] == 5 && boxHi[0] == 24 && boxLo[1] == 7 &&
+    boxHi[1] == 23 && boxLo[2] == 9 && boxHi[2] == 21 && box.readTally->bytes() == 2 * box.bytes());
+  const int64_t inner[3] = { 1, 2, 3 }, one[3] = { 1, 1, 1 };
+  const nv::VolumeFileLayout nested = nv::volumeFileSubBox(box, inner, one);
+  float corner = 0.0f;
+  nv::VolumeFileReader(nested).readBox({ 0, 0, 0 }, { 1, 1, 1 }, &corner);
+  EXPECT_TRUE(corner == values[static_cast<size_t>(6 + kSide * (9 + kSide * 12))]);
+  const int64_t outside[3] = { 1, 1, 1 };
+  EXPECT_THROW_MSG(nv::volumeFileSubBox(box, size, outside), "inside");
+  // A network of the whole field measured over boxes: x and z splits (rows and planes of the grid) add up.
+  const nv::VolumeView view = nvtest::cubeView(values, kSide);
+  nv::TrainConfig train = trainConfig();
+  nvtest::SessionTrainer memory = nvtest::createTrainer(
+    nv::Device::Cpu, nvtest::untrainedModel(nvtest::smallModelConfig(12), view, 5), view, train);
+  for (int s = 0; s < 30; ++s)
+    memory->step();
+  memory->publish();
+  nv::VolumeFileReader whole(layout);
+  const nv::ErrorStats all = nv::measureOnFile(*memory.s, whole, view.valueMin, view.valueMax, 64 << 10);
+  for (int axis : { 0, 2 })
+  {
+    int64_t aLo[3] = { 0, 0, 0 }, aHi[3] = { kSide - 1, kSide - 1, kSide - 1 };
+    int64_t bLo[3] = { 0, 0, 0 }, bHi[3] = { kSide - 1, kSide - 1, kSide - 1 };
+    aHi[axis] = 14;
+    bLo[axis] = 15;
+    const nv::ErrorStats a = nv::measureBoxOnFile(*memory.s, whole, aLo, aHi, view.valueMin, view.valueMax, 64 << 10);
+    const nv::ErrorStats b = nv::measureBoxOnFile(*memory.s, whole, bLo, bHi, view.valueMin, view.valueMax, 64 << 10);
+    std::printf("  axis %d: boxes %.4f / %.4f dB, whole %.4f dB\n", axis, a.psnr, b.psnr, all.psnr);
+    EXPECT_TRUE(a.count + b.count == all.count && std::max(a.maxAbsError, b.maxAbsError) == all.maxAbsError);
+    EXPECT_NEAR_REL((a.mse * double(a.count) + b.mse * double(b.count)) / double(all.count), all.mse, 1e-9, 0.0);
+  }
 }
 
 int main(int argc, char** argv)
