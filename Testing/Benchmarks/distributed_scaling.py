@@ -6,9 +6,11 @@ Usage: mpiexec -n R pvbatch distributed_scaling.py <plugin.so> <mode: strong|wea
 Every rank trains its own piece (fixed seed; device CPU by default; CUDA: each rank on the GPU of its local rank); the
 throughput of a rank is its steps x batch over its training seconds (field data NeuralTrainingSeconds), summed over
 the ranks. Prints one RESULT line (JSON): ranks, mode, device, whole extent, per-rank seconds, samples/s, devices
-(NeuralDevice) and CUDA device ordinals (NeuralCudaDevice), their sum, the wall time of the update, the global PSNR.
+(NeuralDevice) and CUDA device ordinals (NeuralCudaDevice), their sum, the wall time of the update, the global PSNR,
+each rank's peak RSS growth over its RSS before the pipeline (MiB).
 """
 import json
+import os
 import sys
 import time
 
@@ -27,6 +29,10 @@ controller = vtkMultiProcessController.GetGlobalController()
 ranks = controller.GetNumberOfProcesses() if controller else 1
 depth = size * ranks if mode == "weak" else size
 whole = [0, size - 1, 0, size - 1, 0, depth - 1]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "ParaView"))
+import nvtest  # noqa: E402
+
+before = nvtest.rank_memory(ranks)
 wavelet = Wavelet(WholeExtent=whole)
 nc = NeuralCompress(Input=wavelet, SelectInputScalars=["POINTS", "RTData"], Device=device, Seed=7, Deterministic=1,
                     TrainingSteps=steps, BatchSize=BATCH, Levels=8, FeaturesPerLevel=2, NetworkWidth=32,
@@ -44,7 +50,10 @@ for r in range(ranks):
     devices.append(fd.GetAbstractArray("NeuralDevice").GetValue(0))
     ordinal = fd.GetArray("NeuralCudaDevice")
     ordinals.append(ordinal.GetValue(0) if ordinal is not None else None)
+after = nvtest.rank_memory(ranks)
+# Each rank's peak RSS growth over its RSS before the pipeline (the piece, its network, the engine's buffers).
+growth_mib = [round((a[1] - b[0]) / 2 ** 20, 1) for a, b in zip(after, before)]
 rates = [steps * BATCH / s for s in seconds]
 print("RESULT " + json.dumps(dict(ranks=ranks, mode=mode, device=device, threads=threads, whole=whole, steps=steps,
                                   batch=BATCH, devices=devices, cuda_devices=ordinals, seconds=seconds, samples_per_s=rates, total_samples_per_s=sum(rates),
-                                  wall_s=wall, psnr=psnr)))
+                                  wall_s=wall, psnr=psnr, peak_rss_growth_mib=growth_mib)))

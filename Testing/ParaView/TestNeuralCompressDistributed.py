@@ -48,26 +48,9 @@ BACKGROUND = [0.32, 0.34, 0.43]
 
 nvtest.load_plugin(globals(), scripted=False)
 out_dir = nvtest.output_dir()
-RSS_SCRIPT = ("import resource\nfrom vtkmodules.vtkCommonCore import vtkDoubleArray\n"
-              "out = self.GetOutput()\nfor name, value in (('rss', [int(l.split()[1]) * 1024.0 for l in "
-              "open('/proc/self/status') if l.startswith('VmRSS')][0]), ('peak', "
-              "resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0)):\n"
-              "    a = vtkDoubleArray()\n    a.SetName(name)\n    a.InsertNextValue(value)\n    out.AddColumn(a)\n")
-
-
 def memory(ranks):
-    """(current, peak) RSS bytes of every rank, measured now by a programmable source that runs on each."""
-    # The programmable source runs its script in this module's namespace on rank 0, importing numpy_interface's
-    # algorithms (max, log, ... that reduce over the ranks): the namespace is restored afterwards.
-    saved = dict(globals())
-    source = ProgrammableSource(OutputDataSetType="vtkTable", Script=RSS_SCRIPT)
-    source.UpdatePipeline()
-    tables = [servermanager.Fetch(source, r) for r in range(ranks)] if ranks > 1 else [servermanager.Fetch(source)]
-    Delete(source)
-    for name in [k for k in globals() if k not in saved]:
-        del globals()[name]
-    globals().update(saved)
-    return [(t.GetColumnByName("rss").GetValue(0), t.GetColumnByName("peak").GetValue(0)) for t in tables]
+    """(current, peak) RSS bytes of every rank (nvtest.rank_memory)."""
+    return nvtest.rank_memory(ranks)
 
 
 def wavelet_values():

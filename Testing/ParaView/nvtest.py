@@ -466,3 +466,30 @@ def assemble_pieces(pieces, name, whole, shape):
           "more: %d)" % (int(np.sum(owners == 0)), int(np.sum(owners > 1))))
     check(len(set(figures)) == 1, "the global figures are the same on every rank: %s" % figures)
     return decoded, extents, figures[0]
+
+
+_RSS_SCRIPT = ("import resource\nfrom vtkmodules.vtkCommonCore import vtkDoubleArray\n"
+               "out = self.GetOutput()\nfor name, value in (('rss', [int(l.split()[1]) * 1024.0 for l in "
+               "open('/proc/self/status') if l.startswith('VmRSS')][0]), ('peak', "
+               "resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0)):\n"
+               "    a = vtkDoubleArray()\n    a.SetName(name)\n    a.InsertNextValue(value)\n    out.AddColumn(a)\n")
+
+
+def rank_memory(ranks):
+    """(current, peak) RSS bytes of every rank, measured now by a programmable source that runs on each (the MPI tests
+    and Testing/Benchmarks/distributed_scaling.py)."""
+    import __main__
+    from paraview import servermanager
+    from paraview.simple import Delete, ProgrammableSource
+    # The programmable source runs its script in the main script's namespace on rank 0, importing numpy_interface's
+    # algorithms (max, log, ... that reduce over the ranks): that namespace is restored afterwards.
+    namespace = vars(__main__)
+    saved = dict(namespace)
+    source = ProgrammableSource(OutputDataSetType="vtkTable", Script=_RSS_SCRIPT)
+    source.UpdatePipeline()
+    tables = [servermanager.Fetch(source, r) for r in range(ranks)] if ranks > 1 else [servermanager.Fetch(source)]
+    Delete(source)
+    for name in [k for k in namespace if k not in saved]:
+        del namespace[name]
+    namespace.update(saved)
+    return [(t.GetColumnByName("rss").GetValue(0), t.GetColumnByName("peak").GetValue(0)) for t in tables]
