@@ -145,10 +145,11 @@ int vtkNeuralCompress::RequestData(
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;
   }
-  if (vtkUnstructuredGrid::SafeDownCast(inputObject) && this->Internals->GridPieces)
+  if (this->Internals->GridPieces && nvi::PerRankDataSetType(inputObject))
   {
-    // MPI, unstructured grid: every rank trains its own piece's network (vtkNeuralCompressDataSetPiece.h).
-    this->ExecuteGridPiece(vtkDataSet::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output,
+    // MPI, any other dataset or composite (not particles): every rank trains its own piece's network
+    // (vtkNeuralCompressDataSetPiece.h).
+    this->ExecuteGridPiece(inputObject, inputVector[0]->GetInformationObject(0), output,
       log, metrics, time);
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;

@@ -1,8 +1,8 @@
 // Neural Compress under MPI (private header): `mpiexec -n N pvbatch` or a parallel pvserver hands every rank only a
-// piece of the input; the network is trained once, on rank 0, over the whole input. Image inputs and unstructured
-// grids no longer come here: every rank trains a network of its own piece (vtkNeuralCompressPartition.h,
+// piece of the input; the network is trained once, on rank 0, over the whole input. Images, other datasets,
+// composites and AMR no longer come here: every rank trains a network of its own piece (vtkNeuralCompressPartition.h,
 // vtkNeuralCompressDataSetPiece.h), so the image branch below (pieces stitched by extent, StitchImages) is no longer
-// reached; composites, AMR and particle sets are gathered.
+// reached; particle sets and sparse VDB voxels are gathered.
 //
 // Design (only when the global vtkMultiProcessController has more than one process; with one process -- the GUI,
 // pvpython, client-server with one server process, builds without MPI -- nothing here runs and the filter behaves as
