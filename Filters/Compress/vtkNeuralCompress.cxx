@@ -146,11 +146,11 @@ int vtkNeuralCompress::RequestData(
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;
   }
-  if (vtkPointSet::SafeDownCast(inputObject) && this->Internals->GridPieces)
+  if (this->Internals->GridPieces && nvi::PerRankDataSetType(inputObject))
   {
-    // MPI, unstructured grid or particle set: every rank trains its own piece's network
+    // MPI, any other dataset, a composite or a particle set: every rank trains its own piece's network
     // (vtkNeuralCompressDataSetPiece.h, vtkNeuralCompressParticlePiece.h).
-    this->ExecuteGridPiece(vtkDataSet::SafeDownCast(inputObject), inputVector[0]->GetInformationObject(0), output,
+    this->ExecuteGridPiece(inputObject, inputVector[0]->GetInformationObject(0), output,
       log, metrics, time);
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), time);
     return 1;

@@ -423,8 +423,9 @@ protected:
   /// RequestInformation of an input that is not an image (in one process): the extent of the image it is resampled
   /// onto, or a sparse grid's index box; the input brought up to date first when it is empty.
   void AnnounceResampledExtent(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
-  /// RequestInformation under MPI, unstructured grid: whether every rank trains its own piece (a collective when the
-  /// upstream pipeline, array or SamplingDimensions changed) and the lattice's extent; false: gathered instead.
+  /// RequestInformation under MPI, a dataset or composite that is not an image: whether every rank trains its own
+  /// piece (a collective when the upstream pipeline, array or SamplingDimensions changed) and the lattice's extent;
+  /// false: gathered instead.
   bool AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
@@ -485,9 +486,9 @@ private:
   /// vtkNeuralCompressPiece.cxx.
   void ExecutePiece(vtkImageData* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
-  /// RequestData under MPI with an unstructured grid (vtkNeuralCompressDataSetPiece.h): as ExecutePiece, on this
+  /// RequestData under MPI with a dataset or composite (vtkNeuralCompressDataSetPiece.h): as ExecutePiece, on this
   /// rank's piece resampled on its region of the whole lattice.
-  void ExecuteGridPiece(vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
+  void ExecuteGridPiece(vtkDataObject* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log,
     vtkTable* metrics, double time);
   /// Trains Internals->Piece (when `hasPiece`), then the global figures (every rank); `sourceBytes` >= 0: the bytes
   /// the rank's share of the compression ratio counts.

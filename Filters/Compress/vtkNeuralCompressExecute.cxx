@@ -192,7 +192,7 @@ bool vtkNeuralCompress::RequestInput(
   {
     if (this->Internals->GridPieceActive)
     {
-      // A rank's resampled piece of an unstructured grid (vtkNeuralCompressDataSetPiece.h): its point array.
+      // A rank's resampled piece of a dataset or composite (vtkNeuralCompressDataSetPiece.h): its point array.
       request.Array = image->GetPointData()->GetArray(0);
       request.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
     }
@@ -485,7 +485,7 @@ bool vtkNeuralCompress::ReadField(const nvi::SelectedInput& input, nvi::FieldInf
   field.Description = data.Field.Description;
   if (input.Outside && in.GridPieceActive)
   {
-    // A rank's piece of an unstructured grid: measured on its lattice samples (the global figures).
+    // A rank's piece of an dataset, composite or particle set: measured on its lattice samples (the global figures).
     field.Description = field.Description.empty() ? in.PieceDescription()
                                                   : field.Description + "; " + in.PieceDescription();
   }

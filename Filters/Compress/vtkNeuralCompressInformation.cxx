@@ -155,7 +155,7 @@ void vtkNeuralCompress::AnnounceResampledExtent(vtkInformation* inInfo, vtkInfor
 bool vtkNeuralCompress::AnnounceGridPieces(vtkInformation* inInfo, vtkInformation* outInfo, vtkDataObject* input)
 {
   vtkInternals& in = *this->Internals;
-  if (!vtkUnstructuredGrid::SafeDownCast(input) && !vtkPolyData::SafeDownCast(input))
+  if (!nvi::PerRankDataSetType(input))
   {
     in.GridPieces = in.ParticlePieces = false; // the same type on every rank: no collective
     return false;
@@ -183,7 +183,7 @@ bool vtkNeuralCompress::AnnounceGridPieces(vtkInformation* inInfo, vtkInformatio
     std::fill(in.GridDims, in.GridDims + 3, 0);
     std::string problem;
     if (in.GridPieces && name && *name &&
-      !in.GridPiece.Resolve(vtkDataSet::SafeDownCast(input), name, association, this->SamplingDimensions,
+      !in.GridPiece.Resolve(input, name, association, this->SamplingDimensions,
         in.GridDims, problem))
       std::fill(in.GridDims, in.GridDims + 3, 0); // RequestData reports it
     if (in.ParticlePieces && name && *name &&

@@ -1,5 +1,6 @@
-// vtkNeuralCompress under MPI with an image input or an unstructured grid: one network per rank on its own piece,
-// the global figures (vtkNeuralCompressPartition.h, vtkNeuralCompressDataSetPiece.h, vtkNeuralCompressGlobalFigures.h), and the live updates of background training:
+// vtkNeuralCompress under MPI with an image input or another dataset or composite: one network per rank on its
+// own piece, the global figures (vtkNeuralCompressPartition.h, vtkNeuralCompressDataSetPiece.h,
+// vtkNeuralCompressGlobalFigures.h), and the live updates of background training:
 // ParaView's live-source poll asks rank 0 alone (GetNeedsUpdate), rank 0 asks the other ranks by an RMI, and every
 // rank is Modified() when one rank's run has something new, so the update that follows executes on every rank.
 #include "vtkNeuralCompress.h"
@@ -237,7 +238,7 @@ void vtkNeuralCompress::ExecutePiece(
 
 //------------------------------------------------------------------------------
 void vtkNeuralCompress::ExecuteGridPiece(
-  vtkDataSet* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
+  vtkDataObject* local, vtkInformation* inInfo, vtkImageData* output, vtkTable* log, vtkTable* metrics, double time)
 {
   vtkInternals& in = *this->Internals;
   const int ranksHere = nvi::RanksOnThisHost().Count; // a collective the first time (see ExecutePiece)

@@ -38,9 +38,10 @@ struct vtkNeuralCompress::vtkInternals
   int AnnouncedDims[3] = { 0, 0, 0 }; ///< sampling dimensions announced by RequestInformation (0: none)
   nvi::DistributedInput Distributed; ///< MPI: the input gathered to rank 0 (vtkNeuralCompressDistributed.h)
   nvi::ImagePiece Piece; ///< MPI, image input: this rank's piece (vtkNeuralCompressPartition.h)
-  nvi::DataSetPiece GridPiece; ///< MPI, unstructured grid: this rank's resampled piece (vtkNeuralCompressDataSetPiece.h)
+  /// MPI, dataset or composite: this rank's resampled piece (vtkNeuralCompressDataSetPiece.h)
+  nvi::DataSetPiece GridPiece;
   bool GridPieceActive = false; ///< while Execute trains GridPiece's image (its array and domain mask are used)
-  // MPI, unstructured grid: RequestInformation's decision (AnnounceGridPieces), renewed when this stamp changes.
+  // MPI, dataset or composite: RequestInformation's decision (AnnounceGridPieces), renewed when this stamp changes.
   uint64_t GridDecisionStamp = 0;
   bool GridDecided = false;
   bool GridPieces = false; ///< every rank trains its own piece (RequestData's branch)

@@ -1,26 +1,25 @@
-// A rank's piece of an unstructured grid under MPI (vtkNeuralCompressDataSetPiece.h).
+// A rank's piece of a dataset or composite under MPI: its summary, the lattice and the regions
+// (vtkNeuralCompressDataSetPiece.h; the resampling and exchange in vtkNeuralCompressPieceSampling.cxx).
 #include "vtkNeuralCompressDataSetPiece.h"
 
 #include "vtkNeuralCompressDistributed.h"
+#include "vtkNeuralCompressLatticeBox.h"
 #include "vtkNeuralCompressParticles.h"
 #include "vtkNeuralCompressPartition.h"
 #include "vtkNeuralCompressResample.h"
+#include "vtkNeuralCompressSparse.h"
 
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
-#include "vtkDataArraySelection.h"
 #include "vtkDataSet.h"
+#include "vtkCompositeDataSet.h"
 #include "vtkDataSetAttributes.h"
-#include "vtkDoubleArray.h"
-#include "vtkFloatArray.h"
 #include "vtkImageData.h"
 #include "vtkMultiProcessController.h"
 #include "vtkNew.h"
-#include "vtkPassSelectedArrays.h"
 #include "vtkPointData.h"
-#include "vtkResampleToImage.h"
+#include "vtkPolyData.h"
 #include "vtkUnsignedCharArray.h"
-#include "vtkUnstructuredGrid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -31,65 +30,85 @@ namespace vtkNeuralCompressInternals
 {
 namespace
 {
-using Box = std::array<int, 6>;
-
-/// The RMI-free tag of the pairwise exchange of lattice samples.
-constexpr int kExchangeTag = 0x4E565845; // "NVXE"
+using Box = LatticeBox;
 
 // The summary's layout (DataSetPiece::Summary).
 enum SummaryField
 {
-  kHasCells = 0,   ///< 1: the rank holds cells of its own (not ghosts) and points
-  kHasArray = 1,   ///< 1: the array is there (or the rank holds no cells)
-  kBounds = 2,     ///< 6: the piece's bounds (ghost cells included)
-  kCentres = 8,    ///< 6: the box of its own cells' centres
-  kSamples = 14,   ///< its own samples of the array (ghost points / cells left out)
-  kBytes = 15,     ///< their bytes
-  kComponents = 16 ///< the array's components
+  kHasCells = 0,    ///< 1: the rank holds cells of its own (not ghosts) in blocks that have the array
+  kHasArray = 1,    ///< 1: some block of the rank has the array
+  kBounds = 2,      ///< 6: the bounds of its blocks with the array (ghost cells included)
+  kCentres = 8,     ///< 6: the box of their own cells' centres
+  kSamples = 14,    ///< its own samples of the array (ghost points / cells and AMR cells under a finer level left out)
+  kBytes = 15,      ///< their bytes
+  kComponents = 16, ///< the array's components
+  kFinest = 17,     ///< composites: the finest spacing of its image blocks with the array (0: none)
+  kSurface = 18     ///< 1: a block with the array is poly data spread in 3D (a surface, no volume)
 };
 
-vtkDataArray* ArrayOf(vtkDataSet* ds, const std::string& name, int association)
+/// Poly data whose bounds are not flat in any axis: a surface, line or point set in 3D (no volume to sample).
+bool SurfaceIn3D(vtkDataSet* leaf)
 {
-  return association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? ds->GetCellData()->GetArray(name.c_str())
-                                                                : ds->GetPointData()->GetArray(name.c_str());
+  if (!vtkPolyData::SafeDownCast(leaf))
+    return false;
+  double b[6];
+  leaf->GetBounds(b);
+  const double lx = b[1] - b[0], ly = b[3] - b[2], lz = b[5] - b[4];
+  return std::min(lx, std::min(ly, lz)) > 1e-6 * std::max(lx, std::max(ly, lz));
 }
 
-bool Empty(const Box& b)
+/// A block's own cells (ghosts left out): the box of their centres grown in `lo`, `hi`; their count.
+int64_t CellCentres(vtkDataSet* leaf, double lo[3], double hi[3])
 {
-  return b[0] > b[1] || b[2] > b[3] || b[4] > b[5];
-}
-
-Box Intersect(const Box& a, const Box& b)
-{
-  Box o;
-  for (int i = 0; i < 3; ++i)
+  vtkUnsignedCharArray* cellGhosts = leaf->GetCellGhostArray();
+  const unsigned char skip = vtkDataSetAttributes::DUPLICATECELL | vtkDataSetAttributes::HIDDENCELL;
+  int64_t own = 0;
+  const vtkIdType cells = leaf->GetNumberOfPoints() > 0 ? leaf->GetNumberOfCells() : 0;
+  for (vtkIdType i = 0; i < cells; ++i)
   {
-    o[2 * i] = std::max(a[2 * i], b[2 * i]);
-    o[2 * i + 1] = std::min(a[2 * i + 1], b[2 * i + 1]);
+    if (cellGhosts && (cellGhosts->GetValue(i) & skip))
+      continue;
+    double b[6];
+    leaf->GetCellBounds(i, b);
+    for (int a = 0; a < 3; ++a)
+    {
+      const double centre = 0.5 * (b[2 * a] + b[2 * a + 1]);
+      lo[a] = std::min(lo[a], centre);
+      hi[a] = std::max(hi[a], centre);
+    }
+    ++own;
   }
-  return o;
+  return own;
 }
 
-Box Grow(const Box& b, int layers, const Box& whole)
+/// A block's own samples of `array` (ghosts and, for cells, AMR cells under a finer level left out).
+int64_t CountOwnSamples(vtkDataSet* leaf, vtkDataArray* array, int association)
 {
-  Box g = b;
-  for (int i = 0; i < 3; ++i)
-  {
-    g[2 * i] -= layers;
-    g[2 * i + 1] += layers;
-  }
-  return Intersect(g, whole);
+  const bool onCells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
+  vtkUnsignedCharArray* ghosts = onCells ? leaf->GetCellGhostArray() : leaf->GetPointGhostArray();
+  const unsigned char skip = onCells
+    ? (vtkDataSetAttributes::DUPLICATECELL | vtkDataSetAttributes::HIDDENCELL | vtkDataSetAttributes::REFINEDCELL)
+    : (vtkDataSetAttributes::DUPLICATEPOINT | vtkDataSetAttributes::HIDDENPOINT);
+  int64_t samples = 0;
+  for (vtkIdType i = 0; i < array->GetNumberOfTuples(); ++i)
+    samples += ghosts && (ghosts->GetValue(i) & skip) ? 0 : 1;
+  return samples;
 }
 
-int64_t Count(const Box& b)
+/// The finest spacing of an image block with more than one point along an axis (0: not an image).
+double ImageSpacing(vtkDataSet* leaf)
 {
-  return Empty(b) ? 0 : int64_t(b[1] - b[0] + 1) * (b[3] - b[2] + 1) * (b[5] - b[4] + 1);
-}
-
-/// Index of lattice point (i, j, k) in an image of point extent `ext` (x fastest).
-int64_t IndexIn(const Box& ext, int i, int j, int k)
-{
-  return (int64_t(k - ext[4]) * (ext[3] - ext[2] + 1) + (j - ext[2])) * (ext[1] - ext[0] + 1) + (i - ext[0]);
+  auto* image = vtkImageData::SafeDownCast(leaf);
+  double finest = 0.0;
+  if (!image)
+    return finest;
+  const double* h = image->GetSpacing();
+  int ext[6];
+  image->GetExtent(ext);
+  for (int a = 0; a < 3; ++a)
+    if (ext[2 * a + 1] > ext[2 * a] && h[a] > 0.0)
+      finest = finest > 0.0 ? std::min(finest, h[a]) : h[a];
+  return finest;
 }
 
 /// The k-d tree of the ranks' centre boxes over `region` (see the header): each leaf's point extent into `owned`.
@@ -171,71 +190,74 @@ std::vector<std::array<int, 6>> LatticeRegions(const std::vector<std::array<doub
 }
 
 //------------------------------------------------------------------------------
+vtkDataArray* PieceArray(vtkDataSet* block, const std::string& name, int association)
+{
+  return association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? block->GetCellData()->GetArray(name.c_str())
+                                                                : block->GetPointData()->GetArray(name.c_str());
+}
+
+bool PerRankDataSetType(vtkDataObject* local)
+{
+  const bool dataset = vtkDataSet::SafeDownCast(local) && !vtkImageData::SafeDownCast(local);
+  return (dataset || vtkCompositeDataSet::SafeDownCast(local)) && !IsSparseVoxels(local);
+}
+
 bool PerRankDataSets(vtkDataObject* local)
 {
   vtkMultiProcessController* c = DistributedController();
   if (!c)
     return false;
-  int mine = vtkUnstructuredGrid::SafeDownCast(local) && !IsParticleSet(local) ? 1 : 0, all = 0;
+  int mine = PerRankDataSetType(local) && !IsParticleSet(local) ? 1 : 0, all = 0;
   c->AllReduce(&mine, &all, 1, vtkCommunicator::MIN_OP);
   return all != 0;
 }
 
 //------------------------------------------------------------------------------
-DataSetPiece::Summary DataSetPiece::LocalSummary(vtkDataSet* local, const std::string& name, int association)
+DataSetPiece::Summary DataSetPiece::LocalSummary(vtkDataObject* local, const std::string& name, int association)
 {
   const uint64_t stamp = InputStamp(local, name, association) ^ (uint64_t(association) << 56);
   if (this->SummaryValid && stamp == this->SummaryStamp)
     return this->Mine;
   Summary s{};
-  s[kHasArray] = 1.0;
   s[kComponents] = 1.0;
-  vtkUnsignedCharArray* cellGhosts = local ? local->GetCellGhostArray() : nullptr;
-  const unsigned char skipCell = vtkDataSetAttributes::DUPLICATECELL | vtkDataSetAttributes::HIDDENCELL;
-  double lo[3] = { std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-    std::numeric_limits<double>::infinity() };
-  double hi[3] = { -lo[0], -lo[1], -lo[2] };
+  const double inf = std::numeric_limits<double>::infinity();
+  double lo[3] = { inf, inf, inf }, hi[3] = { -inf, -inf, -inf }, bounds[6] = { inf, -inf, inf, -inf, inf, -inf };
+  const bool composite = vtkCompositeDataSet::SafeDownCast(local) != nullptr;
   int64_t own = 0;
-  const vtkIdType cells = local && local->GetNumberOfPoints() > 0 ? local->GetNumberOfCells() : 0;
-  for (vtkIdType i = 0; i < cells; ++i)
+  for (vtkDataSet* leaf : local ? InputLeaves(local) : std::vector<vtkDataSet*>())
   {
-    if (cellGhosts && (cellGhosts->GetValue(i) & skipCell))
+    vtkDataArray* array = leaf->GetNumberOfPoints() > 0 ? PieceArray(leaf, name, association) : nullptr;
+    if (!array)
       continue;
+    s[kHasArray] = 1.0;
+    s[kComponents] = array->GetNumberOfComponents();
+    s[kSurface] = SurfaceIn3D(leaf) ? 1.0 : s[kSurface];
+    const int64_t cells = CellCentres(leaf, lo, hi);
+    if (cells == 0)
+      continue;
+    own += cells;
     double b[6];
-    local->GetCellBounds(i, b);
+    leaf->GetBounds(b);
     for (int a = 0; a < 3; ++a)
     {
-      const double centre = 0.5 * (b[2 * a] + b[2 * a + 1]);
-      lo[a] = std::min(lo[a], centre);
-      hi[a] = std::max(hi[a], centre);
+      bounds[2 * a] = std::min(bounds[2 * a], b[2 * a]);
+      bounds[2 * a + 1] = std::max(bounds[2 * a + 1], b[2 * a + 1]);
     }
-    ++own;
+    const int64_t samples = CountOwnSamples(leaf, array, association);
+    s[kSamples] += double(samples);
+    s[kBytes] += double(samples) * array->GetNumberOfComponents() * std::max(1, array->GetDataTypeSize());
+    const double spacing = composite ? ImageSpacing(leaf) : 0.0;
+    if (spacing > 0.0)
+      s[kFinest] = s[kFinest] > 0.0 ? std::min(s[kFinest], spacing) : spacing;
   }
   if (own > 0)
   {
     s[kHasCells] = 1.0;
-    double b[6];
-    local->GetBounds(b);
-    std::copy(b, b + 6, s.begin() + kBounds);
+    std::copy(bounds, bounds + 6, s.begin() + kBounds);
     for (int a = 0; a < 3; ++a)
     {
       s[size_t(kCentres + 2 * a)] = lo[a];
       s[size_t(kCentres + 2 * a + 1)] = hi[a];
-    }
-    vtkDataArray* array = ArrayOf(local, name, association);
-    s[kHasArray] = array ? 1.0 : 0.0;
-    if (array)
-    {
-      const bool onCells = association == vtkDataObject::FIELD_ASSOCIATION_CELLS;
-      vtkUnsignedCharArray* ghosts = onCells ? cellGhosts : local->GetPointGhostArray();
-      const unsigned char skip =
-        onCells ? skipCell : (vtkDataSetAttributes::DUPLICATEPOINT | vtkDataSetAttributes::HIDDENPOINT);
-      int64_t samples = 0;
-      for (vtkIdType i = 0; i < array->GetNumberOfTuples(); ++i)
-        samples += ghosts && (ghosts->GetValue(i) & skip) ? 0 : 1;
-      s[kSamples] = double(samples);
-      s[kBytes] = double(samples) * array->GetNumberOfComponents() * std::max(1, array->GetDataTypeSize());
-      s[kComponents] = array->GetNumberOfComponents();
     }
   }
   this->Mine = s;
@@ -244,22 +266,24 @@ DataSetPiece::Summary DataSetPiece::LocalSummary(vtkDataSet* local, const std::s
   return s;
 }
 
-bool DataSetPiece::Lattice(
-  const std::vector<Summary>& all, const std::string& name, const int requested[3], std::string& problem)
+bool DataSetPiece::Lattice(const std::vector<Summary>& all, const std::string& name, int association,
+  const int requested[3], std::string& problem)
 {
   double bounds[6] = { 0, -1, 0, -1, 0, -1 };
-  double samples = 0.0;
-  bool any = false;
+  double samples = 0.0, finest = 0.0;
+  bool any = false, withArray = false;
   this->Components = 0;
   for (const Summary& s : all)
   {
-    if (s[kHasCells] == 0.0)
-      continue;
-    if (s[kHasArray] == 0.0)
+    withArray |= s[kHasArray] != 0.0;
+    if (s[kSurface] != 0.0)
     {
-      problem = "no array '" + name + "' on a rank that holds cells";
+      problem = "poly data is a surface, line or point set in 3D and has no volume to sample; Neural Compress "
+                "takes volumes (image, rectilinear, structured, unstructured grids, AMR) or planar poly data";
       return false;
     }
+    if (s[kHasCells] == 0.0)
+      continue;
     if (this->Components && this->Components != int(s[kComponents]))
     {
       problem = "array '" + name + "' has different numbers of components on different ranks";
@@ -273,7 +297,15 @@ bool DataSetPiece::Lattice(
         any ? std::max(bounds[2 * a + 1], s[size_t(kBounds + 2 * a + 1)]) : s[size_t(kBounds + 2 * a + 1)];
     }
     samples += s[kSamples];
+    if (s[kFinest] > 0.0)
+      finest = finest > 0.0 ? std::min(finest, s[kFinest]) : s[kFinest];
     any = true;
+  }
+  if (!withArray)
+  {
+    problem = "no block of the input has a " +
+      std::string(association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? "cell" : "point") + " array '" + name + "'";
+    return false;
   }
   if (!any)
   {
@@ -282,7 +314,7 @@ bool DataSetPiece::Lattice(
   }
   std::copy(requested, requested + 3, this->Dims);
   if (this->Dims[0] <= 0 || this->Dims[1] <= 0 || this->Dims[2] <= 0)
-    AutoSamplingDimensions(bounds, static_cast<int64_t>(samples), 0.0, this->Dims);
+    AutoSamplingDimensions(bounds, static_cast<int64_t>(samples), finest, this->Dims);
   if (double(this->Dims[0]) * this->Dims[1] * this->Dims[2] > 1024.0 * 1024.0 * 1024.0)
   {
     problem = "SamplingDimensions exceed 2^30 samples; choose at most 1024^3";
@@ -312,211 +344,31 @@ void DataSetPiece::Regions(const std::vector<Summary>& all)
   const size_t n = all.size();
   this->OwnedBoxes.assign(n, none);
   this->PaddedBoxes.assign(n, none);
-  this->ResampledBoxes.assign(n, none);
   std::vector<int> holders;
   for (size_t r = 0; r < n; ++r)
     if (all[r][kHasCells] != 0.0)
       holders.push_back(static_cast<int>(r));
   SplitRegion(all, holders, this->WholeExtent, this->Origin, this->Spacing, this->OwnedBoxes);
   for (size_t r = 0; r < n; ++r)
-  {
-    if (Empty(this->OwnedBoxes[r]))
-      continue;
-    this->PaddedBoxes[r] = Grow(this->OwnedBoxes[r], kPieceGhostLayers, this->WholeExtent);
-    // The lattice points within the rank's bounds, at most kExchangeLayers beyond its padded piece.
-    Box reach;
-    for (int a = 0; a < 3; ++a)
-    {
-      reach[size_t(2 * a)] = static_cast<int>(std::ceil((all[r][size_t(kBounds + 2 * a)] - this->Origin[a]) /
-                                                this->Spacing[a] - 1e-6));
-      reach[size_t(2 * a + 1)] = static_cast<int>(std::floor(
-        (all[r][size_t(kBounds + 2 * a + 1)] - this->Origin[a]) / this->Spacing[a] + 1e-6));
-    }
-    reach = Intersect(reach, Grow(this->OwnedBoxes[r], kPieceGhostLayers + kExchangeLayers, this->WholeExtent));
-    Box box = this->PaddedBoxes[r];
-    if (!Empty(reach))
-      for (int a = 0; a < 3; ++a)
-      {
-        box[size_t(2 * a)] = std::min(box[size_t(2 * a)], reach[size_t(2 * a)]);
-        box[size_t(2 * a + 1)] = std::max(box[size_t(2 * a + 1)], reach[size_t(2 * a + 1)]);
-      }
-    this->ResampledBoxes[r] = box;
-  }
-}
-
-bool DataSetPiece::Resample(vtkDataSet* local, const std::string& name, int association, std::string& problem)
-{
-  vtkMultiProcessController* c = DistributedController();
-  Box box = this->ResampledBoxes[size_t(c->GetLocalProcessId())];
-  this->ResampledImage = nullptr;
-  if (Empty(box))
-    return true;
-  auto image = vtkSmartPointer<vtkImageData>::New();
-  image->SetExtent(box.data());
-  image->SetOrigin(this->Origin);
-  image->SetSpacing(this->Spacing);
-  vtkSmartPointer<vtkDataArray> field;
-  int dims[3];
-  double bounds[6];
-  for (int a = 0; a < 3; ++a)
-  {
-    dims[a] = box[size_t(2 * a + 1)] - box[size_t(2 * a)] + 1;
-    bounds[2 * a] = this->Origin[a] + box[size_t(2 * a)] * this->Spacing[a];
-    bounds[2 * a + 1] = this->Origin[a] + box[size_t(2 * a + 1)] * this->Spacing[a];
-    if (box[size_t(2 * a + 1)] == this->Dims[a] - 1 && this->Dims[a] > 1)
-      bounds[2 * a + 1] = this->Upper[a]; // the last plane exactly on the input's bounds (not a rounding beyond)
-  }
-  vtkSmartPointer<vtkDataArray> values, mask;
-  {
-    // VTK's serial filters on this rank alone (ParaView's factory would give the parallel resampler, a collective).
-    const RootOnlyScope alone(true);
-    vtkNew<vtkPassSelectedArrays> pass;
-    pass->SetInputDataObject(local);
-    pass->GetArraySelection(association)->EnableArray(name.c_str());
-    vtkNew<vtkResampleToImage> resample;
-    resample->SetInputConnection(pass->GetOutputPort());
-    resample->SetUseInputBounds(false);
-    resample->SetSamplingBounds(bounds);
-    resample->SetSamplingDimensions(dims);
-    resample->Update();
-    vtkImageData* out = resample->GetOutput();
-    values = out ? out->GetPointData()->GetArray(name.c_str()) : nullptr;
-    mask = out ? out->GetPointData()->GetArray(resample->GetMaskArrayName()) : nullptr;
-  }
-  const int64_t count = Count(box);
-  if (values && values->GetDataType() == VTK_DOUBLE)
-    field = vtkSmartPointer<vtkDoubleArray>::New();
-  else
-    field = vtkSmartPointer<vtkFloatArray>::New();
-  field->SetName(name.c_str());
-  field->SetNumberOfComponents(this->Components);
-  field->SetNumberOfTuples(count);
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const bool ok = values && mask && values->GetNumberOfTuples() == count && mask->GetNumberOfTuples() == count &&
-    values->GetNumberOfComponents() == this->Components;
-  if (!ok)
-    problem = "resampling this rank's cells gave no '" + name + "' values";
-  for (vtkIdType i = 0; i < count; ++i)
-  {
-    const bool in = ok && mask->GetComponent(i, 0) != 0.0;
-    for (int q = 0; q < this->Components; ++q)
-      field->SetComponent(i, q, in ? values->GetComponent(i, q) : nan);
-  }
-  image->GetPointData()->AddArray(field);
-  this->ResampledImage = image;
-  return ok;
-}
-
-void DataSetPiece::Exchange()
-{
-  vtkMultiProcessController* c = DistributedController();
-  const int me = c->GetLocalProcessId(), n = c->GetNumberOfProcesses();
-  vtkDataArray* mine =
-    this->ResampledImage ? this->ResampledImage->GetPointData()->GetArray(0) : nullptr;
-  const int nc = this->Components;
-  this->Filled = 0;
-  auto send = [&](int to) {
-    const Box part = Intersect(this->ResampledBoxes[size_t(me)], this->PaddedBoxes[size_t(to)]);
-    if (Empty(part) || !mine)
-      return;
-    std::vector<double> buffer(size_t(Count(part) * nc));
-    size_t at = 0;
-    const Box& ext = this->ResampledBoxes[size_t(me)];
-    for (int k = part[4]; k <= part[5]; ++k)
-      for (int j = part[2]; j <= part[3]; ++j)
-        for (int i = part[0]; i <= part[1]; ++i)
-          for (int q = 0; q < nc; ++q)
-            buffer[at++] = mine->GetComponent(IndexIn(ext, i, j, k), q);
-    c->Send(buffer.data(), vtkIdType(buffer.size()), to, kExchangeTag);
-  };
-  auto receive = [&](int from) {
-    const Box part = Intersect(this->ResampledBoxes[size_t(from)], this->PaddedBoxes[size_t(me)]);
-    if (Empty(part) || Empty(this->ResampledBoxes[size_t(me)]))
-      return;
-    std::vector<double> buffer(size_t(Count(part) * nc));
-    c->Receive(buffer.data(), vtkIdType(buffer.size()), from, kExchangeTag);
-    if (!mine)
-      return;
-    size_t at = 0;
-    const Box& ext = this->ResampledBoxes[size_t(me)];
-    for (int k = part[4]; k <= part[5]; ++k)
-      for (int j = part[2]; j <= part[3]; ++j)
-        for (int i = part[0]; i <= part[1]; ++i, at += size_t(nc))
-        {
-          const vtkIdType index = IndexIn(ext, i, j, k);
-          if (!std::isnan(mine->GetComponent(index, 0)) || std::isnan(buffer[at]))
-            continue;
-          for (int q = 0; q < nc; ++q)
-            mine->SetComponent(index, q, buffer[at + size_t(q)]);
-          ++this->Filled;
-        }
-  };
-  // Every pair in the same order on every rank (the lower rank sends first): no cycle of waiting sends.
-  for (int a = 0; a < n; ++a)
-    for (int b = a + 1; b < n; ++b)
-    {
-      if (me == a)
-      {
-        send(b);
-        receive(b);
-      }
-      else if (me == b)
-      {
-        receive(a);
-        send(a);
-      }
-    }
-}
-
-void DataSetPiece::CropToPadded()
-{
-  vtkMultiProcessController* c = DistributedController();
-  const size_t me = size_t(c->GetLocalProcessId());
-  this->TrainingImage = nullptr;
-  this->OutsideMask = nullptr;
-  Box padded = this->PaddedBoxes[me];
-  if (Empty(padded) || !this->ResampledImage)
-    return;
-  vtkDataArray* from = this->ResampledImage->GetPointData()->GetArray(0);
-  vtkSmartPointer<vtkDataArray> to;
-  to.TakeReference(from->NewInstance());
-  to->SetName(from->GetName());
-  to->SetNumberOfComponents(from->GetNumberOfComponents());
-  to->SetNumberOfTuples(Count(padded));
-  auto outside = std::make_shared<std::vector<uint8_t>>(size_t(Count(padded)), uint8_t(0));
-  vtkIdType at = 0;
-  for (int k = padded[4]; k <= padded[5]; ++k)
-    for (int j = padded[2]; j <= padded[3]; ++j)
-      for (int i = padded[0]; i <= padded[1]; ++i, ++at)
-      {
-        const vtkIdType index = IndexIn(this->ResampledBoxes[me], i, j, k);
-        to->SetTuple(at, index, from);
-        (*outside)[size_t(at)] = std::isnan(from->GetComponent(index, 0)) ? 1 : 0;
-      }
-  this->TrainingImage = vtkSmartPointer<vtkImageData>::New();
-  this->TrainingImage->SetExtent(padded.data());
-  this->TrainingImage->SetOrigin(this->Origin);
-  this->TrainingImage->SetSpacing(this->Spacing);
-  this->TrainingImage->GetPointData()->AddArray(to);
-  this->OutsideMask = outside;
-  this->ResampledImage = nullptr;
+    if (!IsEmptyBox(this->OwnedBoxes[r]))
+      this->PaddedBoxes[r] = GrowBox(this->OwnedBoxes[r], kPieceGhostLayers, this->WholeExtent);
 }
 
 //------------------------------------------------------------------------------
-bool DataSetPiece::Resolve(vtkDataSet* local, const std::string& name, int association, const int requested[3],
+bool DataSetPiece::Resolve(vtkDataObject* local, const std::string& name, int association, const int requested[3],
   int dims[3], std::string& problem)
 {
   vtkMultiProcessController* c = DistributedController();
   const Summary mine = this->LocalSummary(local, name, association);
   std::vector<Summary> all(size_t(c->GetNumberOfProcesses()));
   c->AllGather(mine.data(), all.front().data(), vtkIdType(mine.size()));
-  if (!this->Lattice(all, name, requested, problem))
+  if (!this->Lattice(all, name, association, requested, problem))
     return false;
   std::copy(this->Dims, this->Dims + 3, dims);
   return true;
 }
 
-bool DataSetPiece::Prepare(vtkDataSet* local, const std::string& name, int association, const int requested[3],
+bool DataSetPiece::Prepare(vtkDataObject* local, const std::string& name, int association, const int requested[3],
   std::string& problem)
 {
   vtkMultiProcessController* c = DistributedController();
@@ -534,14 +386,12 @@ bool DataSetPiece::Prepare(vtkDataSet* local, const std::string& name, int assoc
   this->Prepared = false;
   this->TrainingImage = nullptr;
   this->OutsideMask = nullptr;
-  if (!this->Lattice(all, name, requested, problem)) // the same on every rank: no collective follows
+  if (!this->Lattice(all, name, association, requested, problem)) // the same on every rank: no collective follows
     return false;
   this->Regions(all);
   this->OwnedExtent = this->OwnedBoxes[size_t(c->GetLocalProcessId())];
   std::string ownProblem;
-  int failed = this->Resample(local, name, association, ownProblem) ? 0 : 1, anyFailed = 0;
-  this->Exchange();
-  this->CropToPadded();
+  int failed = this->SampleRegions(local, name, association, ownProblem) ? 0 : 1, anyFailed = 0;
   c->AllReduce(&failed, &anyFailed, 1, vtkCommunicator::MAX_OP);
   if (anyFailed)
   {
@@ -554,10 +404,11 @@ bool DataSetPiece::Prepare(vtkDataSet* local, const std::string& name, int assoc
   std::ostringstream d;
   const int* e = this->OwnedExtent.data();
   d << (local ? local->GetClassName() : "no") << " piece, " << int64_t(mine[kSamples])
-    << (association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? " cells" : " points") << " of its own, resampled on "
+    << (association == vtkDataObject::FIELD_ASSOCIATION_CELLS ? " cells" : " points") << " of its own in "
+    << this->Blocks << (this->Blocks == 1 ? " block" : " blocks") << ", resampled on "
     << this->Dims[0] << " x " << this->Dims[1] << " x " << this->Dims[2] << " (owns " << e[0] << ".." << e[1] << ", "
     << e[2] << ".." << e[3] << ", " << e[4] << ".." << e[5] << "; " << this->Filled
-    << " samples from neighbouring ranks; "
+    << " samples from other ranks' blocks; "
     << (this->OutsideMask ? std::count(this->OutsideMask->begin(), this->OutsideMask->end(), uint8_t(1)) : 0)
     << " outside the domain)";
   this->Text = d.str();

@@ -59,6 +59,10 @@ void RequestLocalPiece(vtkInformation* inInfo)
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), c->GetLocalProcessId());
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), c->GetNumberOfProcesses());
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  // A composite input has no extent of its own: the output's (the lattice's) copied to it by the executive would
+  // reach the structured blocks upstream as a request outside theirs.
+  if (!inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    inInfo->Remove(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT());
 }
 
 void UpdateLocalPiece(vtkAlgorithm* self, vtkInformation* inInfo)

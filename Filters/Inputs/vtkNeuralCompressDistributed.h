@@ -1,8 +1,9 @@
 // Neural Compress under MPI (private header): `mpiexec -n N pvbatch` or a parallel pvserver hands every rank only a
-// piece of the input; the network is trained once, on rank 0, over the whole input. Image inputs and unstructured
-// grids no longer come here: every rank trains a network of its own piece (vtkNeuralCompressPartition.h,
+// piece of the input; the network is trained once, on rank 0, over the whole input. Images, other datasets,
+// composites and AMR no longer come here: every rank trains a network of its own piece (vtkNeuralCompressPartition.h,
 // vtkNeuralCompressDataSetPiece.h), so the image branch below (pieces stitched by extent, StitchImages) is no longer
-// reached; composites and AMR are gathered (particle sets: vtkNeuralCompressParticlePiece.h).
+// reached; sparse VDB voxels and composites of particle sets are gathered (particle sets:
+// vtkNeuralCompressParticlePiece.h).
 //
 // Design (only when the global vtkMultiProcessController has more than one process; with one process -- the GUI,
 // pvpython, client-server with one server process, builds without MPI -- nothing here runs and the filter behaves as

@@ -65,7 +65,7 @@ public:
   /// rank holds none of it (an empty piece: it trains nothing and contributes nothing to the figures).
   bool Select(vtkImageData* local, const int wholeExtent[6]);
 
-  /// RequestData of an unstructured grid (vtkNeuralCompressDataSetPiece.h): the padded image resampled for this rank,
+  /// RequestData of a dataset or composite (vtkNeuralCompressDataSetPiece.h): the padded image resampled for this rank,
   /// the point extent it owns and the whole lattice's, all in the image's index frame.
   void Adopt(vtkImageData* training, const int owned[6], const int wholeExtent[6]);
 
