@@ -28,21 +28,26 @@ float unitFloat(uint64_t hash)
 } // namespace
 
 BlockBuffer::BlockBuffer(const VolumeFileLayout& layout, const BlockBufferConfig& config)
-  : Reader(layout)
+  : Reader(layout, config.pageCache)
   , Config(config)
 {
   NV_CHECK(config.blockCells >= 1 && config.blockCells <= 1024, "blockCells must be 1..1024");
+  NV_CHECK(config.blockCellsX >= 0 && config.blockCellsX <= 1024, "blockCellsX must be 0..1024");
   for (int axis = 0; axis < 3; ++axis)
     NV_CHECK(layout.dims[axis] >= 1 && layout.dims[axis] <= INT32_MAX, "a volume file's axis holds 1 to 2^31 samples");
-  const int64_t edge = config.blockCells;
+  this->Edge[0] = config.blockCellsX > 0 ? config.blockCellsX : config.blockCells;
+  this->Edge[1] = this->Edge[2] = config.blockCells;
   for (int axis = 0; axis < 3; ++axis)
   {
+    const int64_t edge = this->Edge[axis];
     const int64_t cells = cellsAlong(layout.dims[axis]);
     this->BlocksPerAxis[axis] = cells == 0 ? 1 : (cells + edge - 1) / edge;
     this->SamplesPerSlot *= std::min(cells, edge) + 1;
     this->FullCellCount *= static_cast<int32_t>(std::max<int64_t>(1, std::min(cells, edge)));
   }
   this->BlockCount = this->BlocksPerAxis[0] * this->BlocksPerAxis[1] * this->BlocksPerAxis[2];
+  if (config.trackCoverage)
+    this->EverResident.assign(static_cast<size_t>((this->BlockCount + 7) / 8), 0);
   // A slot: its samples in the arena, its place (Slot) and its entry in Resident; a loading slot also has entries in
   // Free and Ready (8 bytes more).
   const int64_t slotBytes = this->SamplesPerSlot * static_cast<int64_t>(sizeof(float)) +
@@ -144,7 +149,23 @@ void BlockBuffer::fillResidents(int64_t resident, bool wholeVolume)
   if (failure)
     std::rethrow_exception(failure);
   for (int64_t k = 0; k < resident; ++k)
+  {
     this->Resident.push_back(static_cast<int32_t>(k));
+    this->markResident(k);
+  }
+}
+
+void BlockBuffer::markResident(int64_t slotIndex)
+{
+  if (this->EverResident.empty())
+    return;
+  const Slot& slot = this->Slots[static_cast<size_t>(slotIndex)];
+  const int64_t block = slot.origin[0] / this->Edge[0] +
+    this->BlocksPerAxis[0] * (slot.origin[1] / this->Edge[1] + this->BlocksPerAxis[1] * (slot.origin[2] / this->Edge[2]));
+  uint8_t& bits = this->EverResident[static_cast<size_t>(block / 8)];
+  const uint8_t bit = static_cast<uint8_t>(1u << (block % 8));
+  this->EverResidentCount += (bits & bit) ? 0 : 1;
+  bits |= bit;
 }
 
 void BlockBuffer::loadPencil(const std::vector<int64_t>& order, const std::vector<uint64_t>& blocks, int64_t begin,
@@ -214,7 +235,6 @@ uint64_t BlockBuffer::randomBlock(uint64_t draw) const
 void BlockBuffer::place(int64_t slotIndex, uint64_t blockIndex, std::array<int64_t, 3>& origin,
   std::array<int64_t, 3>& size)
 {
-  const int64_t edge = this->Config.blockCells;
   const VolumeFileLayout& layout = this->Reader.layout();
   Slot& slot = this->Slots[static_cast<size_t>(slotIndex)];
   int64_t block[3];
@@ -224,9 +244,9 @@ void BlockBuffer::place(int64_t slotIndex, uint64_t blockIndex, std::array<int64
   slot.cellCount = 1;
   for (int axis = 0; axis < 3; ++axis)
   {
-    origin[axis] = block[axis] * edge;
+    origin[axis] = block[axis] * this->Edge[axis];
     slot.origin[axis] = static_cast<int32_t>(origin[axis]);
-    slot.cells[axis] = static_cast<int16_t>(std::min(edge, cellsAlong(layout.dims[axis]) - origin[axis]));
+    slot.cells[axis] = static_cast<int16_t>(std::min(this->Edge[axis], cellsAlong(layout.dims[axis]) - origin[axis]));
     slot.cellCount *= std::max<int32_t>(1, slot.cells[axis]);
     size[axis] = slot.cells[axis] + 1;
   }
@@ -320,6 +340,7 @@ void BlockBuffer::advance(int blocks)
     const int64_t position = randomBankIndex(this->Config.seed, 0x5A9, this->SwapDraw++, resident);
     this->Free.push_back(this->Resident[static_cast<size_t>(position)]);
     this->Resident[static_cast<size_t>(position)] = static_cast<int32_t>(loaded);
+    this->markResident(loaded);
     ++this->BlocksSwapped;
   }
   lock.unlock();
@@ -356,8 +377,13 @@ void BlockBuffer::readerLoop()
 
 int64_t BlockBuffer::bytesPerSlot(int blockCells)
 {
-  const int64_t side = int64_t(blockCells) + 1;
-  return side * side * side * static_cast<int64_t>(sizeof(float)) + static_cast<int64_t>(sizeof(Slot) + sizeof(int32_t));
+  return bytesPerSlot(blockCells, blockCells, blockCells);
+}
+
+int64_t BlockBuffer::bytesPerSlot(int cellsX, int cellsY, int cellsZ)
+{
+  const int64_t samples = (int64_t(cellsX) + 1) * (int64_t(cellsY) + 1) * (int64_t(cellsZ) + 1);
+  return samples * static_cast<int64_t>(sizeof(float)) + static_cast<int64_t>(sizeof(Slot) + sizeof(int32_t));
 }
 
 BlockBufferStats BlockBuffer::stats() const
@@ -370,6 +396,12 @@ BlockBufferStats BlockBuffer::stats() const
   s.blocksSwapped = this->BlocksSwapped;
   s.swapsMissed = this->SwapsMissed;
   s.bytesRead = this->Reader.bytesRead();
+  s.bytesTransferred = this->Reader.bytesTransferred();
+  s.pageCache = this->Reader.pageCache();
+  s.blockCount = this->BlockCount;
+  s.blocksEverResident = this->EverResident.empty() ? -1 : this->EverResidentCount;
+  for (int axis = 0; axis < 3; ++axis)
+    s.blockCells[axis] = static_cast<int>(this->Edge[axis]);
   s.bufferBytes = static_cast<int64_t>(this->Arena.capacity() * sizeof(float) + this->Slots.capacity() * sizeof(Slot) +
     (this->Resident.capacity() + this->Free.capacity() + this->Ready.capacity()) * sizeof(int32_t));
   return s;

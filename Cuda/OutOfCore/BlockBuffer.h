@@ -6,6 +6,7 @@
 // file.
 //
 //   nv::BlockBuffer buffer(layout, { 256 << 20, 32, 4 });  // 256 MiB, 32^3-cell blocks, 4 reader threads
+//   (config.blockCellsX = 64 with blockCells = 2: bricks of 64 x 2 x 2 cells; config.pageCache = Bypass: O_DIRECT)
 //   buffer.drawSamples(65536, seed, step, xyz, values);     // xyz in [0,1]^3 of the volume, values in file units
 //   buffer.advance(8);                                      // up to 8 blocks replaced by loaded ones (never waits)
 #pragma once
@@ -32,6 +33,15 @@ struct BlockBufferConfig
   int readerThreads = 4;  ///< threads reading replacement blocks
   int loadingSlots = 0;   ///< slots the readers fill while the others are drawn from (0: automatic)
   uint64_t seed = 1;      ///< which blocks are read, in which order
+  /// Cells along x (0: blockCells): bricks long in x (a block's rows are read whole, one pread each) hold more cells
+  /// per read and per byte: 32 x 2 x 2 cells are 9 reads of 33 samples for 128 cells, 2^3 cells 9 reads of 3 for 8.
+  int blockCellsX = 0;
+  /// Whether the readers go through the page cache (VolumeFileReader.h, PageCacheUse): Bypass reads the disk itself
+  /// (O_DIRECT), as on a machine whose memory cannot hold the file.
+  PageCacheUse pageCache = PageCacheUse::Normal;
+  /// Keep one bit per block of the volume: whether it was ever resident (BlockBufferStats::blocksEverResident; the
+  /// bits grow with the file: for measurements).
+  bool trackCoverage = false;
 };
 
 struct BlockBufferStats
@@ -42,7 +52,12 @@ struct BlockBufferStats
   int64_t blocksSwapped = 0;    ///< replacements made by advance()
   int64_t swapsMissed = 0;      ///< replacements advance() asked for while no block was ready (reads too slow)
   int64_t bytesRead = 0;        ///< bytes read from the file
+  int64_t bytesTransferred = 0; ///< bytes the reads took from the file (PageCacheUse::Bypass: whole 4 KiB pages)
+  PageCacheUse pageCache = PageCacheUse::Normal; ///< in effect (Bypass where O_DIRECT is refused: DropBehind)
   int64_t bufferBytes = 0;      ///< bytes held by the slots
+  int64_t blockCount = 0;       ///< blocks of the volume
+  int64_t blocksEverResident = -1; ///< distinct blocks drawn from so far (-1: not tracked, trackCoverage off)
+  int blockCells[3] = { 1, 1, 1 }; ///< cells per block along x, y, z
 };
 
 class BlockBuffer
@@ -69,6 +84,7 @@ public:
   BlockBufferStats stats() const;
   /// The budget a slot of full blocks of `blockCells` cells per edge takes: its samples and its bookkeeping.
   static int64_t bytesPerSlot(int blockCells);
+  static int64_t bytesPerSlot(int cellsX, int cellsY, int cellsZ);
   const VolumeFileLayout& layout() const { return Reader.layout(); }
 
 private:
@@ -98,6 +114,7 @@ private:
 
   VolumeFileReader Reader;
   BlockBufferConfig Config;
+  int64_t Edge[3] = { 1, 1, 1 };  ///< cells per block along each axis
   int64_t BlocksPerAxis[3] = { 1, 1, 1 };
   int64_t BlockCount = 1;
   int64_t SamplesPerSlot = 1;      ///< a full block's samples
@@ -115,6 +132,9 @@ private:
   uint64_t NextDraw = 0;           ///< readers' block draws (under Mutex)
   uint64_t SwapDraw = 0;           ///< advance()'s choices of the block to replace
   std::atomic<int64_t> BlocksRead{ 0 };
+  std::vector<uint8_t> EverResident; ///< trackCoverage: a bit per block
+  int64_t EverResidentCount = 0;
+  void markResident(int64_t slot);
   int64_t BlocksSwapped = 0, SwapsMissed = 0;
 };
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
 #include <limits>
@@ -116,18 +117,67 @@ VolumeFileLayout volumeFileSubBox(const VolumeFileLayout& layout, const int64_t 
   return box;
 }
 
-VolumeFileReader::VolumeFileReader(const VolumeFileLayout& layout)
+VolumeFileReader::VolumeFileReader(const VolumeFileLayout& layout, PageCacheUse cache)
   : Layout(layout)
+  , Cache(layout.boxSource ? PageCacheUse::Normal : cache) // a chunked source reads through its library
 {
   this->FileDescriptor = ::open(layout.dataPath.c_str(), O_RDONLY | O_CLOEXEC);
   if (this->FileDescriptor < 0)
     NV_THROW("cannot open '" + layout.dataPath + "': " + std::strerror(errno));
+  if (this->Cache == PageCacheUse::Bypass)
+  {
+    this->DirectDescriptor = ::open(layout.dataPath.c_str(), O_RDONLY | O_CLOEXEC | O_DIRECT);
+    if (this->DirectDescriptor < 0)
+      this->Cache = PageCacheUse::DropBehind; // tmpfs and some others refuse O_DIRECT
+  }
+  if (this->Cache != PageCacheUse::Normal)
+    ::posix_fadvise(this->FileDescriptor, 0, 0, POSIX_FADV_RANDOM); // no read-ahead of pages nobody asked for
 }
 
 VolumeFileReader::~VolumeFileReader()
 {
   if (this->FileDescriptor >= 0)
     ::close(this->FileDescriptor);
+  if (this->DirectDescriptor >= 0)
+    ::close(this->DirectDescriptor);
+}
+
+void VolumeFileReader::readDirect(int64_t position, int64_t count, unsigned char* into) const
+{
+  // O_DIRECT reads whole pages into page-aligned memory: the span of pages around the bytes asked, a thread's buffer
+  // kept between calls (at most kRunBytes plus two pages: readBoxAs never asks for more at once).
+  constexpr int64_t kPage = 4096;
+  struct AlignedBuffer
+  {
+    unsigned char* data = nullptr;
+    int64_t size = 0;
+    ~AlignedBuffer() { std::free(this->data); }
+  };
+  thread_local AlignedBuffer buffer;
+  const int64_t first = position / kPage * kPage;
+  const int64_t span = (position + count + kPage - 1) / kPage * kPage - first;
+  if (buffer.size < span)
+  {
+    std::free(buffer.data);
+    buffer.data = static_cast<unsigned char*>(std::aligned_alloc(kPage, static_cast<size_t>(span)));
+    buffer.size = buffer.data ? span : 0;
+    NV_CHECK(buffer.data != nullptr, "cannot allocate a read buffer of " + std::to_string(span) + " bytes");
+  }
+  const int64_t needed = position + count - first; // the last page may be the file's partial last page
+  int64_t done = 0;
+  while (done < needed)
+  {
+    const ssize_t got = ::pread(this->DirectDescriptor, buffer.data + done, static_cast<size_t>(span - done),
+      static_cast<off_t>(first + done));
+    if (got < 0 && errno == EINTR)
+      continue;
+    if (got <= 0)
+      NV_THROW("reading '" + this->Layout.dataPath + "' at byte " + std::to_string(first + done) + " (O_DIRECT) failed: " +
+        (got < 0 ? std::string(std::strerror(errno)) : std::string("the file ends there (it shrank)")));
+    done += got;
+  }
+  std::memcpy(into, buffer.data + (position - first), static_cast<size_t>(count));
+  this->BytesTransferred += done;
 }
 
 int64_t VolumeFileReader::bytesRead() const
@@ -137,6 +187,12 @@ int64_t VolumeFileReader::bytesRead() const
 
 void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char* into) const
 {
+  if (this->Cache == PageCacheUse::Bypass)
+  {
+    this->readDirect(position, count, into);
+    this->BytesRead += count;
+    return;
+  }
   int64_t done = 0;
   while (done < count)
   {
@@ -149,7 +205,10 @@ void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char*
         (got < 0 ? std::string(std::strerror(errno)) : std::string("the file ends there (it shrank)")));
     done += got;
   }
+  if (this->Cache == PageCacheUse::DropBehind)
+    ::posix_fadvise(this->FileDescriptor, static_cast<off_t>(position), static_cast<off_t>(count), POSIX_FADV_DONTNEED);
   this->BytesRead += count;
+  this->BytesTransferred += count;
 }
 
 template <typename Out>

@@ -33,11 +33,21 @@ private:
   std::atomic<int64_t> Hi[3];
 };
 
+/// How reads use the page cache. A machine whose memory holds the file reads it from the cache after the first pass;
+/// the two bypasses read the disk itself, as a machine whose memory cannot hold the file does.
+enum class PageCacheUse : int
+{
+  Normal = 0,    ///< pread through the page cache
+  Bypass = 1,    ///< O_DIRECT: each read widened to whole 4 KiB pages into an aligned buffer (falls back to DropBehind
+                 ///< where the file system refuses O_DIRECT)
+  DropBehind = 2 ///< pread, then posix_fadvise(DONTNEED) on the pages read
+};
+
 class VolumeFileReader
 {
 public:
   /// Opens layout.dataPath (throws nv::Error with the reason).
-  explicit VolumeFileReader(const VolumeFileLayout& layout);
+  explicit VolumeFileReader(const VolumeFileLayout& layout, PageCacheUse cache = PageCacheUse::Normal);
   ~VolumeFileReader();
   VolumeFileReader(const VolumeFileReader&) = delete;
   VolumeFileReader& operator=(const VolumeFileReader&) = delete;
@@ -49,15 +59,24 @@ public:
   void readBox(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, double* out) const;
   /// Bytes read from the file so far (all threads).
   int64_t bytesRead() const;
+  /// Bytes the reads took from the file (Bypass: whole pages; else as bytesRead).
+  int64_t bytesTransferred() const { return BytesTransferred.load(); }
+  /// The page-cache use in effect (Bypass asked on a file system without O_DIRECT: DropBehind).
+  PageCacheUse pageCache() const { return Cache; }
 
 private:
   template <typename Out>
   void readBoxAs(const std::array<int64_t, 3>& origin, const std::array<int64_t, 3>& size, Out* out) const;
   void readBytes(int64_t position, int64_t count, unsigned char* into) const;
 
+  void readDirect(int64_t position, int64_t count, unsigned char* into) const;
+
   VolumeFileLayout Layout;
+  PageCacheUse Cache = PageCacheUse::Normal;
   int FileDescriptor = -1;
+  int DirectDescriptor = -1; ///< the same file opened with O_DIRECT (Bypass)
   mutable std::atomic<int64_t> BytesRead{ 0 };
+  mutable std::atomic<int64_t> BytesTransferred{ 0 };
 };
 
 } // namespace nv

@@ -303,6 +303,15 @@ public:
   ///@}
 
   ///@{
+  /// Out-of-core inputs: the block buffer's readers bypass the page cache (O_DIRECT, whole 4 KiB pages; where the
+  /// file system refuses it, each read's pages are dropped after it), as on a machine whose memory cannot hold the
+  /// file. Off (default): reads go through the page cache. The values read are the same either way (not part of the
+  /// training key).
+  vtkSetClampMacro(BypassPageCache, int, 0, 1);
+  vtkGetMacro(BypassPageCache, int);
+  ///@}
+
+  ///@{
   /// Steps between two PSNR estimates in the training log (0 = only at the end).
   vtkSetClampMacro(PSNRInterval, int, 0, VTK_INT_MAX);
   vtkGetMacro(PSNRInterval, int);
@@ -457,6 +466,7 @@ protected:
   int Sampling = SAMPLING_RESAMPLE;
   int ProbePoints = 0;
   double MemoryBudget = 0.0;
+  int BypassPageCache = 0;
   int ParticleField = PARTICLES_INTERPOLATE;
   int ParticleKernel = KERNEL_CUBIC_SPLINE;
   double ParticleRadius = 0.0;

@@ -46,6 +46,7 @@ nvi::Settings vtkNeuralCompress::CurrentSettings() const
   s.KeepBest = this->KeepBestNetwork;
   s.ProbePoints = this->ProbePoints;
   s.MemoryBudgetMiB = this->MemoryBudget;
+  s.BypassPageCache = this->BypassPageCache != 0;
   s.MaxError = this->MaxError;
   s.SizeForPsnr = this->SizeForPSNR;
   s.ParticleField = this->ParticleField;

@@ -28,6 +28,7 @@ struct Settings
   int Sampling = 0, ProbePoints = 0; ///< non-image inputs (vtkNeuralCompress::SamplingModes)
   bool KeepBest = true;
   double MemoryBudgetMiB = 0.0; ///< out-of-core inputs (vtkNeuralOutOfCoreInput.h); 0: automatic
+  bool BypassPageCache = false; ///< out-of-core inputs: the block buffer reads with O_DIRECT (not in the key)
   double MaxError = 0.0; ///< the error-bounded mode's bound in data units (nv::ErrorCorrections); 0: off
   double SizeForPsnr = 0.0; ///< the automatic size searched for this PSNR (nv::searchSizeForPsnr); 0: off
   /// Particle inputs (vtkNeuralCompressParticles.h).

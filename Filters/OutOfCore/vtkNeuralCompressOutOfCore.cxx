@@ -84,6 +84,7 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   file->Reader = std::make_shared<nv::VolumeFileReader>(file->Layout);
   file->BudgetBytes = nvi::OutOfCoreBudgetBytes(
     settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason, nvi::KnownRanksOnThisHost());
+  file->BufferReads = settings.BypassPageCache ? nv::PageCacheUse::Bypass : nv::PageCacheUse::Normal;
   nvi::CheckOutOfCoreStorage(*file); // chunks the budget cannot decode: nv::Error, reported
   nvi::FieldInfo& field = prepared.Field;
   DescribeFile(file, this->OutputResolution, this->FinestResolution, this->BaseResolution, field);

@@ -37,7 +37,8 @@ constexpr int64_t kBufferEighths = 5, kProbeEighths = 1, kSlabEighths = 1, kChun
 constexpr int64_t kProbeSamples = 65536;
 constexpr int kMinBlocksPerStep = 16;
 constexpr int64_t kRowReadsPerStep = 32768;
-constexpr double kBlocksPerBatchSample = 32.0;
+constexpr double kBlocksPerBatchSample = 1.0;
+constexpr int kBrickCellsX = 64;
 constexpr int kReaderThreads = 4;
 
 /// The field-data array that names the file (MarkOutOfCore), or null.
@@ -60,36 +61,49 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
   return h;
 }
 
-/// Cells per block edge: the largest (2..32) whose blocks the buffer's share holds kBlocksPerBatchSample times the
-/// batch size over. A step's samples cluster in the resident blocks: with fewer blocks than samples, the samples of one
-/// block are correlated and the batch trains like one of as many samples as there are blocks (measured: 1597 resident
-/// blocks and batches of 16384 train like in-memory batches of 1638, 29.8 against 29.4 dB), and large blocks leave the
-/// volume between them unseen. Many small blocks keep a step's samples as spread over the volume as in memory
-/// (README: 2 GiB under 128 MiB, 5^3-cell blocks 31.9 dB, 3^3-cell blocks 33.5 dB, in memory 33.9 dB).
-int BlockCellsFor(int64_t bufferBytes, int batchSize)
+/// The blocks' shape: bricks long in x, CellsX (up to kBrickCellsX) by 2 x 2 cells, the longest of which the
+/// buffer's share holds kBlocksPerBatchSample times the batch size (else 2^3-cell cubes, as for a small budget). A block
+/// is read a row at a time (one pread of CellsX + 1 samples: one page of the disk, whatever its length up to 4 KiB), so
+/// a brick brings many more cells per read than a cube: 64 x 2 x 2 cells are 9 reads for 256 cells, 2^3 cells 9 reads
+/// for 8. What the network needs is the whole volume seen again and again up to the end of the run, when the rate is
+/// low: with cubes and the reads of a step (kRowReadsPerStep) the buffer saw a small part of the volume between two
+/// turnovers and the network fitted the part it held (the H100's 2 GB crop under 512 MiB: 2.47 M resident 2^3-cell
+/// blocks, 4% of the cells, 3640 replaced a step, 2.95 dB below memory at 10k steps). Measured on a 256^3 float32
+/// file of the same family, 10 MiB buffer, batch 4096, 4000 CPU steps, 228 blocks replaced a step
+/// (results/outofcore_gap_2026-11-27.md): 2^3-cell cubes 41.47 dB (37% of the blocks ever resident), bricks of
+/// 16 x 2 x 2 cells 43.43, 32 x 2 x 2 43.83, 64 x 2 x 2 44.19-44.58 dB (every block resident at times, one block a
+/// sample of the batch); in memory 44.94 dB.
+struct BlockShape
+{
+  int CellsX = 2;
+  int Cells = 2; ///< along y and z
+};
+
+BlockShape BlockShapeFor(int64_t bufferBytes, int batchSize)
 {
   const double wanted = double(std::max(1, batchSize)) * kBlocksPerBatchSample;
-  for (int edge = 32; edge > 2; --edge)
-    if (double(bufferBytes) / double(nv::BlockBuffer::bytesPerSlot(edge)) >= wanted)
-      return edge;
-  return 2;
+  for (int cellsX = kBrickCellsX; cellsX >= 4; cellsX /= 2)
+    if (double(bufferBytes) / double(nv::BlockBuffer::bytesPerSlot(cellsX, 2, 2)) >= wanted)
+      return BlockShape{ cellsX, 2 };
+  return BlockShape{ 2, 2 };
 }
 
 /// Slots the readers fill while the others are drawn from: twice the blocks replaced per step, which cost about
-/// kRowReadsPerStep row reads (a block is (blockCells + 1)^2 rows; the readers never hold a step up: what they have
-/// not read by then is swapped in later), at least kMinBlocksPerStep, never more than a quarter of the slots.
+/// kRowReadsPerStep row reads (a block is (cells + 1)^2 rows; the readers never hold a step up: what they have not
+/// read by then is swapped in later), at least kMinBlocksPerStep, never more than a quarter of the slots.
 /// Replacing many blocks a step matters as much as many blocks (a 32 MiB file under 2 MiB, 4^3-cell blocks: 64 a step
 /// 26.9 dB, 1024 a step 29.9 dB; the 2 GiB test's 3^3-cell blocks: 512 a step 32.8-33.4 dB, 2048 a step 33.7 dB).
-int64_t LoadingSlotsFor(int64_t bufferBytes, int blockCells)
+int64_t LoadingSlotsFor(int64_t bufferBytes, const BlockShape& shape)
 {
-  const int64_t side = blockCells + 1;
-  const int64_t slots = bufferBytes / nv::BlockBuffer::bytesPerSlot(blockCells);
+  const int64_t side = shape.Cells + 1;
+  const int64_t slots = bufferBytes / nv::BlockBuffer::bytesPerSlot(shape.CellsX, shape.Cells, shape.Cells);
   const int64_t perStep = std::max<int64_t>(kMinBlocksPerStep, kRowReadsPerStep / (side * side));
   return std::max<int64_t>(2, std::min(2 * perStep, slots / 4));
 }
 
-/// Owns what an out-of-core trainer draws from: the file, its block buffer and the batch source on it.
-struct BufferedFile
+/// Owns what an out-of-core trainer draws from: the file, its block buffer and the batch source on it; after each
+/// step's swaps the buffer's read figures go to the file (the output's NeuralBuffer* arrays).
+struct BufferedFile final : public nv::BatchSource
 {
   BufferedFile(const std::shared_ptr<const OutOfCoreFile>& file, const nv::BlockBufferConfig& config,
     const nv::ValueRange& range)
@@ -97,6 +111,25 @@ struct BufferedFile
     , Buffer(file->Layout, config)
     , Source(Buffer, range, config.loadingSlots / 2)
   {
+    this->File->BufferFirstFillBytes = this->Buffer.stats().bytesRead;
+    this->publish();
+  }
+  void prepareStep(uint64_t step) override
+  {
+    this->Source.prepareStep(step);
+    this->publish();
+  }
+  int64_t fill(uint64_t seed, uint64_t step, int64_t first, int64_t count, float* xyz, float* targets,
+    uint8_t* valid) const override
+  {
+    return this->Source.fill(seed, step, first, count, xyz, targets, valid);
+  }
+  void publish() const
+  {
+    const nv::BlockBufferStats stats = this->Buffer.stats();
+    this->File->BufferBytesRead = stats.bytesRead;
+    this->File->BufferBytesTransferred = stats.bytesTransferred;
+    this->File->BufferSwapsMissed = stats.swapsMissed;
   }
   std::shared_ptr<const OutOfCoreFile> File;
   nv::BlockBuffer Buffer;
@@ -289,23 +322,28 @@ std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
   const nv::ValueRange range(stats.min, stats.max);
   nv::BlockBufferConfig config;
   config.memoryBudgetBytes = file->BudgetBytes * kBufferEighths / 8;
-  config.blockCells = BlockCellsFor(config.memoryBudgetBytes, batchSize);
-  config.loadingSlots = static_cast<int>(LoadingSlotsFor(config.memoryBudgetBytes, config.blockCells));
+  const BlockShape shape = BlockShapeFor(config.memoryBudgetBytes, batchSize);
+  config.blockCells = shape.Cells;
+  config.blockCellsX = shape.CellsX;
+  config.loadingSlots = static_cast<int>(LoadingSlotsFor(config.memoryBudgetBytes, shape));
   config.readerThreads = kReaderThreads;
   config.seed = seed;
+  config.pageCache = file->BufferReads;
+  const std::string shapeText = std::to_string(shape.CellsX) + " x " + std::to_string(shape.Cells) + " x " +
+    std::to_string(shape.Cells) + "-cell blocks";
   OutOfCorePhaseLog fillLog("first fill of the block buffer",
-    std::to_string(config.blockCells) + "^3-cell blocks in " + nv::formatBytes(config.memoryBudgetBytes));
+    shapeText + " in " + nv::formatBytes(config.memoryBudgetBytes));
   auto buffered = std::make_shared<BufferedFile>(file, config, range);
   file->FirstFillSeconds = fillLog.Finish();
   const nv::BlockBufferStats filled = buffered->Buffer.stats();
   std::ostringstream d;
   d.precision(3);
   d << "out of core: " << OutOfCoreSummary(layout) << "; block buffer of " << filled.residentBlocks << " resident "
-    << config.blockCells << "^3-cell blocks, up to " << config.loadingSlots / 2 << " replaced a step ("
+    << shapeText << ", up to " << config.loadingSlots / 2 << " replaced a step ("
     << nv::formatBytes(filled.bufferBytes) << " of the " << file->BudgetReason << "); value-range pass "
     << file->ValueRangeSeconds.load() << " s, first fill " << file->FirstFillSeconds.load() << " s";
   data->Field.Description = d.str();
-  data->Batches = std::shared_ptr<nv::BatchSource>(buffered, &buffered->Source);
+  data->Batches = buffered;
   data->Probe = RowProbe(*file, range, seed);
   return data;
 }

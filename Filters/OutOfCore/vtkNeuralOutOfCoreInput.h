@@ -76,12 +76,21 @@ struct OutOfCoreFile
   std::shared_ptr<nv::VolumeFileReader> Reader;
   int64_t BudgetBytes = 0;  ///< what the block buffer, the probe and a measurement's slabs may hold
   std::string BudgetReason; ///< "MemoryBudget 64 MiB", "automatic: 20% of ..."
+  nv::PageCacheUse BufferReads = nv::PageCacheUse::Normal; ///< the block buffer's readers (BypassPageCache)
   /// Seconds of the phases around training (NaN until run; the output's NeuralValueRangeSeconds,
   /// NeuralFirstFillSeconds, NeuralExactPassSeconds): the value-range pass, the block buffer's first fill, the last
   /// exact pass. Set by the passes, which also log their start, progress and end (vtkLogF INFO, on stderr).
   mutable std::atomic<double> ValueRangeSeconds{ std::numeric_limits<double>::quiet_NaN() };
   mutable std::atomic<double> FirstFillSeconds{ std::numeric_limits<double>::quiet_NaN() };
   mutable std::atomic<double> ExactPassSeconds{ std::numeric_limits<double>::quiet_NaN() };
+  /// The block buffer's reads (the output's NeuralBufferBytesRead, NeuralBufferBytesTransferred,
+  /// NeuralBufferFirstFillBytes, NeuralBufferSwapsMissed; -1 until it exists): the bytes its blocks hold, the bytes the
+  /// reads took from the file (whole pages with BypassPageCache), those of the first fill, the replacements a step
+  /// asked for while no block was ready. Updated every step.
+  mutable std::atomic<int64_t> BufferBytesRead{ -1 };
+  mutable std::atomic<int64_t> BufferBytesTransferred{ -1 };
+  mutable std::atomic<int64_t> BufferFirstFillBytes{ -1 };
+  mutable std::atomic<int64_t> BufferSwapsMissed{ -1 };
 };
 
 /// A phase around training on the log (vtkLogF INFO, on stderr; a run stopped midway still tells where it was): its

@@ -129,6 +129,12 @@ void FillImage(vtkImageData* output, const FieldInfo& field, const NetworkRecord
     AddFieldValue<vtkDoubleArray>(fd, "NeuralFirstFillSeconds", field.OutOfCore->FirstFillSeconds.load());
     AddFieldValue<vtkDoubleArray>(fd, "NeuralExactPassSeconds", field.OutOfCore->ExactPassSeconds.load());
     AddFileReads(fd, field.OutOfCore->Layout);
+    // The block buffer's reads (-1 until it exists): the bytes its blocks hold, the bytes taken from the file (whole
+    // pages with BypassPageCache), those of the first fill, the swaps asked for while no block was ready.
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralBufferBytesRead", field.OutOfCore->BufferBytesRead.load());
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralBufferBytesTransferred", field.OutOfCore->BufferBytesTransferred.load());
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralBufferFirstFillBytes", field.OutOfCore->BufferFirstFillBytes.load());
+    AddFieldValue<vtkTypeInt64Array>(fd, "NeuralBufferSwapsMissed", field.OutOfCore->BufferSwapsMissed.load());
   }
   AddFieldValue<vtkDoubleArray>(fd, "NeuralCompressionRatio", m.Ratio);
   if (m.ErrorBound > 0.0)

@@ -1,11 +1,16 @@
 """Issue 22's out-of-core benchmark (pvbatch, the plugin loaded; meant for the GPU machine, CPU works too): a procedural
 file larger than the budget (default 2176^3 float32, 41 GB; ooc_procedural.py, a slab at a time, all cores), then
 
-  1. the disk's random-read bandwidth for the buffer's block size (--disk-tool nvDiskRandomRead: the file dropped from
-     the page cache, random blocks read row by row with pread from 4 threads, as the block buffer reads);
+  1. the disk's random-read bandwidth for the buffer's block shape (--disk-tool nvDiskRandomRead: random blocks read
+     row by row from 4 threads, as the block buffer reads; --disk-mode direct (default): O_DIRECT, whole 4 KiB pages,
+     as fio --direct=1, the disk itself whatever the machine's memory; cold: pread after dropping the file from the
+     page cache);
   2. Neural Compress out of core (MemoryBudget, default 8 GiB) for STEPS steps: the PSNR over wall time (its training
-     log: estimates every PSNRInterval steps, exact at the end), the steps/s, the buffer's read throughput (bytes read,
-     /proc/self/io rchar, less the two whole-file passes, over the training seconds) and its share of (1); the
+     log: estimates every PSNRInterval steps, exact at the end), the steps/s, the buffer's read throughput (the
+     filter's NeuralBufferBytesRead less NeuralBufferFirstFillBytes: the bytes of the blocks read while training, over
+     the training seconds) and its share of (1); --bypass: the buffer's readers bypass the page cache
+     (BypassPageCache: O_DIRECT, the same block shape and pattern as (1)), so that the share means the disk's
+     share on a machine whose memory holds the file; NeuralBufferSwapsMissed says whether the reads held it up; the
      seconds of each phase (the filter's NeuralValueRangeSeconds, NeuralFirstFillSeconds, NeuralTrainingSeconds,
      NeuralExactPassSeconds), each phase's start, tenths and end logged on stderr as it goes (the filter's vtkLogF
      lines: a run stopped by a timeout still tells where it was);
@@ -89,6 +94,7 @@ def figure(data, name):
 
 
 def train_out_of_core(path, budget_mib, settings, file_bytes):
+    # (file_bytes: the rchar figure below subtracts the two whole-file passes)
     """Neural Compress from the file within the budget: figures, curve, reads, peak memory."""
     from paraview.simple import Delete
     from paraview import servermanager
@@ -107,15 +113,23 @@ def train_out_of_core(path, budget_mib, settings, file_bytes):
               "steps": figure(out, "NeuralSteps"), "psnr_exact": figure(out, "NeuralPSNR"),
               "exact": figure(out, "NeuralPSNRExact"), "curve": psnr_curve(servermanager.Fetch(nc, idx=1)),
               "bytes_read": bytes_read() - read_before,
+              "buffer_bytes_read": figure(out, "NeuralBufferBytesRead"),
+              "buffer_bytes_transferred": figure(out, "NeuralBufferBytesTransferred"),
+              "buffer_first_fill_bytes": figure(out, "NeuralBufferFirstFillBytes"),
+              "buffer_swaps_missed": figure(out, "NeuralBufferSwapsMissed"),
+              "bypass_page_cache": settings.get("BypassPageCache", 0),
               "peak_rss_above_before_mib": (status_kib("VmHWM") - rss_before) / 1024.0,
               "rss_before_mib": rss_before / 1024.0}
     result["steps_per_s"] = result["steps"] / result["training_s"]
     progress("%s: done in %.1f s (value range %s s, first fill %s s, training %s s, exact pass %s s)" % tuple(
         [path, result["wall_s"]] + ["%.1f" % result[k] if result[k] is not None else "?" for k in (
             "value_range_s", "first_fill_s", "training_s", "exact_pass_s")]))
-    # The buffer's reads: all bytes read less the two whole-file passes (value range, exact PSNR); the probe's few
-    # rows are left in. Over the training seconds (the buffer's readers run while it trains).
-    result["buffer_read_mb_per_s"] = (result["bytes_read"] - 2 * file_bytes) / result["training_s"] / 1e6
+    # The buffer's reads while it trained: the bytes of the blocks read after the first fill, over the training
+    # seconds (the readers run while it trains); rchar less the two whole-file passes as before, for comparison.
+    if result["buffer_bytes_read"] is not None and result["buffer_first_fill_bytes"] is not None:
+        result["buffer_read_mb_per_s"] = (result["buffer_bytes_read"] - result["buffer_first_fill_bytes"]) / \
+            result["training_s"] / 1e6
+    result["rchar_read_mb_per_s"] = (result["bytes_read"] - 2 * file_bytes) / result["training_s"] / 1e6
     Delete(nc)
     Delete(reader)
     return result
@@ -189,13 +203,18 @@ def main():
     parser.add_argument("--device", default="CUDA")
     parser.add_argument("--batch", type=int, default=65536)
     parser.add_argument("--disk-seconds", type=float, default=20)
+    parser.add_argument("--disk-mode", default="direct", choices=["direct", "cold"],
+                        help="direct: O_DIRECT page reads (the disk itself); cold: pread after dropping the cache")
+    parser.add_argument("--bypass", action="store_true",
+                        help="the large file's block buffer bypasses the page cache (BypassPageCache=1, O_DIRECT)")
     parser.add_argument("--disk-tool", default="",
                         help="nvDiskRandomRead (Testing/Benchmarks, built with the project): the disk's random-read "
                              "bandwidth at the buffer's block pattern (without it, not measured: Python's per-row "
                              "calls would measure Python, not the disk)")
     parser.add_argument("--parts", default="generate,large,crop",
-                        help="any of generate (the files, plain Python), large (out of core, the disk), crop (the crop "
-                             "in memory and out of core); the JSON gathers the parts run so far")
+                        help="any of generate (the files, plain Python), generate-crop (the crop's file only), large "
+                             "(out of core, the disk), crop (the crop in memory and out of core); the JSON gathers the "
+                             "parts run so far")
     parser.add_argument("--set", default="", metavar="NAME=VALUE,...",
                         help="more Neural Compress properties for every run, e.g. Levels=4,Log2TableSize=14 (a small "
                              "network: a CPU run's exact pass is mostly decoding)")
@@ -220,13 +239,16 @@ def main():
         crop_raw, _ = generated(args.python, crop, args.crop, args.type, item)
         result["generate_s"] = generate_s or result.get("generate_s")
         progress("files ready: %s, %s" % (raw, crop_raw))
+    if "generate-crop" in parts:
+        crop_raw, _ = generated(args.python, crop, args.crop, args.type, item)
+        progress("file ready: %s" % crop_raw)
     if "large" in parts:
         raw = existing(large, args.dims, args.type, item, "--dims")
     if "crop" in parts:
         crop_raw = existing(crop, args.crop, args.type, item, "--crop")
     if "generate" in parts or "large" in parts:
         result["file_bytes"] = os.path.getsize(raw)
-    if parts - {"generate"}:
+    if parts - {"generate", "generate-crop"}:
         from paraview.simple import LoadPlugin
         from vtkmodules.vtkCommonCore import vtkLogger
         LoadPlugin(os.environ["NV_PLUGIN"], remote=False, ns=globals())
@@ -239,20 +261,25 @@ def main():
     result["set"] = args.set
     if "large" in parts:
         drop_from_page_cache(raw)
-        result["ooc"] = train_out_of_core(large, args.budget_mib, settings, result["file_bytes"])
-        # The block edge the buffer chose (vtkNeuralOutOfCoreInput.cxx, BlockCellsFor: 5/8 of the budget, 32 blocks
-        # a batch sample): the disk's bandwidth for that block size.
+        large_settings = dict(settings, BypassPageCache=1) if args.bypass else settings
+        result["ooc"] = train_out_of_core(large, args.budget_mib, large_settings, result["file_bytes"])
+        # The block shape the buffer chose (vtkNeuralOutOfCoreInput.cxx, BlockShapeFor: 5/8 of the budget, the
+        # longest brick of up to 64 x 2 x 2 cells it holds one per sample of the batch of, else 2^3-cell cubes): the
+        # disk's bandwidth for it.
         buffer_bytes = args.budget_mib * 2 ** 20 * 5 / 8
-        edge = next((e for e in range(32, 2, -1) if buffer_bytes / ((e + 1) ** 3 * 4 + 28) >= 32 * args.batch), 2)
+        cells = 2
+        cells_x = next((x for x in (64, 32, 16, 8, 4) if buffer_bytes / ((x + 1) * 9 * 4 + 28) >= args.batch), 2)
         if args.disk_tool:
-            progress("the disk's random-read bandwidth (%s, %d^3-cell blocks, %g s)" % (args.disk_tool, edge,
-                                                                                     args.disk_seconds))
+            progress("the disk's random-read bandwidth (%s, %d x %d x %d-cell blocks, %s, %g s)" % (
+                args.disk_tool, cells_x, cells, cells, args.disk_mode, args.disk_seconds))
             measured = json.loads(subprocess.run([args.disk_tool, raw] + [str(n) for n in args.dims] +
-                                                 [str(item), str(edge), str(args.disk_seconds), "4"], check=True,
+                                                 [str(item), str(cells), str(args.disk_seconds), "4", str(cells_x),
+                                                  args.disk_mode], check=True,
                                                  capture_output=True, text=True).stdout)
             result["disk_random_read"] = measured
             result["disk_random_read_mb_per_s"] = measured["mb_per_s"]
-            result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / measured["mb_per_s"]
+            if result["ooc"].get("buffer_read_mb_per_s") is not None:
+                result["ooc"]["share_of_disk"] = result["ooc"]["buffer_read_mb_per_s"] / measured["mb_per_s"]
     if "crop" in parts:
         drop_from_page_cache(crop_raw)
         result["crop_ooc"] = train_out_of_core(crop, args.crop_budget_mib, settings, os.path.getsize(crop_raw))

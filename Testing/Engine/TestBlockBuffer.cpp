@@ -1,7 +1,8 @@
 // Out-of-core training's random block buffer (issue 22): samples drawn from the resident blocks sit where their
 // values say (a linear field, which trilinear interpolation reproduces), the slots fit the memory budget, readers
 // replace blocks while samples are drawn until the whole volume has been visited, a volume that fits is resident
-// whole, and a file that shrinks under the readers is an error at the next advance(), never a crash.
+// whole, and a file that shrinks under the readers is an error at the next advance(), never a crash. Reads that
+// bypass the page cache (O_DIRECT, drop-behind) give the same values bit for bit, bricks long in x too.
 //   nvTestBlockBuffer [case]
 #include "Core/Error.h"
 #include "OutOfCore/BlockBuffer.h"
@@ -9,7 +10,9 @@
 #include "TestHarness.h"
 
 #include <chrono>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <fstream>
 #include <set>
@@ -219,6 +222,97 @@ NV_TEST(a_file_that_shrinks_under_the_readers_is_an_error)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   EXPECT_TRUE(message.find("it shrank") != std::string::npos);
+}
+
+namespace
+{
+/// A big-endian uint16 .nrrd (header before the samples: no sample starts on a page) of pseudo-random values,
+/// 131 x 37 x 29: rows not page-aligned, the file's last page partial.
+nv::VolumeFileLayout scrambledNrrd(const std::string& name)
+{
+  const int64_t nx = 131, ny = 37, nz = 29;
+  std::ofstream file(tempDir() + "/" + name + ".nrrd", std::ios::binary);
+  file << "NRRD0004\ntype: uint16\ndimension: 3\nsizes: " << nx << " " << ny << " " << nz
+       << "\nencoding: raw\nendian: big\n\n";
+  uint64_t state = 12345;
+  for (int64_t k = 0; k < nx * ny * nz; ++k)
+  {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const unsigned char bytes[2] = { static_cast<unsigned char>(state >> 56), static_cast<unsigned char>(state >> 48) };
+    file.write(reinterpret_cast<const char*>(bytes), 2);
+  }
+  file.close();
+  return nv::readVolumeFileLayout(tempDir() + "/" + name + ".nrrd");
+}
+} // namespace
+
+NV_TEST(reads_that_bypass_the_page_cache_give_the_same_bits)
+{
+  const nv::VolumeFileLayout layout = scrambledNrrd("bypass");
+  EXPECT_TRUE(layout.dataOffset % 4096 != 0 && layout.bytes() % 4096 != 0);
+  nv::VolumeFileReader normal(layout), direct(layout, nv::PageCacheUse::Bypass),
+    dropBehind(layout, nv::PageCacheUse::DropBehind);
+  std::printf("  page-cache use in effect: Bypass asked -> %d (1: O_DIRECT, 2: drop behind), DropBehind -> %d\n",
+    int(direct.pageCache()), int(dropBehind.pageCache()));
+  EXPECT_TRUE(dropBehind.pageCache() == nv::PageCacheUse::DropBehind && direct.pageCache() != nv::PageCacheUse::Normal);
+  // Boxes at random places and sizes, the file's last sample and the whole volume among them.
+  std::vector<std::array<int64_t, 6>> boxes = { { 0, 0, 0, 131, 37, 29 }, { 130, 36, 28, 1, 1, 1 },
+    { 0, 36, 28, 131, 1, 1 }, { 5, 3, 2, 33, 3, 3 } };
+  uint64_t state = 99;
+  auto next = [&state](int64_t n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<int64_t>((state >> 33) % uint64_t(n));
+  };
+  for (int k = 0; k < 200; ++k)
+  {
+    std::array<int64_t, 6> box{};
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      box[axis] = next(layout.dims[axis]);
+      box[3 + axis] = 1 + next(layout.dims[axis] - box[axis]);
+    }
+    boxes.push_back(box);
+  }
+  int64_t differing = 0;
+  for (const auto& box : boxes)
+  {
+    const std::array<int64_t, 3> origin{ box[0], box[1], box[2] }, size{ box[3], box[4], box[5] };
+    const size_t count = static_cast<size_t>(size[0] * size[1] * size[2]);
+    std::vector<float> a(count), b(count, -1.0f), c(count, -2.0f);
+    normal.readBox(origin, size, a.data());
+    direct.readBox(origin, size, b.data());
+    dropBehind.readBox(origin, size, c.data());
+    differing += std::memcmp(a.data(), b.data(), count * sizeof(float)) != 0;
+    differing += std::memcmp(a.data(), c.data(), count * sizeof(float)) != 0;
+  }
+  EXPECT_TRUE(differing == 0);
+  EXPECT_TRUE(direct.bytesRead() == normal.bytesRead() && dropBehind.bytesRead() == normal.bytesRead());
+  // O_DIRECT takes whole pages: at least the bytes asked.
+  EXPECT_TRUE(direct.bytesTransferred() >= direct.bytesRead());
+}
+
+NV_TEST(a_buffer_that_bypasses_the_page_cache_draws_the_same_samples)
+{
+  // The same seed through the page cache and around it, cubes and bricks long in x: the same blocks, the same bits.
+  const nv::VolumeFileLayout layout = linearVolume("bypassbuffer", 67, 41, 29);
+  for (int brickX : { 0, 16 })
+  {
+    nv::BlockBufferConfig config;
+    config.blockCells = 4;
+    config.blockCellsX = brickX;
+    config.memoryBudgetBytes = 40 * nv::BlockBuffer::bytesPerSlot(brickX > 0 ? brickX : 4, 4, 4);
+    config.readerThreads = 1;
+    nv::BlockBufferConfig around = config;
+    around.pageCache = nv::PageCacheUse::Bypass;
+    nv::BlockBuffer cached(layout, config), direct(layout, around);
+    EXPECT_TRUE(direct.stats().pageCache != nv::PageCacheUse::Normal);
+    EXPECT_TRUE(cached.stats().blockCells[0] == (brickX > 0 ? brickX : 4) && cached.stats().blockCells[1] == 4);
+    std::vector<float> xyz1(3 * 4096), v1(4096), xyz2(3 * 4096), v2(4096);
+    cached.drawSamples(4096, 7, 1, xyz1.data(), v1.data());
+    direct.drawSamples(4096, 7, 1, xyz2.data(), v2.data());
+    EXPECT_TRUE(std::memcmp(v1.data(), v2.data(), v1.size() * sizeof(float)) == 0 && xyz1 == xyz2);
+    EXPECT_TRUE(misplaced(layout, xyz2, v2) == 0);
+  }
 }
 
 int main(int argc, char** argv)

@@ -319,10 +319,10 @@ memory_psnr, memory, producer = in_memory_psnr(big, BIG, **dict(FAST, **LONG))
 log("in memory: %.3f dB; out of core %.3f dB (gap %.3f dB)" % (memory_psnr, ooc_psnr, memory_psnr - ooc_psnr))
 # A partly resident field (1418 resident 2^3-cell blocks, up to 240 replaced a step; the rest of the budget for the
 # probe and the slabs): a step's 8192 samples fall into 1418 blocks, about 6 to a block, and train like a smaller
-# batch (vtkNeuralOutOfCoreInput.cxx, BlockCellsFor). Measured (2 cores): 53.2 dB against 59.8 dB in memory after
-# 1500 steps (6.6 dB below; 54.2 dB while the buffer's bookkeeping, ~80 bytes a 108-byte block, was not counted in the
-# budget; 52.9 dB before the block size followed the batch). A budget that holds 32 blocks a sample is within 0.4 dB
-# (nv.pv.NeuralOutOfCoreLarge).
+# batch (vtkNeuralOutOfCoreInput.cxx, BlockShapeFor: a budget this small gets 2^3-cell cubes). Measured (2 cores):
+# 53.2 dB against 59.8 dB in memory after 1500 steps (6.6 dB below; 54.2 dB while the buffer's bookkeeping, ~80 bytes a
+# 108-byte block, was not counted in the budget; 52.9 dB before the block size followed the batch). A budget that holds
+# a 64 x 2 x 2-cell brick a sample trains close to memory (nv.pv.NeuralOutOfCoreLarge).
 check(ooc_psnr > memory_psnr - 7.0, "out of core within 7 dB of in memory (%.2f vs %.2f)" % (ooc_psnr, memory_psnr))
 # The automatic network of an out-of-core input keeps its training memory within an eighth of the MemoryBudget (a
 # network sized for the ratio alone can hold more than the budget itself: 14 GB beside 8 GiB on the H100's 41 GB file).
@@ -337,6 +337,24 @@ with nvtest.captured_messages() as messages:
     unfitted.UpdatePipeline()
 check("within an eighth" not in messages[0] and "2^10 table" not in messages[0],
       "in memory the automatic size is the ratio's: %r" % messages[0][-200:])
+# BypassPageCache: the block buffer reads the disk itself (O_DIRECT); the output says what the buffer read (the bytes
+# its blocks hold, whole pages taken from the file). The values read are the engine's bit for bit (engine.BlockBuffer).
+reader_direct, nc_direct, out_direct, text_direct = train(os.path.join(FOLDER, "budget.nhdr"), budget_mib,
+                                                          **dict(LONG, TrainingSteps=50, BypassPageCache=1))
+read_direct = figure(out_direct, "NeuralBufferBytesRead")
+taken_direct = figure(out_direct, "NeuralBufferBytesTransferred")
+fill_direct = figure(out_direct, "NeuralBufferFirstFillBytes")
+log("BypassPageCache: %s bytes of blocks read (first fill %s), %s taken from the file, %s swaps missed" % (
+    read_direct, fill_direct, taken_direct, figure(out_direct, "NeuralBufferSwapsMissed")))
+check("ERROR" not in text_direct and figure(out_direct, "NeuralSteps") == 50, "BypassPageCache trains: %r"
+      % text_direct[-300:])
+check(read_direct is not None and fill_direct is not None and read_direct > fill_direct > 0 and
+      taken_direct >= read_direct, "the buffer's reads are reported, whole pages with O_DIRECT (%s, %s, %s)" % (
+          read_direct, fill_direct, taken_direct))
+check(figure(out, "NeuralBufferBytesTransferred") == figure(out, "NeuralBufferBytesRead"),
+      "through the page cache the bytes taken are the bytes read")
+Delete(nc_direct)
+Delete(reader_direct)
 for proxy in (nc_auto, reader_auto, unfitted):
     Delete(proxy)
 
