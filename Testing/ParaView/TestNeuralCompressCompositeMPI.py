@@ -33,7 +33,6 @@ import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
 
 SERIAL = "--serial-reference" in sys.argv
 SETTINGS = dict(Device="CPU", Seed=7, Deterministic=1, TrainingSteps=300, BatchSize=16384, Levels=8,
@@ -229,14 +228,7 @@ def check_case(nc, source, ranks, name, array, reference):
 def mpi_run():
     global out_dir
     check, log = nvtest.check, nvtest.log
-    controller = vtkMultiProcessController.GetGlobalController()
-    ranks = controller.GetNumberOfProcesses() if controller else 1
-    if ranks not in (2, 4):
-        nvtest.skip("this test runs under `mpiexec -n 2` or `-n 4 pvbatch` (here %d processes)" % ranks)
-    out_dir = os.path.join(out_dir, "CompositeMPI%d" % ranks)  # the 2- and 4-rank tests may run at once
-    os.makedirs(out_dir, exist_ok=True)
-    nvtest.require_display()
-    reference = nvtest.run_serial_reference(__file__, out_dir)
+    ranks, out_dir, reference = nvtest.mpi_test_start(__file__, out_dir, "CompositeMPI")
     if reference is None:
         return
     for name, make, array, settings, distance in CASES:

@@ -14,7 +14,8 @@ pvbatch (this script with --serial-reference <folder>): the Neural Particle Fiel
   sample); the decoded regions are NaN exactly where the serial reconstruction is;
 - the global NeuralPSNR is numpy's over the assembled decoded field against the serial reconstruction (within
   0.05 dB), and that PSNR >= 35 dB;
-- Interpolate: the composited picture against the serial Neural Compress picture >= 35 dB.
+- Interpolate: the composited picture against the serial Neural Compress picture >= 35 dB; a saved state brings every
+  rank's network back without training, and one .nvol of them opens back on the ranks bit for bit.
 """
 import builtins
 import json
@@ -30,7 +31,6 @@ import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
 from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
-from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
 
 SERIAL = "--serial-reference" in sys.argv
 BLOCKS, PER_BLOCK = 4, 6000
@@ -178,14 +178,7 @@ def check_case(nc, ranks, name, reference):
 def mpi_run():
     global out_dir
     check, log = nvtest.check, nvtest.log
-    controller = vtkMultiProcessController.GetGlobalController()
-    ranks = controller.GetNumberOfProcesses() if controller else 1
-    if ranks not in (2, 4):
-        nvtest.skip("this test runs under `mpiexec -n 2` or `-n 4 pvbatch` (here %d processes)" % ranks)
-    out_dir = os.path.join(out_dir, "ParticlesMPI%d" % ranks)  # the 2- and 4-rank tests may run at once
-    os.makedirs(out_dir, exist_ok=True)
-    nvtest.require_display()
-    reference = nvtest.run_serial_reference(__file__, out_dir)
+    ranks, out_dir, reference = nvtest.mpi_test_start(__file__, out_dir, "ParticlesMPI")
     if reference is None:
         return
     source = particles()
@@ -204,6 +197,10 @@ def mpi_run():
             render(nc, os.path.join(out_dir, "mpi.png"), (float(valid.min()), float(valid.max())))
             nvtest.compare_images(os.path.join(out_dir, "mpi.png"), os.path.join(out_dir, "serial.png"),
                                   PICTURE_DB, "%d-rank picture vs serial Neural Compress" % ranks)
+            # Saved states and .nvol of the particle networks: every rank's own back without training.
+            nvtest.check_ranks_restore(nc, ranks, lambda text: NeuralCompress(
+                Input=source, **dict(TRAINING, **dict(props, TrainedNetworks=text))))
+            nvtest.check_ranks_nvol(nc, ranks, os.path.join(out_dir, "particles-mpi%d.nvol" % ranks))
         Delete(nc)
 
 

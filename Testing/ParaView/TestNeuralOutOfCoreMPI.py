@@ -28,7 +28,6 @@ import ooc_procedural  # noqa: E402
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
-from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
 
 SERIAL = "--serial-reference" in sys.argv
@@ -158,47 +157,6 @@ def check_figures(nc, reader, ranks, folder, reference):
     return extents, psnr
 
 
-def check_restore(nc, ranks, psnr, folder):
-    nc.UpdatePropertyInformation()
-    text = nc.GetPropertyValue("TrainedNetworksInfo")
-    entries = text.count(";") if text.startswith("nvnet1") else -1
-    check(entries == ranks, "TrainedNetworks holds the %d ranks' networks (%d entries)" % (ranks, entries))
-    reader, restored = compress(folder, OutputMode="Decoded, float32", TrainedNetworks=text)
-    restored.UpdatePipeline()
-    for r in range(ranks):
-        piece = servermanager.Fetch(restored, r)
-        check(nvtest.field_value(piece, "NeuralRestored") == 1 and nvtest.field_value(piece, "NeuralPSNR") == psnr,
-              "rank %d restored its network from the state without training (restored %s, PSNR %s dB)"
-              % (r, nvtest.field_value(piece, "NeuralRestored"), nvtest.field_value(piece, "NeuralPSNR")))
-    Delete(restored)
-    Delete(reader)
-
-
-def network_bytes(data):
-    a = data.GetFieldData().GetArray("NeuralNetwork")
-    return bytes(vtk_to_numpy(a).tobytes()) if a is not None else None
-
-
-def check_nvol(nc, ranks):
-    path = os.path.join(out_dir, "ooc-mpi%d.nvol" % ranks)
-    if os.path.exists(path):
-        os.remove(path)
-    nc.OutputMode = "Network only"
-    nc.UpdatePipeline()
-    SaveData(path, proxy=nc)
-    check(os.path.exists(path), ".nvol of the %d ranks' networks written (%d bytes)"
-          % (ranks, os.path.getsize(path) if os.path.exists(path) else 0))
-    opened = NeuralVolumeReader(FileName=path)
-    opened.UpdatePipeline()
-    for r in range(ranks):
-        mine, back = servermanager.Fetch(nc, r), servermanager.Fetch(opened, r)
-        check(network_bytes(back) is not None and network_bytes(back) == network_bytes(mine)
-              and list(back.GetExtent()) == list(mine.GetExtent()),
-              "rank %d opened its own network from the .nvol, bit for bit, with its piece %s"
-              % (r, list(back.GetExtent())))
-    Delete(opened)
-
-
 def check_automatic_budget(ranks):
     """MemoryBudget 0 (automatic) under MPI: the host's share divided among the ranks on it (rank 0's summary)."""
     reader, nc = compress(out_dir, MemoryBudget=0, TrainingSteps=1)
@@ -230,8 +188,9 @@ def mpi_run():
     log("%d ranks: UpdatePipeline %.1f s" % (ranks, time.time() - started))
     check("ERROR" not in messages[0], "no error: %r" % messages[0][-400:])
     extents, psnr = check_figures(nc, reader, ranks, out_dir, reference)
-    check_restore(nc, ranks, psnr, out_dir)
-    check_nvol(nc, ranks)
+    nvtest.check_ranks_restore(nc, ranks, lambda text: NeuralCompress(
+        Input=reader, **dict(SETTINGS, OutputMode="Decoded, float32", TrainedNetworks=text)))
+    nvtest.check_ranks_nvol(nc, ranks, os.path.join(out_dir, "ooc-mpi%d.nvol" % ranks))
     check_automatic_budget(ranks)
     render(nc, field_name(reader), file_values(out_dir), os.path.join(out_dir, "mpi.png"))
     nvtest.compare_images(os.path.join(out_dir, "mpi.png"), os.path.join(out_dir, "serial.png"), PICTURE_DB,

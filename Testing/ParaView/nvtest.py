@@ -403,6 +403,21 @@ def baseline(test_png, name, threshold_db, label, block=1):
     return compare_images(test_png, reference, threshold_db, label, block)
 
 
+def mpi_test_start(script, out_dir, tag):
+    """The prologue of the 2- and 4-rank MPI tests: their rank count (a SKIP otherwise), their output folder
+    (out_dir/<tag><ranks>: the 2- and 4-rank tests may run at once), a display, and the serial reference run of
+    `script` (run_serial_reference). Returns (ranks, folder, reference); reference None: the reference failed (checked)."""
+    from vtkmodules.vtkParallelCore import vtkMultiProcessController
+    controller = vtkMultiProcessController.GetGlobalController()
+    ranks = controller.GetNumberOfProcesses() if controller else 1
+    if ranks not in (2, 4):
+        skip("this test runs under `mpiexec -n 2` or `-n 4 pvbatch` (here %d processes)" % ranks)
+    folder = os.path.join(out_dir, "%s%d" % (tag, ranks))
+    os.makedirs(folder, exist_ok=True)
+    require_display()
+    return ranks, folder, run_serial_reference(script, folder)
+
+
 def run_serial_reference(script, out_dir):
     """The MPI tests' serial reference: `script --serial-reference out_dir` in a pvbatch of its own, without the MPI
     launcher's environment (it would make that pvbatch a rank); returns its serial.json, or None (checked) on failure."""
@@ -493,3 +508,54 @@ def rank_memory(ranks):
         del namespace[name]
     namespace.update(saved)
     return [(t.GetColumnByName("rss").GetValue(0), t.GetColumnByName("peak").GetValue(0)) for t in tables]
+
+
+def check_ranks_restore(nc, ranks, make_restored):
+    """Under MPI: a saved state's TrainedNetworks (rank 0's, as a client reads it) holds every rank's network, and a
+    Neural Compress given it (`make_restored(text)`, the same input and settings) brings each rank's own back without
+    training, with the same global PSNR."""
+    from paraview import servermanager
+    from paraview.simple import Delete
+    nc.UpdatePropertyInformation()
+    text = nc.GetPropertyValue("TrainedNetworksInfo")
+    entries = text.count(";") if text.startswith("nvnet1") else -1
+    check(entries == ranks, "TrainedNetworks holds the %d ranks' networks (%d entries)" % (ranks, entries))
+    psnr = field_value(servermanager.Fetch(nc, 0), "NeuralPSNR")
+    restored = make_restored(text)
+    restored.UpdatePipeline()
+    for r in range(ranks):
+        piece = servermanager.Fetch(restored, r)
+        check(field_value(piece, "NeuralRestored") == 1 and field_value(piece, "NeuralPSNR") == psnr,
+              "rank %d restored its network from the state without training (restored %s, PSNR %s dB)"
+              % (r, field_value(piece, "NeuralRestored"), field_value(piece, "NeuralPSNR")))
+    Delete(restored)
+
+
+def check_ranks_nvol(nc, ranks, path):
+    """Under MPI: Save Data writes one .nvol of every rank's network (Network only), which as many ranks open back,
+    each its own network bit for bit with its piece's extent."""
+    from paraview import servermanager
+    from paraview.simple import Delete, NeuralVolumeReader, SaveData
+
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    def network_bytes(data):
+        array = data.GetFieldData().GetArray("NeuralNetwork")
+        return vtk_to_numpy(array).tobytes() if array is not None else None
+
+    if os.path.exists(path):
+        os.remove(path)
+    nc.OutputMode = "Network only"
+    nc.UpdatePipeline()
+    SaveData(path, proxy=nc)
+    check(os.path.exists(path), ".nvol of the %d ranks' networks written (%d bytes)"
+          % (ranks, os.path.getsize(path) if os.path.exists(path) else 0))
+    opened = NeuralVolumeReader(FileName=path)
+    opened.UpdatePipeline()
+    for r in range(ranks):
+        mine, back = servermanager.Fetch(nc, r), servermanager.Fetch(opened, r)
+        check(network_bytes(back) is not None and network_bytes(back) == network_bytes(mine)
+              and list(back.GetExtent()) == list(mine.GetExtent()),
+              "rank %d opened its own network from the .nvol, bit for bit, with its piece %s"
+              % (r, list(back.GetExtent())))
+    Delete(opened)
