@@ -535,7 +535,7 @@ def check_ranks_nvol(nc, ranks, path):
     """Under MPI: Save Data writes one .nvol of every rank's network (Network only), which as many ranks open back,
     each its own network bit for bit with its piece's extent."""
     from paraview import servermanager
-    from paraview.simple import Delete, NeuralVolumeReader, SaveData
+    from paraview.simple import Delete, SaveData
 
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
@@ -550,7 +550,7 @@ def check_ranks_nvol(nc, ranks, path):
     SaveData(path, proxy=nc)
     check(os.path.exists(path), ".nvol of the %d ranks' networks written (%d bytes)"
           % (ranks, os.path.getsize(path) if os.path.exists(path) else 0))
-    opened = NeuralVolumeReader(FileName=path)
+    opened = _namespace["NeuralVolumeReader"](FileName=path)  # the plugin's proxy (load_plugin)
     opened.UpdatePipeline()
     for r in range(ranks):
         mine, back = servermanager.Fetch(nc, r), servermanager.Fetch(opened, r)
