@@ -105,6 +105,12 @@ def check_pause_resume(nc, out_dir):
     nc.UpdatePipeline()
     paused = states(nc)
     check(all(s[0] == "Paused" for s in paused), "PauseTraining pauses every rank (%s)" % [s[0] for s in paused])
+    # "Paused" shows at once; the chunk in flight (one step on the CPU) still completes: the steps are read once it has.
+    time.sleep(0.3)
+    live_update(nc)
+    nc.SMProxy.MarkModified(nc.SMProxy)
+    nc.UpdatePipeline()
+    paused = states(nc)
     time.sleep(0.7)
     live_update(nc)
     nc.SMProxy.MarkModified(nc.SMProxy)
