@@ -106,7 +106,8 @@ for i in range(nc_proto.GetNumberOfPropertyGroups()):
 check(list(groups) == ["Data", "Size", "Training", "Advanced"], "filter groups: %r" % list(groups))
 EXPECTED_GROUPS = {
     "Data": ["SelectInputScalars", "VectorMode", "VectorComponent", "OutputMode", "OutputResolution", "Sampling",
-             "SamplingDimensions", "ProbePoints", "MemoryBudget", "ParticleField", "ParticleKernel", "ParticleRadius",
+             "SamplingDimensions", "ProbePoints", "MemoryBudget", "BypassPageCache", "ParticleField", "ParticleKernel",
+             "ParticleRadius",
              "ParticleRadiusArray"],
     "Size": ["TargetCompressionRatio", "SizeForPSNR", "Log2TableSize", "StoragePrecision", "MaxError", "Levels",
              "FeaturesPerLevel", "BaseResolution", "FinestResolution", "NetworkWidth", "HiddenLayers"],
