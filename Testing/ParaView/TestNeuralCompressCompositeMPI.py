@@ -21,7 +21,6 @@ and checks:
 """
 import builtins
 import json
-import math
 import os
 import sys
 import time
@@ -208,19 +207,9 @@ def check_case(nc, source, ranks, name, array, reference):
     decoded, extents, figures = nvtest.assemble_pieces(pieces, array[1], whole, original.shape)
     psnr, max_error, model_bytes, networks = figures
     check(networks == holders, "NeuralNetworks %s == %d ranks with samples" % (networks, holders))
-    inside = ~np.isnan(original)
-    check(np.array_equal(np.isnan(decoded), ~inside), "the decoded regions are NaN exactly where the serial "
-          "resampling is outside the input (%d samples; decoded NaN %d)" % (int(np.sum(~inside)),
-                                                                           int(np.sum(np.isnan(decoded)))))
-    span = original[inside].max() - original[inside].min()
-    error = (decoded - original)[inside]
-    numpy_psnr = 10.0 * math.log10(span ** 2 / float(np.mean(error ** 2)))
-    log("global PSNR %.3f dB (numpy %.3f), max error %.4f (numpy %.4f), model bytes %d; serial: %.3f dB at the "
-        "source, %.3f dB on the lattice" % (psnr, numpy_psnr, max_error, float(np.abs(error).max()), model_bytes,
-                                            reference["psnr"], reference["resampled_psnr"]))
-    check(abs(psnr - numpy_psnr) <= GLOBAL_PSNR_DB, "NeuralPSNR %.3f dB is numpy's over the decoded regions "
-          "against the serial resampling (%.3f dB) within %.2f dB" % (psnr, numpy_psnr, GLOBAL_PSNR_DB))
-    check(abs(max_error - float(np.abs(error).max())) <= 1e-3 * builtins.max(1.0, span), "NeuralMaxError is numpy's")
+    nvtest.check_global_figures(decoded, original, psnr, max_error, GLOBAL_PSNR_DB, "the serial resampling")
+    log("model bytes %d; serial: %.3f dB at the source, %.3f dB on the lattice"
+        % (model_bytes, reference["psnr"], reference["resampled_psnr"]))
     info = nc.GetDataInformation()
     check(list(info.GetExtent()) == whole, "data information: the serial lattice %s" % str(info.GetExtent()))
 

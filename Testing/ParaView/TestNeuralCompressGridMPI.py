@@ -18,7 +18,6 @@ Rank 0 first runs the same pipelines without RedistributeDataSet in a serial pvb
   than 1.5x the rest.
 """
 import json
-import math
 import os
 import sys
 import time
@@ -152,21 +151,10 @@ def check_regions_and_figures(nc, redistributed, ranks, name, reference):
     decoded, extents, figures = nvtest.assemble_pieces(pieces, "RTData", whole, original.shape)
     psnr, max_error, model_bytes, networks = figures
     check(networks == ranks, "NeuralNetworks %s == %d ranks" % (networks, ranks))
-    inside = ~np.isnan(original)
-    check(np.array_equal(np.isnan(decoded), ~inside), "the decoded regions are NaN exactly where the serial "
-          "resampling is outside the grid (%d samples; decoded NaN %d)" % (int(np.sum(~inside)),
-                                                                          int(np.sum(np.isnan(decoded)))))
-    span = original[inside].max() - original[inside].min()
-    error = (decoded - original)[inside]
-    numpy_psnr = 10.0 * math.log10(span ** 2 / float(np.mean(error ** 2)))
-    numpy_max = float(np.abs(error).max())
-    log("global PSNR %.3f dB (numpy %.3f), max error %.3f (numpy %.3f), model bytes %d; serial: PSNR %.3f dB at "
-        "the source, %.3f dB on the lattice" % (psnr, numpy_psnr, max_error, numpy_max, model_bytes,
-                                                 reference["psnr"], reference["resampled_psnr"]))
-    check(abs(psnr - numpy_psnr) <= GLOBAL_PSNR_DB, "NeuralPSNR %.3f dB is numpy's over the decoded regions "
-          "against the serial resampling (%.3f dB) within %.2f dB" % (psnr, numpy_psnr, GLOBAL_PSNR_DB))
-    check(abs(max_error - numpy_max) <= 1e-3 * max(1.0, numpy_max), "NeuralMaxError %.4f is numpy's %.4f"
-          % (max_error, numpy_max))
+    nvtest.check_global_figures(decoded, original, psnr, max_error, GLOBAL_PSNR_DB, "the serial resampling",
+                                max_error_scale=lambda numpy_max: numpy_max)
+    log("model bytes %d; serial: PSNR %.3f dB at the source, %.3f dB on the lattice"
+        % (model_bytes, reference["psnr"], reference["resampled_psnr"]))
     check(psnr >= reference["resampled_psnr"] - 1.0, "per-rank networks no worse than 1 dB below the serial one on "
           "the lattice")
     info = nc.GetDataInformation()

@@ -161,15 +161,9 @@ def check_case(nc, ranks, name, reference):
     decoded, extents, figures = nvtest.assemble_pieces(pieces, "f", whole, original.shape)
     psnr, max_error, model_bytes, networks = figures
     check(networks == ranks, "NeuralNetworks %s == %d ranks" % (networks, ranks))
-    check(np.array_equal(np.isnan(decoded), ~inside), "the decoded regions are NaN exactly where the serial "
-          "reconstruction is (%d; decoded %d)" % (int(np.sum(~inside)), int(np.sum(np.isnan(decoded)))))
-    error = (decoded - original)[inside]
-    numpy_psnr = 10.0 * math.log10(span ** 2 / float(np.mean(error ** 2)))
-    log("%s, %d ranks: global PSNR %.3f dB (numpy %.3f), max error %.4f (numpy %.4f), model bytes %d"
-        % (name, ranks, psnr, numpy_psnr, max_error, float(np.abs(error).max()), model_bytes))
-    check(builtins.abs(psnr - numpy_psnr) <= GLOBAL_PSNR_DB, "NeuralPSNR %.3f dB is numpy's over the assembled "
-          "decoded field against the serial reconstruction (%.3f dB) within %.2f dB"
-          % (psnr, numpy_psnr, GLOBAL_PSNR_DB))
+    numpy_psnr, _ = nvtest.check_global_figures(decoded, original, psnr, max_error, GLOBAL_PSNR_DB,
+                                                "the serial reconstruction")
+    log("%s, %d ranks: model bytes %d" % (name, ranks, model_bytes))
     check(numpy_psnr >= DECODED_DB, "decoded vs the serial reconstruction %.2f dB >= %.0f dB"
           % (numpy_psnr, DECODED_DB))
     return original

@@ -559,3 +559,24 @@ def check_ranks_nvol(nc, ranks, path):
               "rank %d opened its own network from the .nvol, bit for bit, with its piece %s"
               % (r, list(back.GetExtent())))
     Delete(opened)
+
+
+def check_global_figures(decoded, original, psnr, max_error, tolerance_db, against, max_error_scale=None):
+    """The MPI tests' global figures against numpy over the assembled decoded field: NaN exactly where `original` (the
+    serial field) is NaN, NeuralPSNR within `tolerance_db` of numpy's over the rest (peak: the range of `original`),
+    NeuralMaxError numpy's within 1e-3 x max(1, max_error_scale; default the range). Returns (numpy PSNR, numpy max)."""
+    import numpy as np
+    inside = ~np.isnan(original)
+    check(np.array_equal(np.isnan(decoded), ~inside), "the decoded regions are NaN exactly where %s is (%d samples; "
+          "decoded NaN %d)" % (against, int(np.sum(~inside)), int(np.sum(np.isnan(decoded)))))
+    span = float(original[inside].max() - original[inside].min())
+    error = (decoded - original)[inside]
+    numpy_psnr = 10.0 * math.log10(span ** 2 / float(np.mean(error ** 2)))
+    numpy_max = float(np.abs(error).max())
+    log("global PSNR %.3f dB (numpy %.3f), max error %.4f (numpy %.4f)" % (psnr, numpy_psnr, max_error, numpy_max))
+    check(abs(psnr - numpy_psnr) <= tolerance_db, "NeuralPSNR %.3f dB is numpy's over the decoded regions against %s "
+          "(%.3f dB) within %.2f dB" % (psnr, against, numpy_psnr, tolerance_db))
+    scale = span if max_error_scale is None else max_error_scale(numpy_max)
+    check(abs(max_error - numpy_max) <= 1e-3 * max(1.0, scale), "NeuralMaxError %.4f is numpy's %.4f"
+          % (max_error, numpy_max))
+    return numpy_psnr, numpy_max
