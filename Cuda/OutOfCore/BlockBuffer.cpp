@@ -10,6 +10,12 @@
 #include <climits>
 #include <system_error>
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 namespace nv
 {
 namespace
@@ -349,6 +355,12 @@ void BlockBuffer::advance(int blocks)
 
 void BlockBuffer::readerLoop()
 {
+#ifdef __linux__
+  // Below the trainer's threads (this thread alone; BlockBufferConfig::readerNice): the H100 crop with 14 readers at
+  // the GPU trainer's priority kept 49-61% of the in-memory step rate, at nice +10 58-69%.
+  if (this->Config.readerNice > 0)
+    ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), this->Config.readerNice);
+#endif
   std::unique_lock<std::mutex> lock(this->Mutex);
   for (;;)
   {

@@ -39,6 +39,10 @@ struct BlockBufferConfig
   /// Whether the readers go through the page cache (VolumeFileReader.h, PageCacheUse): Bypass reads the disk itself
   /// (O_DIRECT), as on a machine whose memory cannot hold the file.
   PageCacheUse pageCache = PageCacheUse::Normal;
+  /// Nice increment of each reader thread (Linux; 0: the caller's priority). Beside a GPU trainer, whose host sampling
+  /// is a parallel-for over every core held up by any thread a reader preempts, 10: the readers take the cores
+  /// training leaves idle. Beside the CPU engine, whose threads never leave a core idle, 0 (at 10 the readers starve).
+  int readerNice = 0;
   /// Keep one bit per block of the volume: whether it was ever resident (BlockBufferStats::blocksEverResident; the
   /// bits grow with the file: for measurements).
   bool trackCoverage = false;

@@ -185,12 +185,13 @@ int64_t VolumeFileReader::bytesRead() const
   return this->BytesRead.load();
 }
 
-void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char* into) const
+void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char* into, int64_t useful) const
 {
+  ++this->ReadCalls;
   if (this->Cache == PageCacheUse::Bypass)
   {
     this->readDirect(position, count, into);
-    this->BytesRead += count;
+    this->BytesRead += useful;
     return;
   }
   int64_t done = 0;
@@ -207,7 +208,7 @@ void VolumeFileReader::readBytes(int64_t position, int64_t count, unsigned char*
   }
   if (this->Cache == PageCacheUse::DropBehind)
     ::posix_fadvise(this->FileDescriptor, static_cast<off_t>(position), static_cast<off_t>(count), POSIX_FADV_DONTNEED);
-  this->BytesRead += count;
+  this->BytesRead += useful;
   this->BytesTransferred += count;
 }
 
@@ -235,14 +236,27 @@ void VolumeFileReader::readBoxAs(const std::array<int64_t, 3>& origin, const std
   // at most 16 MiB), not one a row (a streamed pass of a 2176^2-sample float32 plane: 19 reads, not 2176).
   constexpr int64_t kRunBytes = int64_t(1) << 20;
   const int64_t rowsPerRun = size[0] == nx ? std::max<int64_t>(1, std::min(size[1], kRunBytes / (nx * bytes))) : 1;
-  std::vector<unsigned char> run(static_cast<size_t>(rowsPerRun * size[0] * bytes));
+  // Rows of part of the width: a slice's rows in one read when they lie close (kSliceSpanBytes).
+  const int64_t sliceSpan = ((size[1] - 1) * nx + size[0]) * bytes;
+  const bool slices = rowsPerRun == 1 && size[1] > 1 && this->Cache != PageCacheUse::DropBehind &&
+    sliceSpan <= kSliceSpanBytes;
+  std::vector<unsigned char> run(static_cast<size_t>(slices ? sliceSpan : rowsPerRun * size[0] * bytes));
   for (int64_t z = 0; z < size[2]; ++z)
   {
+    if (slices)
+    {
+      const int64_t first = ((at[2] + z) * ny + at[1]) * nx + at[0];
+      this->readBytes(this->Layout.dataOffset + first * bytes, sliceSpan, run.data(), size[0] * size[1] * bytes);
+      for (int64_t y = 0; y < size[1]; ++y)
+        convertRow(run.data() + y * nx * bytes, size[0], this->Layout.type, swap, out + (z * size[1] + y) * size[0]);
+      continue;
+    }
     for (int64_t y = 0; y < size[1]; y += rowsPerRun)
     {
       const int64_t rows = std::min(rowsPerRun, size[1] - y);
       const int64_t first = ((at[2] + z) * ny + at[1] + y) * nx + at[0];
-      this->readBytes(this->Layout.dataOffset + first * bytes, rows * size[0] * bytes, run.data());
+      const int64_t count = rows * size[0] * bytes;
+      this->readBytes(this->Layout.dataOffset + first * bytes, count, run.data(), count);
       convertRow(run.data(), rows * size[0], this->Layout.type, swap, out + (z * size[1] + y) * size[0]);
     }
   }

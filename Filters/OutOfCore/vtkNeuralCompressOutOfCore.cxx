@@ -8,9 +8,11 @@
 #include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressPartition.h"
 #include "vtkNeuralCompressState.h"
+#include "vtkNeuralCudaDevice.h"
 #include "vtkNeuralHdf5Layout.h"
 #include "vtkNeuralOutOfCoreInput.h"
 
+#include "Core/Engine.h"
 #include "Core/Error.h"
 #include "Core/ResourceEstimate.h"
 #include "OutOfCore/FileMeasure.h"
@@ -85,6 +87,11 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   file->BudgetBytes = nvi::OutOfCoreBudgetBytes(
     settings.MemoryBudgetMiB, file->Layout.bytes(), file->BudgetReason, nvi::KnownRanksOnThisHost());
   file->BufferReads = settings.BypassPageCache ? nv::PageCacheUse::Bypass : nv::PageCacheUse::Normal;
+  // (Device CUDA without a usable GPU is reported when the job starts; here it only chooses the readers.)
+  const bool gpuTrainer = settings.Device != DEVICE_CPU &&
+    nv::resolveDevice(nv::Device::Auto, nullptr, vtkNeuralCudaDevice::Get()) == nv::Device::Cuda;
+  file->ReaderThreads = nvi::OutOfCoreReaderThreads(gpuTrainer, file->BufferReads);
+  file->GpuTrainer = gpuTrainer;
   nvi::CheckOutOfCoreStorage(*file); // chunks the budget cannot decode: nv::Error, reported
   nvi::FieldInfo& field = prepared.Field;
   DescribeFile(file, this->OutputResolution, this->FinestResolution, this->BaseResolution, field);

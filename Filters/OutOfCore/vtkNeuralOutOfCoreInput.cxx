@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 namespace vtkNeuralCompressInternals
@@ -38,8 +39,8 @@ constexpr int64_t kProbeSamples = 65536;
 constexpr int kMinBlocksPerStep = 16;
 constexpr int64_t kRowReadsPerStep = 32768;
 constexpr double kBlocksPerBatchSample = 1.0;
-constexpr int kBrickCellsX = 64;
-constexpr int kReaderThreads = 4;
+constexpr int kBrickCellsX = 64, kGpuBrickCellsX = 128;
+constexpr int kReaderThreads = 4, kMaxReaderThreads = 16, kDiskReaderThreads = 32, kGpuReaderNice = 10;
 
 /// The field-data array that names the file (MarkOutOfCore), or null.
 vtkStringArray* MarkerArray(vtkFieldData* fd)
@@ -61,10 +62,11 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
   return h;
 }
 
-/// The blocks' shape: bricks long in x, CellsX (up to kBrickCellsX) by 2 x 2 cells, the longest of which the
+/// The blocks' shape: bricks long in x, CellsX (up to kBrickCellsX, kGpuBrickCellsX beside a GPU trainer) by 2 x 2
+/// cells, the longest of which the
 /// buffer's share holds kBlocksPerBatchSample times the batch size (else 2^3-cell cubes, as for a small budget). A block
-/// is read a row at a time (one pread of CellsX + 1 samples: one page of the disk, whatever its length up to 4 KiB), so
-/// a brick brings many more cells per read than a cube: 64 x 2 x 2 cells are 9 reads for 256 cells, 2^3 cells 9 reads
+/// is read a z-slice at a time (one read of its 3 rows where they lie close: VolumeFileReader kSliceSpanBytes), so a
+/// brick brings many more cells per read than a cube: 128 x 2 x 2 cells are 3 reads for 512 cells, 2^3 cells 3 reads
 /// for 8. What the network needs is the whole volume seen again and again up to the end of the run, when the rate is
 /// low: with cubes and the reads of a step (kRowReadsPerStep) the buffer saw a small part of the volume between two
 /// turnovers and the network fitted the part it held (the H100's 2 GB crop under 512 MiB: 2.47 M resident 2^3-cell
@@ -72,17 +74,22 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
 /// file of the same family, 10 MiB buffer, batch 4096, 4000 CPU steps, 228 blocks replaced a step
 /// (results/outofcore_gap_2026-11-27.md): 2^3-cell cubes 41.47 dB (37% of the blocks ever resident), bricks of
 /// 16 x 2 x 2 cells 43.43, 32 x 2 x 2 43.83, 64 x 2 x 2 44.19-44.58 dB (every block resident at times, one block a
-/// sample of the batch); in memory 44.94 dB.
+/// sample of the batch); in memory 44.94 dB. On the H100's crop (800^3 float32, 320 MiB of blocks, batch 65536, 14
+/// readers, the engine's nvBenchOutOfCoreGap, results/outofcore_2026-11-27d.md): 64 x 2 x 2 bricks 57.04-58.01 dB
+/// (mean 57.56), 128 x 2 x 2 57.59-58.56 (mean 57.97; their reads bring twice the cells for the same calls), in
+/// memory 58.41 dB. Beside the CPU engine the reads keep up (no swap missed) and the longer brick only draws a batch
+/// from fewer places: nv.pv.NeuralOutOfCoreLarge (2 GiB file, 128 MiB, batch 8192, 400 steps) 33.01-33.08 dB with
+/// 128 x 2 x 2 against 33.85 with 64 x 2 x 2 (34.10 in memory).
 struct BlockShape
 {
   int CellsX = 2;
   int Cells = 2; ///< along y and z
 };
 
-BlockShape BlockShapeFor(int64_t bufferBytes, int batchSize)
+BlockShape BlockShapeFor(int64_t bufferBytes, int batchSize, bool gpuTrainer)
 {
   const double wanted = double(std::max(1, batchSize)) * kBlocksPerBatchSample;
-  for (int cellsX = kBrickCellsX; cellsX >= 4; cellsX /= 2)
+  for (int cellsX = gpuTrainer ? kGpuBrickCellsX : kBrickCellsX; cellsX >= 4; cellsX /= 2)
     if (double(bufferBytes) / double(nv::BlockBuffer::bytesPerSlot(cellsX, 2, 2)) >= wanted)
       return BlockShape{ cellsX, 2 };
   return BlockShape{ 2, 2 };
@@ -308,6 +315,16 @@ int64_t OutOfCoreSlabBytes(const OutOfCoreFile& file)
   return std::max<int64_t>(1, file.BudgetBytes * kSlabEighths / 8);
 }
 
+int OutOfCoreReaderThreads(bool gpuTrainer, nv::PageCacheUse reads)
+{
+  if (reads != nv::PageCacheUse::Normal)
+    return kDiskReaderThreads;
+  if (!gpuTrainer)
+    return kReaderThreads;
+  const int cores = static_cast<int>(std::thread::hardware_concurrency());
+  return std::max(kReaderThreads, std::min(kMaxReaderThreads, cores - 2));
+}
+
 std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
   const std::shared_ptr<const OutOfCoreFile>& file, const nv::VolumeStats& stats, uint64_t seed, int batchSize)
 {
@@ -322,11 +339,12 @@ std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
   const nv::ValueRange range(stats.min, stats.max);
   nv::BlockBufferConfig config;
   config.memoryBudgetBytes = file->BudgetBytes * kBufferEighths / 8;
-  const BlockShape shape = BlockShapeFor(config.memoryBudgetBytes, batchSize);
+  const BlockShape shape = BlockShapeFor(config.memoryBudgetBytes, batchSize, file->GpuTrainer);
   config.blockCells = shape.Cells;
   config.blockCellsX = shape.CellsX;
   config.loadingSlots = static_cast<int>(LoadingSlotsFor(config.memoryBudgetBytes, shape));
-  config.readerThreads = kReaderThreads;
+  config.readerThreads = std::max(1, file->ReaderThreads);
+  config.readerNice = file->GpuTrainer ? kGpuReaderNice : 0;
   config.seed = seed;
   config.pageCache = file->BufferReads;
   const std::string shapeText = std::to_string(shape.CellsX) + " x " + std::to_string(shape.Cells) + " x " +
@@ -339,7 +357,8 @@ std::shared_ptr<nv::TrainingData> OutOfCoreTrainingData(
   std::ostringstream d;
   d.precision(3);
   d << "out of core: " << OutOfCoreSummary(layout) << "; block buffer of " << filled.residentBlocks << " resident "
-    << shapeText << ", up to " << config.loadingSlots / 2 << " replaced a step ("
+    << shapeText << ", up to " << config.loadingSlots / 2 << " replaced a step by " << config.readerThreads
+    << " reader threads ("
     << nv::formatBytes(filled.bufferBytes) << " of the " << file->BudgetReason << "); value-range pass "
     << file->ValueRangeSeconds.load() << " s, first fill " << file->FirstFillSeconds.load() << " s";
   data->Field.Description = d.str();

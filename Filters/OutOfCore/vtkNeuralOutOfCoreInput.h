@@ -69,6 +69,14 @@ nv::VolumeFileLayout OutOfCorePiece(const nv::VolumeFileLayout& layout, const in
 PieceSums MeasureOutOfCorePiece(nv::NetworkSession& session, const OutOfCoreFile& file, const FieldInfo& field,
   const int owned[6], const int whole[6], double modelBytes);
 
+/// The block buffer's reader threads: 4 beside the CPU engine's training threads, which take every core; beside a GPU
+/// trainer the machine's cores less two, 4 to 16; 32 when the reads go to the disk itself (BypassPageCache: the threads
+/// wait in the disk's queue, which serves more reads at once the deeper it is). Beside a GPU trainer they run below its
+/// priority (BlockBufferConfig::readerNice). On the H100 crop 4 readers from the page cache (9 preads of 260 B a brick) missed 30.7 M of the
+/// swaps asked (results/outofcore_2026-11-27c.md); with O_DIRECT 14 readers read 0.69 of what the disk gives 32
+/// (results/outofcore_2026-11-27d.md).
+int OutOfCoreReaderThreads(bool gpuTrainer, nv::PageCacheUse reads);
+
 /// An open out-of-core file, shared by the job's training data and its measurements.
 struct OutOfCoreFile
 {
@@ -77,6 +85,8 @@ struct OutOfCoreFile
   int64_t BudgetBytes = 0;  ///< what the block buffer, the probe and a measurement's slabs may hold
   std::string BudgetReason; ///< "MemoryBudget 64 MiB", "automatic: 20% of ..."
   nv::PageCacheUse BufferReads = nv::PageCacheUse::Normal; ///< the block buffer's readers (BypassPageCache)
+  int ReaderThreads = 4; ///< the block buffer's reader threads (OutOfCoreReaderThreads)
+  bool GpuTrainer = false; ///< trained on the GPU: the readers run at nice +10 (BlockBufferConfig::readerNice)
   /// Seconds of the phases around training (NaN until run; the output's NeuralValueRangeSeconds,
   /// NeuralFirstFillSeconds, NeuralExactPassSeconds): the value-range pass, the block buffer's first fill, the last
   /// exact pass. Set by the passes, which also log their start, progress and end (vtkLogF INFO, on stderr).

@@ -7,7 +7,8 @@
 // keys: mode=both|memory|ooc steps=3000 batch=4096 log2=16 levels=16 features=2 finest=0 (0: twice the largest
 // dimension) width=32 layers=2 device=cpu|cuda threads=2 seed=5 budget_mib=16 (the block buffer's bytes) edge=0 (cells
 // per block edge; 0: the filter's choice) per_step=0 (blocks replaced a step; 0: the filter's choice) readers=4
-// cache=0 (1: O_DIRECT, 2: drop behind: nv::PageCacheUse) edge_x=0 (cells along x; 0: edge)
+// cache=0 (1: O_DIRECT, 2: drop behind: nv::PageCacheUse) edge_x=0 (cells along x; 0: edge) nice=0 (the readers' nice
+// increment; device=cuda: 10, as the filter's)
 #include "OutOfCore/BlockBufferSource.h"
 #include "OutOfCore/FileMeasure.h"
 #include "SessionHelpers.h"
@@ -133,6 +134,7 @@ void runOutOfCore(const Options& o, const nv::VolumeFileLayout& layout, const nv
   nv::BlockBufferConfig config;
   config.memoryBudgetBytes = int64_t(o.number("budget_mib", 16) * 1048576.0);
   config.readerThreads = int(o.number("readers", 4));
+  config.readerNice = int(o.number("nice", o.values.count("device") && o.values.at("device") == "cuda" ? 10 : 0));
   config.seed = uint64_t(o.number("seed", 5));
   config.pageCache = static_cast<nv::PageCacheUse>(int(o.number("cache", 0)));
   config.trackCoverage = true;

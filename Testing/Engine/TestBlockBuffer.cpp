@@ -273,7 +273,16 @@ NV_TEST(reads_that_bypass_the_page_cache_give_the_same_bits)
     }
     boxes.push_back(box);
   }
-  int64_t differing = 0;
+  // The values written (scrambledNrrd's sequence, big-endian uint16): normal and O_DIRECT read a z-slice's close rows
+  // in one read, drop-behind a row at a time; all three must give them.
+  std::vector<float> written(static_cast<size_t>(layout.samples()));
+  uint64_t sequence = 12345;
+  for (float& value : written)
+  {
+    sequence = sequence * 6364136223846793005ull + 1442695040888963407ull;
+    value = static_cast<float>(((sequence >> 56) << 8) | ((sequence >> 48) & 0xFF));
+  }
+  int64_t differing = 0, wrong = 0;
   for (const auto& box : boxes)
   {
     const std::array<int64_t, 3> origin{ box[0], box[1], box[2] }, size{ box[3], box[4], box[5] };
@@ -284,8 +293,21 @@ NV_TEST(reads_that_bypass_the_page_cache_give_the_same_bits)
     dropBehind.readBox(origin, size, c.data());
     differing += std::memcmp(a.data(), b.data(), count * sizeof(float)) != 0;
     differing += std::memcmp(a.data(), c.data(), count * sizeof(float)) != 0;
+    for (int64_t z = 0, k = 0; z < size[2]; ++z)
+      for (int64_t y = 0; y < size[1]; ++y)
+        for (int64_t x = 0; x < size[0]; ++x, ++k)
+          wrong += a[size_t(k)] !=
+            written[size_t(((origin[2] + z) * layout.dims[1] + origin[1] + y) * layout.dims[0] + origin[0] + x)];
   }
-  EXPECT_TRUE(differing == 0);
+  EXPECT_TRUE(differing == 0 && wrong == 0);
+  // A 64 x 2 x 2-cell brick of close rows: 3 reads through the cache and with O_DIRECT, 9 with drop-behind.
+  const int64_t callsBefore[3] = { normal.readCalls(), direct.readCalls(), dropBehind.readCalls() };
+  std::vector<float> brick(65 * 3 * 3);
+  normal.readBox({ 10, 5, 7 }, { 65, 3, 3 }, brick.data());
+  direct.readBox({ 10, 5, 7 }, { 65, 3, 3 }, brick.data());
+  dropBehind.readBox({ 10, 5, 7 }, { 65, 3, 3 }, brick.data());
+  EXPECT_TRUE(normal.readCalls() - callsBefore[0] == 3 && dropBehind.readCalls() - callsBefore[2] == 9);
+  EXPECT_TRUE(direct.readCalls() - callsBefore[1] == (direct.pageCache() == nv::PageCacheUse::Bypass ? 3 : 9));
   EXPECT_TRUE(direct.bytesRead() == normal.bytesRead() && dropBehind.bytesRead() == normal.bytesRead());
   // O_DIRECT takes whole pages: at least the bytes asked.
   EXPECT_TRUE(direct.bytesTransferred() >= direct.bytesRead());

@@ -322,7 +322,7 @@ log("in memory: %.3f dB; out of core %.3f dB (gap %.3f dB)" % (memory_psnr, ooc_
 # batch (vtkNeuralOutOfCoreInput.cxx, BlockShapeFor: a budget this small gets 2^3-cell cubes). Measured (2 cores):
 # 53.2 dB against 59.8 dB in memory after 1500 steps (6.6 dB below; 54.2 dB while the buffer's bookkeeping, ~80 bytes a
 # 108-byte block, was not counted in the budget; 52.9 dB before the block size followed the batch). A budget that holds
-# a 64 x 2 x 2-cell brick a sample trains close to memory (nv.pv.NeuralOutOfCoreLarge).
+# a 128 x 2 x 2-cell brick a sample trains close to memory (nv.pv.NeuralOutOfCoreLarge).
 check(ooc_psnr > memory_psnr - 7.0, "out of core within 7 dB of in memory (%.2f vs %.2f)" % (ooc_psnr, memory_psnr))
 # The automatic network of an out-of-core input keeps its training memory within an eighth of the MemoryBudget (a
 # network sized for the ratio alone can hold more than the budget itself: 14 GB beside 8 GiB on the H100's 41 GB file).
@@ -351,8 +351,12 @@ check("ERROR" not in text_direct and figure(out_direct, "NeuralSteps") == 50, "B
 check(read_direct is not None and fill_direct is not None and read_direct > fill_direct > 0 and
       taken_direct >= read_direct, "the buffer's reads are reported, whole pages with O_DIRECT (%s, %s, %s)" % (
           read_direct, fill_direct, taken_direct))
-check(figure(out, "NeuralBufferBytesTransferred") == figure(out, "NeuralBufferBytesRead"),
-      "through the page cache the bytes taken are the bytes read")
+# Through the page cache a block's rows of a z-slice are one read of their span (VolumeFileReader kSliceSpanBytes): the
+# bytes taken are more than the blocks hold, at most (2 x 64 + 3) / (3 x 3) times (three rows of a 64-wide file, blocks
+# at least 3 samples wide).
+taken, read = figure(out, "NeuralBufferBytesTransferred"), figure(out, "NeuralBufferBytesRead")
+check(read is not None and taken is not None and read < taken <= read * 131 / 9,
+      "through the page cache a slice's rows are read at once (%s bytes taken for %s read)" % (taken, read))
 Delete(nc_direct)
 Delete(reader_direct)
 for proxy in (nc_auto, reader_auto, unfitted):
