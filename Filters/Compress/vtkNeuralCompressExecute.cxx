@@ -184,6 +184,7 @@ bool vtkNeuralCompress::RequestInput(
     request.OutOfCorePath = file.Path;
     request.OutOfCoreArray = file.Array;
     image->GetExtent(request.OutOfCoreExtent); // the whole file, or this rank's padded piece under MPI
+    request.InputMTime = nvi::OutOfCoreStamp(file, request.OutOfCoreExtent);
     request.ArrayName = "file:" + file.Path + "|" + file.Array;
     request.Association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
     return true;

@@ -212,6 +212,20 @@ bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request)
   return !request.Path.empty();
 }
 
+uint64_t OutOfCoreStamp(const OutOfCoreRequest& file, const int extent[6])
+{
+  uint64_t h = Fnv(1469598103934665603ull, file.Path.data(), file.Path.size());
+  h = Fnv(h, file.Array.data(), file.Array.size());
+  h = Fnv(h, extent, 6 * sizeof(int));
+  struct stat info;
+  if (::stat(file.Path.c_str(), &info) == 0)
+  {
+    const int64_t facts[3] = { int64_t(info.st_size), int64_t(info.st_mtim.tv_sec), int64_t(info.st_mtim.tv_nsec) };
+    h = Fnv(h, facts, sizeof(facts));
+  }
+  return h;
+}
+
 std::string OutOfCoreSummary(const nv::VolumeFileLayout& layout)
 {
   std::ostringstream text;

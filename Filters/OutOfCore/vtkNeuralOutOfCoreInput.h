@@ -52,6 +52,12 @@ struct OutOfCoreRequest
 /// True (with the file) when `input` is an out-of-core reader's output.
 bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request);
 
+/// What identifies an out-of-core input between executions (the training's InputIdentity::MTime): the file named, its
+/// array, the extent asked (a rank's piece) and the file's size and modification time -- not the reader's output
+/// object, whose modification time moves whenever the reader executes again (in the GUI its hidden representation
+/// and the live refreshes made it re-execute, and each change started the training over: 31 restarts in 40 s).
+uint64_t OutOfCoreStamp(const OutOfCoreRequest& file, const int extent[6]);
+
 /// The reader's output: the file's geometry, no samples, the file named in field data (with its summary figures).
 void MarkOutOfCore(vtkImageData* image, const nv::VolumeFileLayout& layout, const std::string& requestedArray);
 
