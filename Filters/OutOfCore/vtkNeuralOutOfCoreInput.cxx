@@ -63,11 +63,10 @@ uint64_t Fnv(uint64_t h, const void* data, size_t size)
 }
 
 /// The blocks' shape: bricks long in x, CellsX (up to kBrickCellsX, kGpuBrickCellsX beside a GPU trainer) by 2 x 2
-/// cells, the longest of which the
-/// buffer's share holds kBlocksPerBatchSample times the batch size (else 2^3-cell cubes, as for a small budget). A block
-/// is read a z-slice at a time (one read of its 3 rows where they lie close: VolumeFileReader kSliceSpanBytes), so a
-/// brick brings many more cells per read than a cube: 128 x 2 x 2 cells are 3 reads for 512 cells, 2^3 cells 3 reads
-/// for 8. What the network needs is the whole volume seen again and again up to the end of the run, when the rate is
+/// cells, the longest of which the buffer's share holds kBlocksPerBatchSample times the batch size (else 2^3-cell
+/// cubes, as for a small budget). A block is read a z-slice at a time (one read of its 3 rows where they lie close:
+/// VolumeFileReader kSliceSpanBytes), so a brick brings many more cells per read than a cube: 128 x 2 x 2 cells are 3
+/// reads for 512 cells, 2^3 cells 3 reads for 8. What the network needs is the whole volume seen again and again up to the end of the run, when the rate is
 /// low: with cubes and the reads of a step (kRowReadsPerStep) the buffer saw a small part of the volume between two
 /// turnovers and the network fitted the part it held (the H100's 2 GB crop under 512 MiB: 2.47 M resident 2^3-cell
 /// blocks, 4% of the cells, 3640 replaced a step, 2.95 dB below memory at 10k steps). Measured on a 256^3 float32

@@ -53,9 +53,11 @@ struct OutOfCoreRequest
 bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request);
 
 /// What identifies an out-of-core input between executions (the training's InputIdentity::MTime): the file named, its
-/// array, the extent asked (a rank's piece) and the file's size and modification time -- not the reader's output
-/// object, whose modification time moves whenever the reader executes again (in the GUI its hidden representation
-/// and the live refreshes made it re-execute, and each change started the training over: 31 restarts in 40 s).
+/// array, the extent asked (a rank's piece) and the header file's size and modification time -- not the reader's
+/// output object, whose modification time moves whenever the pipeline executes the reader again (the GUI's live
+/// refreshes did, and each started the training over: 31 value-range passes and first fills in 40 s, 13 steps). A
+/// detached data file changed under an unchanged header is seen when the training starts again for another reason
+/// (OutOfCoreKey stats it).
 uint64_t OutOfCoreStamp(const OutOfCoreRequest& file, const int extent[6]);
 
 /// The reader's output: the file's geometry, no samples, the file named in field data (with its summary figures).
@@ -76,9 +78,9 @@ PieceSums MeasureOutOfCorePiece(nv::NetworkSession& session, const OutOfCoreFile
   const int owned[6], const int whole[6], double modelBytes);
 
 /// The block buffer's reader threads: 4 beside the CPU engine's training threads, which take every core; beside a GPU
-/// trainer the machine's cores less two, 4 to 16; 32 when the reads go to the disk itself (BypassPageCache: the threads
-/// wait in the disk's queue, which serves more reads at once the deeper it is). Beside a GPU trainer they run below its
-/// priority (BlockBufferConfig::readerNice). On the H100 crop 4 readers from the page cache (9 preads of 260 B a brick) missed 30.7 M of the
+/// trainer the machine's cores less two, 4 to 16, below its priority (BlockBufferConfig::readerNice); 32 when the
+/// reads go to the disk itself (BypassPageCache: the threads wait in the disk's queue, which serves more reads at once
+/// the deeper it is). On the H100 crop 4 readers from the page cache (9 preads of 260 B a brick) missed 30.7 M of the
 /// swaps asked (results/outofcore_2026-11-27c.md); with O_DIRECT 14 readers read 0.69 of what the disk gives 32
 /// (results/outofcore_2026-11-27d.md).
 int OutOfCoreReaderThreads(bool gpuTrainer, nv::PageCacheUse reads);

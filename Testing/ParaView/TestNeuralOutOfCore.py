@@ -443,7 +443,7 @@ Delete(nc)
 Delete(reader)
 
 # A new reader's file trained in the background and refreshed as the GUI's live timer does, the reader executing again
-# meanwhile (in the GUI its hidden representation made it): the same file, so the same training. Before
+# meanwhile: the same file, so the same training. Before
 # OutOfCoreStamp the output object's modification time stood for the file and each refresh prepared the file again
 # (a new value-range pass and first fill; the GUI: 31 of them in 40 s, 13 steps).
 # (The GUI's case: a 16 MB file under 4 MiB, the GUI's defaults; the 1 MB file above prepared again once at most.)
