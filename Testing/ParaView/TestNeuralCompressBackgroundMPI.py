@@ -10,6 +10,10 @@ of a Wavelet, each trained in the background (TrainInBackground, the filter's de
   those of a second, blocking run of the same settings (Deterministic: the same networks, so the same PSNR and max
   error to the last bit; the network bytes differ by their training seconds);
 - Stop on a long run: both ranks stop and their steps no longer advance.
+Then the same live updates, pause, resume and stop for an out-of-core file (a 64^3 float32 .nhdr under a 0.4 MiB
+MemoryBudget: each rank trains from its piece of the file, read in blocks while it trains; not compared with a blocking
+run, an out-of-core run is not repeatable to the bit), and a refresh whose reader executed again does not prepare the
+file again on any rank.
 """
 import ctypes
 import os
@@ -71,8 +75,69 @@ def live_update(nc):
     return needed
 
 
+def out_of_core_file(out_dir):
+    """A 64^3 float32 NRRD (detached) of a smooth field, written by the script's rank (the others read it)."""
+    n = WHOLE[1] + 1
+    z, y, x = np.meshgrid(*(np.linspace(0, 1, n),) * 3, indexing="ij")
+    ((np.sin(7 * x) * np.cos(5 * y) + 0.5 * np.sin(9 * z + 3 * x)).astype(np.float32)).tofile(
+        os.path.join(out_dir, "ooc.raw"))
+    path = os.path.join(out_dir, "ooc.nhdr")
+    with open(path, "w") as f:
+        f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\nencoding: raw\nendian: little\n"
+                "data file: ooc.raw\n" % (n, n, n))
+    return path
+
+
+def phases(nc):
+    """Every rank's (value-range pass, first fill) seconds: a new preparation of the file times them again."""
+    return [(nvtest.field_value(servermanager.Fetch(nc, r), "NeuralValueRangeSeconds"),
+             nvtest.field_value(servermanager.Fetch(nc, r), "NeuralFirstFillSeconds")) for r in range(RANKS)]
+
+
+def check_out_of_core(out_dir):
+    reader = NeuralOutOfCoreReader(FileName=out_of_core_file(out_dir))
+    settings = {k: v for k, v in SETTINGS.items() if k != "SelectInputScalars"}
+    nc = NeuralCompress(Input=reader, TrainInBackground=1, TrainingSteps=STEPS, MemoryBudget=0.4, **settings)
+    check_live(nc, out_dir)
+    before = phases(nc)
+    for _ in range(2):
+        reader.SMProxy.MarkModified(reader.SMProxy)
+        reader.GetClientSideObject().Modified()
+        reader.UpdatePipeline()
+        time.sleep(0.3)
+        live_update(nc)
+        nc.SMProxy.MarkModified(nc.SMProxy)
+        nc.UpdatePipeline()
+    after = phases(nc)
+    check(all(p[0] is not None for p in before) and after == before,
+          "out of core: the reader executing again does not prepare the file again on any rank (%s then %s)"
+          % (before, after))
+    final = check_pause_resume(nc, out_dir, render_out_of_core)
+    log("out of core, finished: %s" % [(s[0], s[1], s[3], s[4]) for s in final])
+    Delete(nc)
+    check_stop(reader, settings=dict(settings, MemoryBudget=0.4))
+    Delete(reader)
+
+
 def render(nc, path):
     return nvtest.wavelet_picture(nc, path, SIZE, WHOLE, (160.0, -120.0, 210.0))
+
+
+def render_out_of_core(nc, path):
+    """The out-of-core network's Neural Volume, coloured by the file's field ('ooc') over its range."""
+    view = nvtest.render_view(SIZE, (0.32, 0.34, 0.43))
+    display = Show(nc, view)
+    display.SetRepresentationType("Neural Volume")
+    ColorBy(display, ("POINTS", "ooc"))
+    for tf in (GetColorTransferFunction("ooc"), GetOpacityTransferFunction("ooc")):
+        tf.RescaleTransferFunction(-1.5, 1.5)
+    centre = [(WHOLE[2 * a] + WHOLE[2 * a + 1]) / 2.0 for a in range(3)]
+    nvtest.set_camera(view, [c + o for c, o in zip(centre, (160.0, -120.0, 210.0))], focal=centre)
+    Render(view)
+    nvtest.shot(view, path, SIZE)
+    Delete(display)
+    Delete(view)
+    return nvtest.read_png(path)
 
 
 def check_live(nc, out_dir):
@@ -100,7 +165,7 @@ def check_live(nc, out_dir):
           "no global max error while the ranks train (%s)" % [s[4] for s in now])
 
 
-def check_pause_resume(nc, out_dir):
+def check_pause_resume(nc, out_dir, picture=render):
     nc.PauseTraining()
     nc.UpdatePipeline()
     paused = states(nc)
@@ -118,13 +183,13 @@ def check_pause_resume(nc, out_dir):
     later = states(nc)
     check(all(later[r][1] == paused[r][1] for r in range(RANKS)), "paused: steps stay (%s, then %s)"
           % ([s[1] for s in paused], [s[1] for s in later]))
-    shots = [render(nc, os.path.join(out_dir, "live_0.png"))]
+    shots = [picture(nc, os.path.join(out_dir, "live_0.png"))]
     nc.ResumeTraining()
     for _ in range(2):  # a snapshot's bytes are written at most once a second, from one update to the next
         time.sleep(1.1)
         live_update(nc)
     resumed = states(nc)
-    shots.append(render(nc, os.path.join(out_dir, "live_1.png")))
+    shots.append(picture(nc, os.path.join(out_dir, "live_1.png")))
     for r in range(RANKS):
         check(resumed[r][1] > later[r][1] and resumed[r][2] != later[r][2],
               "rank %d: resumed, a live update brings a newer network (steps %d -> %d)"
@@ -154,8 +219,8 @@ def check_against_blocking(wavelet, final):
     Delete(blocking)
 
 
-def check_stop(wavelet):
-    long_run = NeuralCompress(Input=wavelet, TrainInBackground=1, TrainingSteps=10000000, **SETTINGS)
+def check_stop(source, settings=SETTINGS):
+    long_run = NeuralCompress(Input=source, TrainInBackground=1, TrainingSteps=10000000, **settings)
     long_run.UpdatePipeline()
     time.sleep(1.0)
     long_run.StopTraining()
@@ -187,6 +252,8 @@ def main():
     final = check_pause_resume(nc, out_dir)
     check_against_blocking(wavelet, final)
     check_stop(wavelet)
+    Delete(nc)
+    check_out_of_core(out_dir)
 
 
 main()
