@@ -9,7 +9,9 @@ Cases (each trained per rank, 300 steps, CPU):
   cells) with its blocks dealt round-robin to the ranks by a programmable filter (the source itself makes every block
   on every rank), at the automatic sampling dimensions (the finest level's spacing);
 - "enzo" (when NV_DATA_DIR holds it): the Enzo AMR cosmology output (overlapping AMR, cell array Density) as its
-  reader deals the blocks to the ranks, at 48^3.
+  reader deals the blocks to the ranks, at 48^3;
+- "cth" (when NV_DATA_DIR holds it): CTH's SpyPlot output (non-overlapping AMR, the four files of one run, cell array
+  Pressure) as ParaView's SpyPlot reader deals the files to the ranks, at 40^3.
 Rank 0 first runs the same pipelines in a serial pvbatch (this script with --serial-reference <folder>, a subprocess)
 and checks:
 - no gather: each rank's network was trained from its own piece (NeuralPieceSourceSamples is the count of the rank's
@@ -94,12 +96,26 @@ def enzo(mpi):
     return reader
 
 
+CTH = os.path.join(os.environ.get("NV_DATA_DIR", ""), "cth_spyplot_timeseries", "spcth.0")
+CTH_PRESSURE = "Pressure (dynes/cm^2^)"
+
+
+def cth(mpi):
+    reader = OpenDataFile(CTH)  # ParaView's SpyPlot reader: the 4 files of one dump, dealt to the ranks
+    reader.CellArrays = [CTH_PRESSURE]
+    return reader
+
+
 # name, source, array, settings, the camera's distance (1: the whole box in view)
 CASES = (("multiblock", multiblock, ("POINTS", "RTData"), dict(SamplingDimensions=[38, 38, 38]), 1.0),
          ("structured", structured, ("POINTS", "RTData"), dict(SamplingDimensions=[38, 38, 38]), 1.0),
          ("amr", amr, ("CELLS", "Gaussian-Pulse"), dict(SamplingDimensions=[0, 0, 0]), 0.5))
 if os.environ.get("NV_DATA_DIR") and os.path.exists(ENZO):
     CASES += (("enzo", enzo, ("CELLS", "Density"), dict(SamplingDimensions=[48, 48, 48]), 1.0),)
+if os.environ.get("NV_DATA_DIR") and os.path.exists(CTH):
+    CASES += (("cth", cth, ("CELLS", CTH_PRESSURE), dict(SamplingDimensions=[40, 40, 40]), 1.0),)
+if os.environ.get("NV_CASES"):  # a comma-separated subset, to run one case while debugging
+    CASES = tuple(case for case in CASES if case[0] in os.environ["NV_CASES"].split(","))
 
 
 def leaves(data):
@@ -118,6 +134,8 @@ def own_samples(data, array):
     cells = array[0] == "CELLS"
     total = 0
     for leaf in leaves(data):
+        if not leaf.IsA("vtkDataSet"):  # (a fetched piece's placeholders of the other ranks' blocks)
+            continue
         values = (leaf.GetCellData() if cells else leaf.GetPointData()).GetArray(array[1])
         if values is None or leaf.GetNumberOfCells() == 0:
             continue
@@ -129,11 +147,32 @@ def own_samples(data, array):
     return total
 
 
+# A non-overlapping AMR's blocks as a multiblock (Fetch cannot move a vtkNonOverlappingAMR from a rank).
+AS_MULTIBLOCK = """
+from vtkmodules.vtkCommonDataModel import vtkImageData
+source, out = self.GetInputDataObject(0, 0), self.GetOutputDataObject(0)
+it = source.NewIterator()
+it.InitTraversal()
+k = 0
+while not it.IsDoneWithTraversal():
+    block = vtkImageData()  # (a vtkUniformGrid comes back from a rank as an empty vtkDataObject)
+    block.ShallowCopy(it.GetCurrentDataObject())
+    out.SetBlock(k, block)
+    k += 1
+    it.GoToNextItem()
+"""
+
+
 def local_data(proxy, rank=None):
     """The proxy's data object: in serial the algorithm's own output (Fetch cannot reduce AMR), else rank's piece."""
     proxy.UpdatePipeline()
     if rank is None:
         return proxy.GetClientSideObject().GetOutputDataObject(0)
+    if proxy.GetDataInformation().DataInformation.GetCompositeDataClassName() == "vtkNonOverlappingAMR":
+        blocks = ProgrammableFilter(Input=proxy, Script=AS_MULTIBLOCK, OutputDataSetType="vtkMultiblockDataSet")
+        data = servermanager.Fetch(blocks, rank)
+        Delete(blocks)
+        return data
     return servermanager.Fetch(proxy, rank)
 
 
