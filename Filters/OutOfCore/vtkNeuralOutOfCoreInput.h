@@ -54,8 +54,9 @@ bool OutOfCoreRequestOf(vtkDataObject* input, OutOfCoreRequest& request);
 
 /// What identifies an out-of-core input between executions (the training's InputIdentity::MTime): the file named, its
 /// array, the extent asked (a rank's piece) and the header file's size and modification time -- not the reader's
-/// output object, whose modification time moves whenever the pipeline executes the reader again (the GUI's live
-/// refreshes did, and each started the training over: 31 value-range passes and first fills in 40 s, 13 steps). A
+/// output object, whose modification time moves whenever the pipeline executes the reader again: each live refresh
+/// then prepared the file again on a background thread (a value-range pass and a block buffer's first fill; in the GUI
+/// 31 in 40 s while the training crawled, 13 steps). A
 /// detached data file changed under an unchanged header is seen when the training starts again for another reason
 /// (OutOfCoreKey stats it).
 uint64_t OutOfCoreStamp(const OutOfCoreRequest& file, const int extent[6]);
