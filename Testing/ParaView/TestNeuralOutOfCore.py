@@ -21,7 +21,6 @@ import math
 import os
 import shutil
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -462,10 +461,7 @@ out = refresh(nc)
 while figure(out, "NeuralSteps") is None and time.time() < deadline:  # its first network published
     time.sleep(0.5)
     out = refresh(nc)
-sys.stderr.flush()
-saved, captured = os.dup(2), tempfile.TemporaryFile()
-os.dup2(captured.fileno(), 2)
-try:
+with nvtest.captured_stderr() as logged:
     for k in range(6):
         time.sleep(0.5)
         if k % 2:
@@ -473,11 +469,7 @@ try:
             reader.UpdatePipeline()
         out = refresh(nc)
     time.sleep(1.0)  # (a preparation runs on a background thread)
-finally:
-    os.dup2(saved, 2)
-    os.close(saved)
-captured.seek(0)
-passes = captured.read().decode(errors="replace").count("value-range pass started")
+passes = logged[0].count("value-range pass started")
 state = out.GetFieldData().GetAbstractArray("NeuralTrainingState").GetValue(0)
 check(state == "Training" and passes == 0,
       "refreshes and the reader executing again do not prepare the file again (%s; %d value-range passes)" % (

@@ -10,6 +10,7 @@ import contextlib
 import math
 import os
 import sys
+import tempfile
 
 SKIP = 125  # ctest SKIP_RETURN_CODE
 
@@ -156,6 +157,25 @@ def captured_messages():
         vtkOutputWindow.SetInstance(previous)
         previous.UnRegister(None)
         result.append(catcher.GetOutput())
+
+
+@contextlib.contextmanager
+def captured_stderr():
+    """Collect what this process writes on file descriptor 2 while the block runs (VTK's logger lines, e.g. the
+    out-of-core phases a filter logs from its background threads). Yields a list that holds the text once the block
+    exits."""
+    sys.stderr.flush()
+    saved, captured = os.dup(2), tempfile.TemporaryFile()
+    os.dup2(captured.fileno(), 2)
+    result = []
+    try:
+        yield result
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        captured.seek(0)
+        result.append(captured.read().decode(errors="replace"))
+        captured.close()
 
 
 def field_value(data, name):
