@@ -177,6 +177,13 @@ bool vtkNeuralCompress::RequestInput(
   request.Source = inputObject;
   request.IsImage = image != nullptr;
   request.InputMTime = inputObject ? inputObject->GetMTime() : 0;
+  const nvi::ImagePiece& piece = this->Internals->Piece;
+  if (image && image == piece.Training())
+  {
+    // MPI: this rank's piece, whose output is its part of the whole output lattice.
+    std::copy(piece.Owned(), piece.Owned() + 6, request.PieceOwned);
+    std::copy(piece.Whole(), piece.Whole() + 6, request.PieceWhole);
+  }
   nvi::OutOfCoreRequest file;
   if (nvi::OutOfCoreRequestOf(inputObject, file))
   {
@@ -305,6 +312,8 @@ bool vtkNeuralCompress::PrepareField(
     return false;
   }
   nvi::FieldInfo& field = prepared.Field;
+  std::copy(request.PieceOwned, request.PieceOwned + 6, field.PieceOwned);
+  std::copy(request.PieceWhole, request.PieceWhole + 6, field.PieceWhole);
   if (!stage("reading the field") || !this->DescribeField(input, field))
   {
     return false;
@@ -426,18 +435,16 @@ bool vtkNeuralCompress::DescribeField(const nvi::SelectedInput& input, nvi::Fiel
   field.VtkType = array->GetDataType();
   int ext[6];
   image->GetExtent(ext);
-  // A resampling coarsened to fit the budget decodes at the dimensions announced (the network is continuous).
-  const bool coarsened = input.DecodedDims[0] > 0 &&
-    std::all_of(this->OutputResolution, this->OutputResolution + 3, [](int r) { return r <= 0; });
-  field.Geometry = nvi::ComputeGeometry(ext, image->GetOrigin(), image->GetSpacing(), field.Cells,
-    coarsened ? input.DecodedDims : this->OutputResolution, this->FinestResolution, this->BaseResolution);
-  this->ReportOutputCap(field.Geometry);
   std::copy(image->GetDirectionMatrix()->GetData(), image->GetDirectionMatrix()->GetData() + 9, field.Direction);
   std::copy(ext, ext + 6, field.InputExtent);
   std::copy(image->GetOrigin(), image->GetOrigin() + 3, field.InputOrigin);
   std::copy(image->GetSpacing(), image->GetSpacing() + 3, field.InputSpacing);
   field.Outside = input.Outside;
+  // A resampling coarsened to fit the budget decodes at the dimensions announced (the network is continuous).
   std::copy(input.DecodedDims, input.DecodedDims + 3, field.CoarsenedDims);
+  field.Geometry =
+    nvi::OutputGeometryOf(field, this->OutputResolution, this->FinestResolution, this->BaseResolution);
+  this->ReportOutputCap(field.Geometry);
   const int64_t dims[3] = { field.Geometry.SourceDims[0], field.Geometry.SourceDims[1],
     field.Geometry.SourceDims[2] };
   // A decoded output the machine cannot hold is refused before any training (the estimate and the limit).

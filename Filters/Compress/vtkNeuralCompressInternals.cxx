@@ -125,6 +125,51 @@ OutputGeometry ComputeGeometry(const int ext[6], const double origin[3], const d
   return g;
 }
 
+namespace
+{
+/// The first and last lattice index (Origin + index x Spacing, indices 0..last) of a resampled axis that a piece
+/// owning [lo, hi] decodes: see PieceOfWholeGeometry.
+void OwnedLatticeRange(double lo, double hi, bool upperPiece, bool cells, double latticeOrigin, double latticeSpacing,
+  int lastPoint, int& first, int& last)
+{
+  constexpr double slack = 1e-6; // in lattice steps: a sample on the boundary counts as on it
+  const double shift = cells ? 0.5 : 0.0;  // cell centres
+  const int lastSample = cells ? lastPoint - 1 : lastPoint;
+  const double from = std::ceil((lo - latticeOrigin) / latticeSpacing - shift - slack);
+  // The first sample at or beyond hi belongs to the upper neighbour.
+  const double beyond = std::ceil((hi - latticeOrigin) / latticeSpacing - shift - slack);
+  first = static_cast<int>(std::min<double>(std::max(from, 0.0), lastSample));
+  // Points: up to and including that neighbour's first sample (the shared layer); cells: its last own cell.
+  const double to = upperPiece ? lastSample : cells ? beyond - 1.0 : beyond;
+  last = std::max(first, static_cast<int>(std::min<double>(std::max(to, 0.0), lastSample)));
+}
+} // namespace
+
+OutputGeometry PieceOfWholeGeometry(const OutputGeometry& whole, const int pieceExtent[6], const int owned[6],
+  const int wholeExtent[6], const double origin[3], const double spacing[3], bool cells)
+{
+  const int sourceResolution[3] = { 0, 0, 0 };
+  OutputGeometry g = ComputeGeometry(pieceExtent, origin, spacing, cells, sourceResolution);
+  g.CapSamples = whole.CapSamples;
+  for (int a = 0; a < 3; ++a)
+  {
+    if (whole.DecodedDims[a] == whole.SourceDims[a] || whole.DecodedDims[a] <= 1 || !(whole.Spacing[a] > 0.0))
+      continue; // the source lattice (cropped by the filter), or a single layer every piece keeps
+    const double lo = origin[a] + owned[2 * a] * spacing[a], hi = origin[a] + owned[2 * a + 1] * spacing[a];
+    int first = 0, last = 0;
+    OwnedLatticeRange(std::min(lo, hi), std::max(lo, hi), owned[2 * a + 1] >= wholeExtent[2 * a + 1], cells,
+      whole.Origin[a], whole.Spacing[a], whole.Extent[2 * a + 1], first, last);
+    g.Extent[2 * a] = first;
+    g.Extent[2 * a + 1] = cells ? last + 1 : last;
+    g.Origin[a] = whole.Origin[a];
+    g.Spacing[a] = whole.Spacing[a];
+    g.DecodedDims[a] = last - first + 1;
+    g.OnSourceGrid = false;
+    g.WorldSamples = true;
+  }
+  return g;
+}
+
 bool MakeSourceField(vtkDataArray* array, int vectorMode, int component, const int64_t dims[3],
   SourceField& field, std::string& error)
 {

@@ -51,8 +51,16 @@ OutputGeometry OutputGeometryOf(
 {
   const bool automatic =
     std::all_of(outputResolution, outputResolution + 3, [](int r) { return r <= 0; }) && field.CoarsenedDims[0] > 0;
-  return ComputeGeometry(field.InputExtent, field.InputOrigin, field.InputSpacing, field.Cells,
-    automatic ? field.CoarsenedDims : outputResolution, finestResolution, baseResolution);
+  const int* resolution = automatic ? field.CoarsenedDims : outputResolution;
+  const bool sourceGrid = std::all_of(resolution, resolution + 3, [](int r) { return r <= 0; });
+  if (field.PieceWhole[1] < field.PieceWhole[0] || automatic || sourceGrid)
+    return ComputeGeometry(field.InputExtent, field.InputOrigin, field.InputSpacing, field.Cells, resolution,
+      finestResolution, baseResolution);
+  // MPI: every rank's output is its part of one lattice over the whole extent.
+  const OutputGeometry whole = ComputeGeometry(field.PieceWhole, field.InputOrigin, field.InputSpacing, field.Cells,
+    resolution, finestResolution, baseResolution);
+  return PieceOfWholeGeometry(
+    whole, field.InputExtent, field.PieceOwned, field.PieceWhole, field.InputOrigin, field.InputSpacing, field.Cells);
 }
 
 bool Float32Holds(double lo, double hi)

@@ -107,6 +107,11 @@ struct FieldInfo
   int InputExtent[6] = { 0, 0, 0, 0, 0, 0 };
   double InputOrigin[3] = { 0, 0, 0 };
   double InputSpacing[3] = { 1, 1, 1 };
+  /// MPI, a rank's piece (vtkNeuralCompressPartition.h): the extent it owns and the whole extent, in the index frame of
+  /// InputOrigin and InputSpacing; empty in a serial run. The output lattice is then the whole one
+  /// (PieceOfWholeGeometry).
+  int PieceOwned[6] = { 0, -1, 0, -1, 0, -1 };
+  int PieceWhole[6] = { 0, -1, 0, -1, 0, -1 };
   /// Inputs resampled to an image (vtkNeuralCompressResample.h): 1 for the source samples outside the domain (never
   /// trained on); the decoded output is NaN at the decoded points nearest to them. Null for image inputs.
   std::shared_ptr<const std::vector<uint8_t>> Outside;

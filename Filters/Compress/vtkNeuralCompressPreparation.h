@@ -39,6 +39,9 @@ struct InputRequest
   /// The out-of-core image's extent (sample indices of the file): the whole file, or under MPI the rank's padded
   /// piece (vtkNeuralCompressPartition.h), the only part of the file this rank reads.
   int OutOfCoreExtent[6] = { 0, -1, 0, -1, 0, -1 };
+  /// MPI, a rank's piece: the extent it owns and the whole extent (FieldInfo::PieceOwned); empty otherwise.
+  int PieceOwned[6] = { 0, -1, 0, -1, 0, -1 };
+  int PieceWhole[6] = { 0, -1, 0, -1, 0, -1 };
   const void* Source = nullptr; ///< the pipeline's input object (Object may be a copy of it)
   /// Images: the input's modification time; other inputs: InputStamp (vtkNeuralCompressResample.h), also the
   /// resampler's cache key.

@@ -65,27 +65,43 @@ const nvi::VolumeFileEntry* PieceOfThisRank(const std::vector<const nvi::VolumeF
 
 /// A piece of a distributed run: the filter decoded its network on the whole grid it was trained on (the piece and
 /// its ghost layers: the network's source bounds, sampled at the output's spacing) and cropped that to the piece.
-/// The same grid here, so that the decoded piece is the filter's sample for sample; throws nv::Error where the grid
-/// cannot be recovered.
-void PaddedPieceGeometry(const nvi::VolumeFileEntry& e, const nv::SourceInfo& source, nvi::OutputGeometry& g)
+/// The same grid here, so that the decoded piece is the filter's sample for sample. A piece of an output that
+/// OutputResolution resampled is the rank's part of the whole output lattice, which the filter decoded at the world
+/// positions of its samples (PieceOfWholeGeometry): decoded so here. Throws nv::Error where the grid cannot be
+/// recovered.
+void PaddedPieceGeometry(
+  const nvi::VolumeFileEntry& e, const nv::SourceInfo& source, bool resampledSource, nvi::OutputGeometry& g)
 {
   if (e.Cells)
     throw nv::Error("a decoded output of a distributed run's cell array is not supported: use Output Mode "
                     "'Network only' (the Neural Volume representation draws it)");
+  nvi::OutputGeometry padded = g;
+  bool fits = true;
   for (int a = 0; a < 3; ++a)
   {
     const double spacing = e.Spacing[a], lo = source.bounds[2 * a], hi = source.bounds[2 * a + 1];
     const double first = std::round((lo - e.Origin[a]) / spacing), last = std::round((hi - e.Origin[a]) / spacing);
     const double slack = 1e-6 * std::max(1.0, std::fabs(hi - lo));
-    if (!(spacing > 0.0) || std::fabs(e.Origin[a] + first * spacing - lo) > slack ||
-      std::fabs(e.Origin[a] + last * spacing - hi) > slack || first > e.Extent[2 * a] || last < e.Extent[2 * a + 1])
-      throw nv::Error("the grid a piece's network was trained on does not fit its image on axis " +
-        std::string(1, "xyz"[a]) + ": use Output Mode 'Network only'");
-    g.Extent[2 * a] = static_cast<int>(first);
-    g.Extent[2 * a + 1] = static_cast<int>(last);
-    g.DecodedDims[a] = g.Extent[2 * a + 1] - g.Extent[2 * a] + 1;
+    fits = fits && spacing > 0.0 && std::fabs(e.Origin[a] + first * spacing - lo) <= slack &&
+      std::fabs(e.Origin[a] + last * spacing - hi) <= slack && first <= e.Extent[2 * a] && last >= e.Extent[2 * a + 1];
+    if (!fits)
+      break;
+    padded.Extent[2 * a] = static_cast<int>(first);
+    padded.Extent[2 * a + 1] = static_cast<int>(last);
+    padded.DecodedDims[a] = padded.Extent[2 * a + 1] - padded.Extent[2 * a] + 1;
   }
-  g.OnSourceGrid = std::equal(g.DecodedDims, g.DecodedDims + 3, g.SourceDims);
+  if (fits)
+  {
+    g = padded;
+    g.OnSourceGrid = std::equal(g.DecodedDims, g.DecodedDims + 3, g.SourceDims);
+    return;
+  }
+  if (resampledSource)
+    throw nv::Error("the grid a piece's network was trained on does not fit its image: use Output Mode 'Network only'");
+  for (int a = 0; a < 3; ++a)
+    g.DecodedDims[a] = e.Extent[2 * a + 1] - e.Extent[2 * a] + 1;
+  g.OnSourceGrid = false;
+  g.WorldSamples = true; // the entry's own samples (its extent, origin and spacing)
 }
 
 /// The field an entry describes: its image, type, range and (a resampled source) the samples outside its domain.
@@ -265,7 +281,7 @@ int vtkNeuralVolumeReader::RequestData(
     const nv::Model model = nv::deserialize(e.Network);
     nvi::FieldInfo f = FieldOfEntry(e, model);
     if (e.Pieces > 1 && this->OutputMode != 0)
-      PaddedPieceGeometry(e, model.source, f.Geometry); // cropped to the piece below
+      PaddedPieceGeometry(e, model.source, f.Outside != nullptr, f.Geometry); // cropped to the piece below
     nvi::NetworkRecord record;
     record.Time = e.Time;
     record.Bytes = nvi::ShareBytes(e.Network);

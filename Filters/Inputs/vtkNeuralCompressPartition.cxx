@@ -177,7 +177,12 @@ void ImagePiece::CropOutput(vtkImageData* output) const
     bounds->SetValue(2 * a + 1, std::max(lo, hi));
     crop[2 * a] = outExtent[2 * a];
     crop[2 * a + 1] = outExtent[2 * a + 1];
-    if (outSpacing[a] != 0.0 && outExtent[2 * a + 1] > outExtent[2 * a])
+    // An axis resampled by OutputResolution holds this piece's part of the whole output lattice already
+    // (PieceOfWholeGeometry): only an axis on the input's own lattice is cropped.
+    const double slack = 1e-9 * std::max(std::fabs(inSpacing[a]), 1e-300);
+    const bool inputLattice =
+      std::fabs(outSpacing[a] - inSpacing[a]) <= slack && std::fabs(outOrigin[a] - inOrigin[a]) <= slack;
+    if (inputLattice && outSpacing[a] != 0.0 && outExtent[2 * a + 1] > outExtent[2 * a])
     {
       // The output samples within the piece (both ends: neighbouring pieces share their boundary plane).
       const double i0 = (lo - outOrigin[a]) / outSpacing[a], i1 = (hi - outOrigin[a]) / outSpacing[a];

@@ -75,8 +75,9 @@ public:
   const int* Owned() const { return this->OwnedExtent; }
   const int* Whole() const { return this->WholeExtent; }
 
-  /// The output image cropped to the owned piece (in its own sampling, which OutputResolution may refine), with
-  /// field data NeuralPieceBounds (xmin xmax ymin ymax zmin zmax of the piece in the image's index-aligned frame).
+  /// The output image cropped to the owned piece on the axes it samples on the input's lattice (an axis that
+  /// OutputResolution resampled holds the piece's part of the whole output lattice already: PieceOfWholeGeometry),
+  /// with field data NeuralPieceBounds (xmin xmax ymin ymax zmin zmax of the piece in the image's index-aligned frame).
   void CropOutput(vtkImageData* output) const;
 
 private:

@@ -60,10 +60,10 @@ void DescribeFile(const std::shared_ptr<const nvi::OutOfCoreFile>& file, const i
     ext[2 * a] = static_cast<int>(layout.boxOrigin[a]);
     ext[2 * a + 1] = static_cast<int>(layout.boxOrigin[a] + layout.dims[a] - 1);
   }
-  field.Geometry = nvi::ComputeGeometry(ext, layout.origin, layout.spacing, false, outputResolution, finest, base);
   std::copy(ext, ext + 6, field.InputExtent);
   std::copy(layout.origin, layout.origin + 3, field.InputOrigin);
   std::copy(layout.spacing, layout.spacing + 3, field.InputSpacing);
+  field.Geometry = nvi::OutputGeometryOf(field, outputResolution, finest, base); // MPI: the field's piece frame
   field.OutOfCore = file;
 }
 } // namespace
@@ -94,6 +94,8 @@ bool vtkNeuralCompress::PrepareOutOfCoreField(
   file->GpuTrainer = gpuTrainer;
   nvi::CheckOutOfCoreStorage(*file); // chunks the budget cannot decode: nv::Error, reported
   nvi::FieldInfo& field = prepared.Field;
+  std::copy(request.PieceOwned, request.PieceOwned + 6, field.PieceOwned);
+  std::copy(request.PieceWhole, request.PieceWhole + 6, field.PieceWhole);
   DescribeFile(file, this->OutputResolution, this->FinestResolution, this->BaseResolution, field);
   this->ReportOutputCap(field.Geometry);
   // The value range normalises the targets: one streamed pass over the file before training (abortable).

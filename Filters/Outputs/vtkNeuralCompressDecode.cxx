@@ -84,7 +84,7 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
   ChunkTicker ticker(control, count);
   const nv::SourceInfo& src = session.model().source;
   const nv::ValueRange range(src.valueMin, src.valueMax); // also wider than the largest double (ValueRange.h)
-  const bool onGrid = !f.Cells || g.OnSourceGrid;
+  const bool onGrid = (!f.Cells || g.OnSourceGrid) && !g.WorldSamples;
   const int64_t slice = n[0] * n[1];
   const int64_t slabs = std::max<int64_t>(1, kDecodeChunk / slice);
   if (onGrid && ((slice <= kDecodeChunk && slabs * n[1] >= kMinRowsPerChunk) || count <= kDecodeChunk))
@@ -99,8 +99,9 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
     }
     return;
   }
-  // As points, kDecodeChunk at a time: grid coordinates (decodeGrid's convention), or the cell centres of a resampled
-  // cell output in the source's normalised coordinates.
+  // As points, kDecodeChunk at a time: grid coordinates (decodeGrid's convention), or the world positions of the
+  // samples (the cell centres of a resampled cell output, a piece's part of the whole lattice) in the source's
+  // normalised coordinates.
   std::vector<float> xyz, normalised;
   // The error-bounded mode's corrections on the source's own grid (decodeGridValues applies them above).
   const std::shared_ptr<const nv::ErrorCorrections> corrections =
@@ -118,7 +119,9 @@ void DecodeValues(nv::NetworkSession& session, const FieldInfo& f, T* out, const
         float u = GridCoordinate(ijk[d], n[d]);
         if (!onGrid)
         {
-          const double world = g.Origin[d] + (static_cast<double>(ijk[d]) + 0.5) * g.Spacing[d];
+          // World samples: points, or cell centres (the extent's first index: a piece's part of the whole lattice).
+          const double index = static_cast<double>(g.Extent[2 * d] + ijk[d]) + (f.Cells ? 0.5 : 0.0);
+          const double world = g.Origin[d] + index * g.Spacing[d];
           const double extent = src.bounds[2 * d + 1] - src.bounds[2 * d];
           const double v = extent > 0 ? (world - src.bounds[2 * d]) / extent : 0.5;
           u = static_cast<float>(std::min(1.0, std::max(0.0, v)));
@@ -186,7 +189,20 @@ void MaskOutside(const FieldInfo& f, vtkDataArray* array)
     const int nd = g.DecodedDims[a], ns = g.SourceDims[a];
     map[a].resize(size_t(nd));
     for (int i = 0; i < nd; ++i)
-      map[a][size_t(i)] = nd > 1 && ns > 1 ? std::llround(double(i) * (ns - 1) / (nd - 1)) : 0;
+    {
+      if (g.WorldSamples)
+      {
+        // The source sample nearest to the decoded one's world position (a piece's part of the whole lattice).
+        const double index = static_cast<double>(g.Extent[2 * a] + i) + (f.Cells ? 0.5 : 0.0);
+        const double world = g.Origin[a] + index * g.Spacing[a];
+        const double source = f.InputSpacing[a] != 0.0
+          ? (world - f.InputOrigin[a]) / f.InputSpacing[a] - f.InputExtent[2 * a] - (f.Cells ? 0.5 : 0.0)
+          : 0.0;
+        map[a][size_t(i)] = std::min<int64_t>(std::max<int64_t>(std::llround(source), 0), std::max(ns - 1, 0));
+      }
+      else
+        map[a][size_t(i)] = nd > 1 && ns > 1 ? std::llround(double(i) * (ns - 1) / (nd - 1)) : 0;
+    }
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   vtkIdType k = 0;
