@@ -7,10 +7,12 @@ Every rank trains its own piece (fixed seed; device CPU by default; CUDA: each r
 throughput of a rank is its steps x batch over its training seconds (field data NeuralTrainingSeconds), summed over
 the ranks. Prints one RESULT line (JSON): ranks, mode, device, whole extent, per-rank seconds, samples/s, devices
 (NeuralDevice) and CUDA device ordinals (NeuralCudaDevice), their sum, the wall time of the update, the global PSNR,
-each rank's peak RSS growth over its RSS before the pipeline (MiB).
+each rank's peak RSS growth over its RSS before the pipeline (MiB), and on GPUs the device memory each process holds
+once trained (nvidia-smi's used memory of every compute process, MiB: the CUDA context, the piece, the network).
 """
 import json
 import os
+import subprocess
 import sys
 import time
 
@@ -53,7 +55,22 @@ for r in range(ranks):
 after = nvtest.rank_memory(ranks)
 # Each rank's peak RSS growth over its RSS before the pipeline (the piece, its network, the engine's buffers).
 growth_mib = [round((a[1] - b[0]) / 2 ** 20, 1) for a, b in zip(after, before)]
+
+
+def gpu_memory_mib():
+    """nvidia-smi's used memory (MiB) of every compute process on the machine (only the ranks run there)."""
+    try:
+        text = subprocess.run(["nvidia-smi", "--query-compute-apps=pid,used_memory", "--format=csv,noheader,nounits"],
+                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, timeout=60).stdout.decode()
+    except (OSError, subprocess.SubprocessError):
+        return []
+    rows = [line.split(",") for line in text.splitlines() if line.strip()]
+    return [float(row[1]) for row in sorted(rows, key=lambda row: int(row[0]))]
+
+
+gpu_mib = gpu_memory_mib() if device != "CPU" else []
 rates = [steps * BATCH / s for s in seconds]
 print("RESULT " + json.dumps(dict(ranks=ranks, mode=mode, device=device, threads=threads, whole=whole, steps=steps,
                                   batch=BATCH, devices=devices, cuda_devices=ordinals, seconds=seconds, samples_per_s=rates, total_samples_per_s=sum(rates),
-                                  wall_s=wall, psnr=psnr, peak_rss_growth_mib=growth_mib)))
+                                  wall_s=wall, psnr=psnr, peak_rss_growth_mib=growth_mib,
+                                  gpu_memory_mib=gpu_mib)))
