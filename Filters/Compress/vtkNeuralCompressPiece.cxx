@@ -154,7 +154,7 @@ nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
   std::shared_ptr<const nvi::NetworkRecord> final = job ? job->Final() : nullptr;
   if (!final || !job->Session || !job->Data || (!job->Data->Field.View.data && !job->Field.OutOfCore))
     return nvi::PieceSums();
-  if (in.MeasuredRecord == final.get())
+  if (in.MeasuredRecord.lock() == final)
     return in.MeasuredSums;
   if (job->Field.OutOfCore)
   {
@@ -171,7 +171,7 @@ nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
       in.MeasuredSums.Failed = 1.0;
       return in.MeasuredSums; // measured again next time
     }
-    in.MeasuredRecord = final.get();
+    in.MeasuredRecord = final;
     return in.MeasuredSums;
   }
   const nv::VolumeView& view = job->Data->Field.View;
@@ -179,7 +179,7 @@ nvi::PieceSums vtkNeuralCompress::MeasureCurrentPiece()
     view.count() > 0 ? static_cast<double>(job->Data->Field.RawBytes) / static_cast<double>(view.count()) : 0.0;
   in.MeasuredSums = nvi::MeasurePiece(*job->Session, view, job->Field.InputExtent, in.Piece.Owned(),
     in.Piece.Whole(), job->Field.Cells, bytesPerSample, static_cast<double>(final->Figures.ModelBytes));
-  in.MeasuredRecord = final.get();
+  in.MeasuredRecord = final;
   return in.MeasuredSums;
 }
 

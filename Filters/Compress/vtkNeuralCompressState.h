@@ -57,7 +57,9 @@ struct vtkNeuralCompress::vtkInternals
   {
     return this->ParticlePieces ? this->Particles.Description() : this->GridPiece.Description();
   }
-  const void* MeasuredRecord = nullptr; ///< the network PieceSums measured (its final record)
+  /// The network MeasuredSums measured (its final record). Weak: a record freed since cannot pass for a new one that
+  /// the allocator placed at its address (a time series' next step once showed the first step's figures that way).
+  std::weak_ptr<const nvi::NetworkRecord> MeasuredRecord;
   nvi::PieceSums MeasuredSums;
   std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)
   uint64_t GatheredSignature = 0; ///< this rank's networks at the last GatherPeerNetworks
