@@ -8,6 +8,7 @@
 #include "vtkOpenGLShaderCache.h"
 #include "vtkOpenGLState.h"
 #include "vtkRenderer.h"
+#include "vtkMultiProcessController.h"
 #include "vtkShaderProgram.h"
 #include "vtkTextureObject.h"
 #include "vtk_glew.h"
@@ -285,9 +286,11 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   if (!this->Quad)
   {
     std::string fs = vtkOpenGLRenderUtilities::GetFullScreenQuadFragmentShaderTemplate();
-    vtkShaderProgram::Substitute(fs, "//VTK::FSQ::Decl", "uniform sampler2D image;");
-    vtkShaderProgram::Substitute(
-      fs, "//VTK::FSQ::Impl", "gl_FragData[0] = texture2D(image, texCoord);");
+    vtkShaderProgram::Substitute(fs, "//VTK::FSQ::Decl", "uniform sampler2D image;\nuniform int clampToAlpha;");
+    vtkShaderProgram::Substitute(fs, "//VTK::FSQ::Impl",
+      "vec4 c = texture2D(image, texCoord);\n"
+      "  if (clampToAlpha != 0) c.rgb = min(c.rgb, vec3(c.a));\n"
+      "  gl_FragData[0] = c;");
     this->Quad.reset(new vtkOpenGLQuadHelper(
       window, vtkOpenGLRenderUtilities::GetFullScreenQuadVertexShader().c_str(), fs.c_str(), ""));
   }
@@ -298,6 +301,12 @@ void vtkNeuralImageCompositor::Draw(vtkRenderer* ren)
   if (this->Quad->Program)
   {
     this->Quad->Program->SetUniformi("image", texture->GetTextureUnit());
+    // Under MPI the ranks' pictures are blended by ParaView's compositor (IceT) in 8-bit premultiplied colour
+    // without saturation: a colour above its alpha (the light of path tracing or specular highlights in front of a
+    // translucent sample) would wrap around where a brighter piece lies behind. It is clamped to its alpha there.
+    vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
+    const bool distributed = controller && controller->GetNumberOfProcesses() > 1;
+    this->Quad->Program->SetUniformi("clampToAlpha", distributed ? 1 : 0);
     this->Quad->Render();
   }
   texture->Deactivate();

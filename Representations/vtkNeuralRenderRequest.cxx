@@ -140,6 +140,33 @@ void PieceClipBox(vtkImageData* image, const nv::SourceInfo& source, double clip
   }
 }
 
+std::shared_ptr<const nv::SurroundingsGrid> PieceSurroundings(vtkImageData* image, const nv::SourceInfo& source)
+{
+  vtkFieldData* fd = image ? image->GetFieldData() : nullptr;
+  vtkDataArray* values = fd ? vtkDataArray::SafeDownCast(fd->GetAbstractArray("NeuralSurroundings")) : nullptr;
+  vtkDataArray* dims = fd ? vtkDataArray::SafeDownCast(fd->GetAbstractArray("NeuralSurroundingsDimensions")) : nullptr;
+  vtkDataArray* bounds = fd ? vtkDataArray::SafeDownCast(fd->GetAbstractArray("NeuralSurroundingsBounds")) : nullptr;
+  if (!values || !dims || !bounds || dims->GetNumberOfValues() != 3 || bounds->GetNumberOfValues() != 6)
+    return nullptr;
+  auto grid = std::make_shared<nv::SurroundingsGrid>();
+  grid->values.resize(static_cast<size_t>(values->GetNumberOfValues()));
+  for (vtkIdType i = 0; i < values->GetNumberOfValues(); ++i)
+    grid->values[static_cast<size_t>(i)] = static_cast<float>(values->GetComponent(i, 0));
+  for (int a = 0; a < 3; ++a)
+  {
+    const double d = dims->GetComponent(a, 0);
+    grid->dims[a] = std::isfinite(d) && d >= 0.0 && d <= 1e9 ? static_cast<int>(d) : 0; // the engine checks them
+    const double lo = source.bounds[2 * a], hi = source.bounds[2 * a + 1];
+    if (hi > lo)
+    {
+      grid->box[2 * a] = (bounds->GetComponent(2 * a, 0) - lo) / (hi - lo);
+      grid->box[2 * a + 1] = (bounds->GetComponent(2 * a + 1, 0) - lo) / (hi - lo);
+    }
+    // else one sample on this axis: the network's one-voxel box is the whole's too ([0,1]).
+  }
+  return grid;
+}
+
 void SampleTransferFunction(vtkVolumeProperty* property, int entries, nv::TransferFunction& tf)
 {
   vtkColorTransferFunction* color = property->GetRGBTransferFunction(0);

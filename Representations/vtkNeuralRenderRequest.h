@@ -6,6 +6,9 @@
 #include "Core/Model.h"
 #include "Core/Render.h"
 
+#include <memory>
+#include <string>
+
 class vtkImageData;
 class vtkRenderer;
 class vtkVolume;
@@ -28,6 +31,12 @@ bool WorldToUnit(vtkVolume* volume, vtkImageData* image, const nv::SourceInfo& s
 /// ghost layers around it) the piece's own bounds -- field data NeuralPieceBounds, in the image's index-aligned
 /// frame -- so that neighbouring ranks' pictures meet without overlap.
 void PieceClipBox(vtkImageData* image, const nv::SourceInfo& source, double clip[6]);
+
+/// MPI: the coarse grid of the whole field that Neural Compress gave every rank's piece (field data
+/// NeuralSurroundings, NeuralSurroundingsDimensions, NeuralSurroundingsBounds in the image's index-aligned frame;
+/// Filters/Inputs/vtkNeuralCompressSurroundings.h), placed in network coordinates (the network's source bounds map to
+/// [0,1]^3): the engine's secondary rays continue through it beyond the piece. Null when the image has none.
+std::shared_ptr<const nv::SurroundingsGrid> PieceSurroundings(vtkImageData* image, const nv::SourceInfo& source);
 
 /// The colour and scalar opacity functions of component 0 sampled into `entries` uniform entries over the union
 /// of their ranges, with the property's scalar opacity unit distance.

@@ -316,6 +316,8 @@ private:
   /// value range wider than the largest double), then the path, shading, lighting and sampling settings.
   std::string RequestTransferFunction(vtkVolume* vol, nv::RenderRequest& q);
   void RequestShading(vtkRenderer* ren, vtkVolumeProperty* property, bool interactive, nv::RenderRequest& q);
+  /// MPI: the coarse grid of the whole field for the shading modes with secondary rays (shadows, path tracing).
+  void RequestSurroundings(vtkImageData* image, nv::RenderRequest& q);
   /// The engine's blend mode for BlendMode (Isosurface and Slice: Composite, with a warning once).
   nv::BlendMode EngineBlendMode();
   /// The Decode path's grid for DecodeResolution and this machine (a warning when it is clamped).

@@ -72,6 +72,13 @@ struct vtkNeuralVolumeMapper::vtkInternals
   vtkMTimeType TfTime = 0;
   nv::TransferFunction Tf;
 
+  // MPI: the coarse grid of the whole field in this network's coordinates (RequestSurroundings), made again when the
+  // image's array or the network changes.
+  const void* SurroundingsArray = nullptr;
+  vtkMTimeType SurroundingsTime = 0;
+  const void* SurroundingsSession = nullptr;
+  std::shared_ptr<const nv::SurroundingsGrid> Surroundings;
+
   // The last image and what it shows.
   vtkNeuralImageCompositor Compositor;
   nv::RenderResult Result;

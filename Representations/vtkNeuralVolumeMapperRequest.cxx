@@ -8,6 +8,8 @@
 #include "Core/ResourceEstimate.h"
 #include "Core/ValueRange.h"
 
+#include "vtkAbstractArray.h"
+#include "vtkFieldData.h"
 #include "vtkImageData.h"
 #include "vtkRenderWindow.h"
 #include "vtkRenderer.h"
@@ -45,6 +47,7 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
     return message;
   }
   this->RequestShading(ren, vol->GetProperty(), interactive, q);
+  this->RequestSurroundings(image, q);
   this->FitDecodeGrid();
   std::copy(in.DecodeUsed, in.DecodeUsed + 3, q.decodeResolution);
   this->WarnUnboundedPicture(session, q);
@@ -130,6 +133,35 @@ void vtkNeuralVolumeMapper::RequestShading(
   q.denoise = this->Denoise;
   q.streamingSamples = this->StreamingSamples;
   q.emptySpaceSkipping = this->EmptySpaceSkipping;
+}
+
+//------------------------------------------------------------------------------
+void vtkNeuralVolumeMapper::RequestSurroundings(vtkImageData* image, nv::RenderRequest& q)
+{
+  // Under MPI a rank draws its own piece; the light of shadows and path tracing crosses the other ranks' pieces
+  // through the coarse grid of the whole field that Neural Compress gave every piece (engine: RaySurroundings.h).
+  // Every other mode, and a serial run (no grid), draws without it.
+  q.surroundings = nullptr;
+  if (q.shading != nv::ShadingMode::RayMarchShadows && q.shading != nv::ShadingMode::PathTrace &&
+    q.shading != nv::ShadingMode::PathTraceNee)
+  {
+    return;
+  }
+  vtkInternals& in = *this->Internals;
+  vtkAbstractArray* values = image ? image->GetFieldData()->GetAbstractArray("NeuralSurroundings") : nullptr;
+  if (!values)
+  {
+    return;
+  }
+  if (values != in.SurroundingsArray || values->GetMTime() != in.SurroundingsTime ||
+    in.Session.get() != in.SurroundingsSession)
+  {
+    in.Surroundings = vtkNeuralRenderRequest::PieceSurroundings(image, in.Session->model().source);
+    in.SurroundingsArray = values;
+    in.SurroundingsTime = values->GetMTime();
+    in.SurroundingsSession = in.Session.get();
+  }
+  q.surroundings = in.Surroundings;
 }
 
 //------------------------------------------------------------------------------

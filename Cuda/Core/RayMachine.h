@@ -14,7 +14,7 @@
 // voxel spacing. Colours are premultiplied.
 #pragma once
 
-#include "RayTraversal.h"
+#include "RaySurroundings.h"
 
 namespace nv
 {
@@ -323,6 +323,9 @@ NV_HD_INLINE void consumeShadow(const Params& P, Ray& r, int K, const float* v, 
   r.shadowSampleIndex = j;
   if (!end)
     return;
+  // Beyond the clip box: the rest of the shadow ray through the surroundings (none: the light arrives unshadowed).
+  r.shadowTransmittance = marchSurroundings(P, r.shadowOrigin, r.shadowDirection, j, r.shadowEnd, P.dtShadow,
+    r.shadowTransmittance, 1e-3f);
   float rgb[3];
   const float light = P.intensity * (P.ambient + P.diffuse * r.shadowTransmittance);
   for (int c = 0; c < 3; ++c)
@@ -364,6 +367,49 @@ NV_HD_INLINE void collide(const Params& P, Ray& r, V3 p, const float e[4])
   }
 }
 
+/// The rest of a scattered path that left the clip box, traced in the surroundings grid (RaySurroundings.h) to its end
+/// within this call: delta tracking from the clip box's exit; at each real collision the throughput takes the colour,
+/// NEE's shadow ray is ratio-tracked through the grid, and the path scatters -- until it leaves the grid's box (the
+/// sky and sun, as escape() gives them) or reaches maxBounces. Even where it re-enters the clip box it stays in the
+/// grid (which covers the piece too): the network is not queried again.
+NV_HD_INLINE void traceInSurroundings(const Params& P, Ray& r)
+{
+  float t = r.segmentEnd;
+  for (int guard = 0; guard < kMaxIterations; ++guard)
+  {
+    float e[4];
+    if (!trackSurroundings(P, r, t, e))
+    {
+      escape(P, r);
+      return;
+    }
+    if (r.bounces >= P.maxBounces)
+    {
+      r.phase = Done;
+      return;
+    }
+    const V3 p = r.origin + r.direction * t;
+    for (int q = 0; q < 3; ++q)
+      r.throughput[q] *= e[q];
+    if (P.shading == PathTraceNee)
+    {
+      const float u1 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 4u, r.nEvent++);
+      const V3 w = sunDir(P.lightW, P.sunExponent, u1, u2);
+      const float transmittance = ratioTrackSurroundings(P, r, p, dirToUnit(P, w), 0.0f, r.nFlight, 1.0f);
+      const float phaseWeight = phase4pi(P.anisotropy, dot(r.worldDirection, w));
+      for (int q = 0; q < 3; ++q)
+        r.rgba[q] += r.throughput[q] * P.diffuse * P.intensity * transmittance * phaseWeight;
+    }
+    const float u1 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++), u2 = rand01(P, r.pixel, r.sample, 2u, r.nEvent++);
+    ++r.bounces;
+    r.origin = p;
+    r.worldDirection = phaseDir(P.anisotropy, r.worldDirection, u1, u2);
+    r.direction = dirToUnit(P, r.worldDirection);
+    t = 0.0f;
+  }
+  r.phase = Done;
+}
+
 /// consume() in the Track phase (path tracing): delta tracking along the segment until a real collision or the
 /// segment's end (the path escapes).
 NV_HD_INLINE void consumeTrack(const Params& P, Ray& r, int K, const float* v, int n)
@@ -376,10 +422,14 @@ NV_HD_INLINE void consumeTrack(const Params& P, Ray& r, int K, const float* v, i
     // and the replay must draw them too (the stream continues after this segment).
     if (!nextFlight(P, r, r.origin, r.direction, r.segmentEnd, t, c) || k >= n)
     {
-      // emit() stopped before K tentative collisions only where the segment ends: the path escapes.
+      // emit() stopped before K tentative collisions only where the segment ends: the path escapes the clip box,
+      // into the surroundings after a scattering event (a primary ray leaves the rest to the other pieces).
       r.distance = r.segmentEnd;
       r.nFlight = c;
-      escape(P, r);
+      if (r.bounces > 0 && surroundsAnything(P))
+        traceInSurroundings(P, r);
+      else
+        escape(P, r);
       return;
     }
     const V3 p = r.origin + r.direction * t;
@@ -434,6 +484,9 @@ NV_HD_INLINE void consumeNee(const Params& P, Ray& r, int K, const float* v, int
   r.nFlight = c;
   if (!end)
     return;
+  // Beyond the clip box: the rest of the shadow ray through the surroundings.
+  r.shadowTransmittance =
+    ratioTrackSurroundings(P, r, r.shadowOrigin, r.shadowDirection, r.shadowEnd, r.nFlight, r.shadowTransmittance);
   for (int q = 0; q < 3; ++q)
     r.rgba[q] += r.throughput[q] * P.diffuse * P.intensity * r.shadowTransmittance * r.pending[0];
   scatter(P, r, r.shadowOrigin);

@@ -134,6 +134,16 @@ struct Params
   // without it takes `background` (normalised) exactly. Null: every cell occupied.
   const uint32_t* occupancy;
   float background;
+  // The surroundings (RenderRequest::surroundings, in the renderer's memory; RaySurroundings.h): values normalised
+  // to the grid's own finite range (NaN: no data) on a grid whose corner samples lie at surroundBox (network coordinates). Secondary rays continue
+  // through it beyond the clip box. Null: they stop at the clip box.
+  const float* surround;
+  int surroundDims[3];
+  float surroundBox[6];
+  float surroundScale[3];   ///< grid coordinate along a = (u_a - surroundBox[2a]) * surroundScale[a]
+  float surroundTfScale, surroundTfShift; ///< the entry coordinate of a grid value y: y * scale + shift (the grid is
+                                          ///< normalised to its own value range, not the network's)
+  float surroundMajorant;   ///< the largest extinction the transfer function gives over the grid's values
 };
 
 /// True when the nearest source sample of network point q is inside the domain (or there is no domain mask).

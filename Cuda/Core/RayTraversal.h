@@ -79,15 +79,15 @@ NV_HD V3 unproject(const Params& P, float x, float y, float z)
     (m[8] * x + m[9] * y + m[10] * z + m[11]) * iw };
 }
 
-/// [t0, t1] of o + t d inside the marched box P.box (t0 > t1: no intersection).
-NV_HD void boxInterval(const Params& P, V3 o, V3 d, float& t0, float& t1)
+/// [t0, t1] of o + t d inside `box` (xmin xmax ymin ymax zmin zmax; t0 > t1: no intersection).
+NV_HD void boxIntervalOf(const float* box, V3 o, V3 d, float& t0, float& t1)
 {
   const float oo[3] = { o.x, o.y, o.z }, dd[3] = { d.x, d.y, d.z };
   t0 = -3.0e38f;
   t1 = 3.0e38f;
   for (int a = 0; a < 3; ++a)
   {
-    const float lo = P.box[2 * a], hi = P.box[2 * a + 1];
+    const float lo = box[2 * a], hi = box[2 * a + 1];
     if (dd[a] == 0.0f)
     {
       if (oo[a] < lo || oo[a] > hi)
@@ -111,15 +111,21 @@ NV_HD void boxInterval(const Params& P, V3 o, V3 d, float& t0, float& t1)
   }
 }
 
+/// [t0, t1] of o + t d inside the marched box P.box (t0 > t1: no intersection).
+NV_HD void boxInterval(const Params& P, V3 o, V3 d, float& t0, float& t1)
+{
+  boxIntervalOf(P.box, o, d, t0, t1);
+}
+
 NV_HD V3 clampUnit(V3 p)
 {
   return { clamp01(p.x), clamp01(p.y), clamp01(p.z) };
 }
 
-/// Transfer function at normalised value y: colour and extinction (per world unit).
-NV_HD void lookup(const Params& P, float y, float out[4])
+/// Transfer function at entry coordinate c (clamped to the table): colour and extinction (per world unit); a NaN
+/// coordinate (no value) is transparent.
+NV_HD void lookupEntry(const Params& P, float c, float out[4])
 {
-  float c = y * P.tfScale + P.tfShift;
   c = c < 0.0f ? 0.0f : c;
   const float last = static_cast<float>(P.tfSize - 1);
   c = c > last ? last : c;
@@ -134,6 +140,12 @@ NV_HD void lookup(const Params& P, float y, float out[4])
   const float* a = P.tf + 4 * i;
   for (int k = 0; k < 4; ++k)
     out[k] = a[k] + f * (a[k + 4] - a[k]);
+}
+
+/// Transfer function at the network's normalised value y: colour and extinction (per world unit).
+NV_HD void lookup(const Params& P, float y, float out[4])
+{
+  lookupEntry(P, y * P.tfScale + P.tfShift, out);
 }
 
 NV_HD int cellIndex(const Params& P, V3 u)

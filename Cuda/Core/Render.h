@@ -18,6 +18,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace nv
@@ -73,6 +74,24 @@ struct RenderControl
   std::atomic<int64_t> raysFinished{ 0 }; ///< primary rays (pixel paths) the render has finished, added as it goes
 };
 
+/// A coarse grid of the field around the clip box (MPI: the whole dataset, every rank's piece), through which the
+/// secondary rays of the shading modes with light transport continue once they leave the clip box: the shadow ray of
+/// RayMarchShadows, the sun's shadow ray of PathTraceNee and the scattered path segments of path tracing (a path that
+/// has left the clip box is traced in this grid to its end). Primary rays march the clip box only, as without it.
+/// Values are looked up trilinearly with the transfer function (no network queries).
+struct SurroundingsGrid
+{
+  std::vector<float> values; ///< dims[0] * dims[1] * dims[2] source values, x fastest; NaN: no data (transparent)
+  int dims[3] = { 0, 0, 0 };  ///< samples per axis, each >= 2
+  double box[6] = { 0, 1, 0, 1, 0, 1 }; ///< network coordinates of the grid's corner samples (xmin xmax ... zmax):
+                                        ///< sample (i, j, k) at box lo + (i, j, k) / (dims - 1) * (hi - lo); MPI:
+                                        ///< [0,1]^3 is the rank's padded piece, this box the whole dataset's
+};
+
+/// The most samples a surroundings grid may have (about 2 GiB of floats would be refused long before this; a
+/// surroundings grid is meant to be coarse, e.g. 64^3 .. 96^3).
+constexpr int64_t kMaxSurroundingsSamples = int64_t(1) << 27;
+
 struct RenderRequest
 {
   int width = 0;
@@ -122,6 +141,9 @@ struct RenderRequest
   RenderControl* control = nullptr; ///< optional cancellation and progress (CPU backend; not in the image key)
   const VolumeView* grid = nullptr; ///< Decode path only: march this volume (its own value range normalised like the
                                     ///< network's source) instead of the decoded network -- the tests' reference
+  /// Optional (null: secondary rays stop at the clip box): see SurroundingsGrid. Used by RayMarchShadows, PathTrace
+  /// and PathTraceNee on every path and backend; in the image key (its values hashed) for those modes.
+  std::shared_ptr<const SurroundingsGrid> surroundings;
   uint64_t seed = 1;
 };
 

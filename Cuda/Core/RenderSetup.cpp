@@ -1,6 +1,7 @@
 #include "RenderSetup.h"
 
 #include "Error.h"
+#include "Surroundings.h"
 #include "ValueRange.h"
 
 #include <algorithm>
@@ -233,6 +234,7 @@ void validate(const RenderRequest& q)
       os << "the clip box must be a non-empty box that overlaps [0,1]^3; ";
       break;
     }
+  checkSurroundings(q, os);
   double inv[16];
   if (finite(q.viewProjection, 16) && !invert4(q.viewProjection, inv))
     os << "the view-projection matrix is singular; ";
@@ -284,7 +286,47 @@ uint64_t renderKey(const RenderRequest& q)
     h.add(q.grid->data);
     h.add(q.grid->dims, sizeof(q.grid->dims));
   }
+  if (usesSurroundings(q))
+  {
+    // Its values themselves (a grid given again with other values renders again and restarts an accumulation).
+    const SurroundingsGrid& g = *q.surroundings;
+    h.add(g.values.data(), g.values.size() * sizeof(float));
+    h.add(g.dims, sizeof(g.dims));
+    h.add(g.box, sizeof(g.box));
+  }
   return h.hash;
+}
+
+void transferMap(const TransferFunction& tf, double valueMin, double valueMax, float& scale, float& shift)
+{
+  const int n = static_cast<int>(tf.rgba.size() / 4);
+  double lo = tf.valueMin, hi = tf.valueMax;
+  if (!(hi > lo))
+  {
+    const double pad = std::max(std::fabs(lo) * 1e-6, 1e-30);
+    hi = lo + pad;
+    if (!(hi <= DBL_MAX)) // a constant at the top of the doubles: widen downwards
+    {
+      hi = lo;
+      lo -= pad;
+    }
+  }
+  const ValueRange tfRange(lo, hi), values(valueMin, valueMax);
+  if (!tfRange.halved() && !values.halved())
+  {
+    const double vr = values.width();
+    // entry coordinate of value v: (v - lo) / (hi - lo) * (n - 1); v = valueMin + y * vr.
+    const double k = static_cast<double>(n - 1) / (hi - lo);
+    scale = static_cast<float>(vr * k);
+    shift = static_cast<float>((valueMin - lo) * k);
+  }
+  else
+  {
+    // A range wider than the largest double (ValueRange.h): the same map on halves, (v/2 - lo/2) / (hi/2 - lo/2).
+    const double k = static_cast<double>(n - 1) / (0.5 * hi - 0.5 * lo);
+    scale = static_cast<float>((0.5 * valueMax - 0.5 * valueMin) * k);
+    shift = static_cast<float>((0.5 * valueMin - 0.5 * lo) * k);
+  }
 }
 
 namespace
@@ -332,6 +374,9 @@ void setSampleDistances(const RenderRequest& q, const SourceInfo& src, ray::Para
   double edges = 0.0;
   for (int a = 0; a < 3; ++a)
     edges += std::sqrt(b[a] * b[a] + b[3 + a] * b[3 + a] + b[6 + a] * b[6 + a]);
+  // Secondary rays also cross the surroundings (RaySurroundings.h): their box counts as well.
+  if (usesSurroundings(q))
+    edges = std::max(edges, surroundingsEdgeLength(*q.surroundings, b));
   if (edges / dt > kMaxStepsPerRay)
     NV_THROW("invalid render request: sample distance " + std::to_string(dt) + " gives " +
       std::to_string(static_cast<int64_t>(edges / dt)) + " samples across the volume (at most " +
@@ -363,33 +408,7 @@ void setTransferFunction(const RenderRequest& q, const SourceInfo& src, RenderSe
     s.table[4 * i + 3] = static_cast<float>(-std::log1p(-a) / ud);
   }
   P.tfSize = n;
-  double lo = tf.valueMin, hi = tf.valueMax;
-  if (!(hi > lo))
-  {
-    const double pad = std::max(std::fabs(lo) * 1e-6, 1e-30);
-    hi = lo + pad;
-    if (!(hi <= DBL_MAX)) // a constant at the top of the doubles: widen downwards
-    {
-      hi = lo;
-      lo -= pad;
-    }
-  }
-  const ValueRange tfRange(lo, hi), source(src.valueMin, src.valueMax);
-  if (!tfRange.halved() && !source.halved())
-  {
-    const double vr = source.width();
-    // entry coordinate of source value v: (v - lo) / (hi - lo) * (n - 1); v = valueMin + y * vr.
-    const double k = static_cast<double>(n - 1) / (hi - lo);
-    P.tfScale = static_cast<float>(vr * k);
-    P.tfShift = static_cast<float>((src.valueMin - lo) * k);
-  }
-  else
-  {
-    // A range wider than the largest double (ValueRange.h): the same map on halves, (v/2 - lo/2) / (hi/2 - lo/2).
-    const double k = static_cast<double>(n - 1) / (0.5 * hi - 0.5 * lo);
-    P.tfScale = static_cast<float>((0.5 * src.valueMax - 0.5 * src.valueMin) * k);
-    P.tfShift = static_cast<float>((0.5 * src.valueMin - 0.5 * lo) * k);
-  }
+  transferMap(tf, src.valueMin, src.valueMax, P.tfScale, P.tfShift);
   NV_CHECK(std::isfinite(P.tfScale) && std::isfinite(P.tfShift),
     "the transfer function's range is too small for the field's value range");
   P.unitDistance = static_cast<float>(ud);

@@ -36,6 +36,11 @@ struct RenderSetup
   uint64_t tableKey = 0;            ///< hash of `table` and its value mapping (what the majorants depend on)
 };
 
+/// The map from values normalised to [valueMin, valueMax] (y = (v - valueMin) / (valueMax - valueMin)) to the entry
+/// coordinate of the transfer function's table: y * scale + shift (ray::Params::tfScale, tfShift for the network's
+/// source range). Not finite when the transfer function's range is too small for the values' range.
+void transferMap(const TransferFunction& tf, double valueMin, double valueMax, float& scale, float& shift);
+
 /// `source` gives the network's extent (dims) and value range (the transfer function is defined on source values).
 /// params.frame is 0: the backend sets the path-tracing accumulation index (it restarts when `key` changes).
 RenderSetup makeRenderSetup(const RenderRequest& request, const SourceInfo& source);

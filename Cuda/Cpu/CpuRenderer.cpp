@@ -305,6 +305,7 @@ void CpuRenderer::bindField(const RenderRequest& q, Frame& f)
   P.majorant = Cells.majorants();
   P.maxMajorant = Cells.maxMajorant();
   P.depth = q.depth;
+  Surroundings.prepare(q, f.setup, P);
 }
 
 void CpuRenderer::chooseTarget(const RenderRequest& q, Frame& f)

@@ -10,6 +10,7 @@
 
 #include "Core/Model.h"
 #include "Core/Render.h"
+#include "Core/Surroundings.h"
 #include "CpuDenoiser.h"
 #include "CpuGridDecoder.h"
 #include "CpuHalfNetwork.h"
@@ -103,6 +104,7 @@ private:
   std::atomic<bool> DecodeShown{ false }; ///< the last render showed the Decode path's decoded grid
   CpuGridDecoder Decoder;
   CpuMacrocells Cells;
+  SurroundingsCache Surroundings;              ///< the request's surroundings grid, normalised
 
   // The request.grid of the last render, normalised (keyed on its pointer, type, dims and the source range: a
   // caller that rewrites the same buffer must pass another pointer, as RenderSetup's key hashes the pointer too).

@@ -102,7 +102,8 @@ GpuRenderer::~GpuRenderer()
 int64_t GpuRenderer::deviceMemoryBytes() const
 {
   size_t b = Tf.bytes() + Majorant.bytes() + Lattice.bytes() + GridLinear.bytes() + Depth.bytes() + Range.bytes() +
-    Grid.bytes() + Image.bytes() + Accum.bytes() + FrameStart.bytes() + Guide.bytes() + Moments.bytes();
+    Grid.bytes() + Image.bytes() + Accum.bytes() + FrameStart.bytes() + Guide.bytes() + Moments.bytes() +
+    SurroundingsValues.bytes();
   b += static_cast<size_t>(Denoiser.deviceMemoryBytes() + Streaming.deviceMemoryBytes());
   return static_cast<int64_t>(b);
 }
@@ -254,6 +255,25 @@ bool GpuRenderer::uploadMasks(const Model& model, uint64_t version, ray::Params&
   return uploaded;
 }
 
+bool GpuRenderer::prepareSurroundings(const RenderRequest& q, const RenderSetup& s, ray::Params& P)
+{
+  const bool changed = Surroundings.prepare(q, s, P);
+  if (!P.surround)
+    return false;
+  const std::vector<float>& values = Surroundings.values();
+  if (changed || SurroundingsValues.size() < values.size())
+  {
+    // validate() bounded the grid (kMaxSurroundingsSamples floats).
+    if (SurroundingsValues.size() < values.size())
+      SurroundingsValues.allocate(values.size(), "surroundings grid");
+    NV_CUDA(cudaMemcpyAsync(SurroundingsValues.get(), values.data(), values.size() * sizeof(float),
+      cudaMemcpyHostToDevice, RenderStream));
+    NV_CUDA(cudaStreamSynchronize(RenderStream)); // the host copy is rewritten when the next grid comes
+  }
+  P.surround = SurroundingsValues.get();
+  return changed;
+}
+
 bool GpuRenderer::prepareScene(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
   ray::Params& P)
 {
@@ -275,6 +295,7 @@ bool GpuRenderer::prepareScene(const Model& model, uint64_t version, const Rende
   }
   P.tf = Tf.get();
   work |= prepareMajorants(s, P);
+  work |= prepareSurroundings(q, s, P);
   if (q.depth)
   {
     const int64_t pixels = int64_t(q.width) * q.height;

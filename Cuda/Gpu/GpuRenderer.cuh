@@ -6,6 +6,7 @@
 
 #include "Core/Render.h"
 #include "Core/RenderSetup.h"
+#include "Core/Surroundings.h"
 #include "GpuDenoiser.cuh"
 #include "GpuInternal.cuh"
 #include "GpuRenderCommon.cuh"
@@ -90,6 +91,9 @@ private:
   bool prepareRanges(const Model& model, uint64_t version, const RenderRequest& q, const RenderSetup& s,
     const uint32_t* occupancy, float background);
   bool prepareMajorants(const RenderSetup& s, ray::Params& P);
+  /// The request's surroundings grid (RaySurroundings.h) normalised on the host and uploaded when it changes;
+  /// P.surround points at the device copy (null when the request's mode does not use one).
+  bool prepareSurroundings(const RenderRequest& q, const RenderSetup& s, ray::Params& P);
 
   const DeviceModel& Network;
   cudaStream_t RenderStream;
@@ -104,6 +108,8 @@ private:
   DeviceBuffer<uint32_t> Domain; ///< SourceInfo::domain on the device
   uint64_t DomainVersion = ~0ull;
   DeviceBuffer<uint32_t> Occupancy; ///< SourceInfo::occupancy on the device
+  SurroundingsCache Surroundings;   ///< the request's surroundings grid, normalised on the host
+  DeviceBuffer<float> SurroundingsValues; ///< its device copy
   uint64_t OccupancyVersion = ~0ull;
   const void* GridSource = nullptr;
   RangeKey Ranges;

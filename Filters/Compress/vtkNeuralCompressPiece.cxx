@@ -341,6 +341,11 @@ void vtkNeuralCompress::TrainPiece(bool hasPiece, int ranksHere, double sourceBy
   // Every rank, every execution: the whole field's figures, and the other ranks' networks to rank 0 for a saved state.
   const nvi::GlobalFigures global = nvi::ReduceFigures(sums);
   this->GatherPeerNetworks();
+  // Every rank, every execution: the coarse grid of the whole field for shadows and path tracing across pieces.
+  std::string problem;
+  in.Surroundings.Update(executed ? output : nullptr, problem);
+  if (!problem.empty())
+    vtkWarningMacro("Neural Compress: " << problem << "; shadows and path tracing stop at this rank's piece.");
   if (!executed)
     return;
   vtkMultiProcessController* c = nvi::DistributedController();

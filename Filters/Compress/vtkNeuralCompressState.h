@@ -12,6 +12,7 @@
 #include "vtkNeuralCompressNetworkCache.h"
 #include "vtkNeuralCompressPreparation.h"
 #include "vtkNeuralCompressResample.h"
+#include "vtkNeuralCompressSurroundings.h"
 
 #include <chrono>
 #include <map>
@@ -63,6 +64,8 @@ struct vtkNeuralCompress::vtkInternals
   nvi::PieceSums MeasuredSums;
   std::string PeerNetworksText; ///< rank 0 under MPI: the other ranks' networks (";key:base64" entries)
   uint64_t GatheredSignature = 0; ///< this rank's networks at the last GatherPeerNetworks
+  /// MPI, one network per rank: the coarse grid of the whole field (vtkNeuralCompressSurroundings.h)
+  nvi::Surroundings Surroundings;
   std::map<uint64_t, nvi::NetworkBytes> Restored; ///< networks of a loaded state, by training key
   std::string TrainedNetworksSet;
   std::string TrainedNetworksText;

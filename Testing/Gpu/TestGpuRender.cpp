@@ -16,6 +16,7 @@
 #include "Nhdr.h"
 #include "RenderFixtures.h"
 #include "RenderSetupBench.h"
+#include "SurroundingsFixtures.h"
 #include "TestHarness.h"
 
 #include <cstdio>
@@ -226,6 +227,33 @@ NV_TEST(gpu_clip_box_matches_cpu_and_draws_nothing_beyond_it)
 {
   // RenderRequest::clipBox (MPI: a rank draws only its own block of a network trained with ghost layers): x < 0.5.
   expectRightHalfEmpty("clipped", scene().model, scene().model, 0.5, 0.02, 13);
+}
+
+NV_TEST(gpu_surroundings_match_cpu)
+{
+  // RenderRequest::surroundings (MPI: shadows and path tracing across pieces): the half x < 0.5 of the network lit
+  // from +x, its secondary rays continuing through a coarse grid of the whole blob beyond the clip box. The GPU's
+  // picture must match the CPU oracle's with the grid, and be nearer to it than to the CPU's without the grid (the
+  // shadow of the other half is there). Every path; shadows, path tracing and path tracing + NEE.
+  const double unitBox[6] = { 0, 1, 0, 1, 0, 1 };
+  const std::shared_ptr<const SurroundingsGrid> grid = coarseSurroundings(unitBox, 25);
+  auto gpu = gpuSession(scene().model, false);
+  for (int p = 0; p < 3; ++p)
+    for (int m = 2; m < 5; ++m)
+    {
+      RenderRequest q = request(p, m, m >= 3 ? 24 : 64);
+      q.clipBox[1] = 0.5;
+      RenderResult without, c, g;
+      oracle(p).render(scene().model, 1, q, without);
+      q.surroundings = grid;
+      oracle(p).render(scene().model, 1, q, c);
+      gpu->render(q, g, Memory::Host);
+      const double db = psnr(g.rgba, c.rgba), dbWithout = psnr(g.rgba, without.rgba);
+      std::printf("    %-9s %-9s surroundings: GPU vs CPU %.1f dB, vs CPU without them %.1f dB\n", kPath[p], kMode[m], db,
+        dbWithout);
+      EXPECT_TRUE(allFinite(g.rgba) && db >= (m >= 3 ? 30.0 : 38.0));
+      EXPECT_TRUE(db >= dbWithout + 3.0);
+    }
 }
 
 NV_TEST(gpu_empty_cells_of_a_sparse_source_are_its_background)
