@@ -4,6 +4,7 @@
 #include "vtkNeuralCompressDistributed.h"
 #include "vtkNeuralCompressJob.h"
 #include "vtkNeuralCompressOutput.h"
+#include "vtkNeuralCompressSurroundings.h"
 #include "vtkNeuralCudaDevice.h"
 #include "vtkNeuralVolumeFile.h"
 
@@ -149,6 +150,9 @@ struct vtkNeuralVolumeReader::vtkInternals
   std::vector<nvi::VolumeFileEntry> Entries; ///< of the file read by the last RequestInformation (empty: error)
   std::string FailedName;                    ///< a file that failed, reported once while it stays the same
   std::vector<uint8_t> FailedBytes;
+  /// A distributed run's file opened under MPI: the coarse grid of the whole field that shadows and path tracing
+  /// across pieces need (vtkNeuralCompressSurroundings.h), as Neural Compress gives it.
+  nvi::Surroundings Surroundings;
 };
 
 const char* vtkNeuralVolumeReader::GetArrayName()
@@ -273,9 +277,21 @@ int vtkNeuralVolumeReader::RequestData(
         k = i;
   }
   const nvi::VolumeFileEntry* piece = PieceOfThisRank(steps[k]);
-  if (!piece)
-    return 1; // under MPI, a rank with no piece of the file: it draws nothing
-  const nvi::VolumeFileEntry& e = *piece;
+  if (piece)
+    this->ReadPiece(*piece, output);
+  if (entries[0].Pieces > 1 && nvi::DistributedController())
+  {
+    // Every rank (one with no piece of the file too): the collective that gives each the whole field's coarse grid.
+    std::string problem;
+    this->Internals->Surroundings.Update(output->GetNumberOfPoints() > 0 ? output : nullptr, problem);
+    if (!problem.empty())
+      vtkWarningMacro("NeuralVolume reader: " << problem << "; shadows and path tracing stop at this rank's piece.");
+  }
+  return 1;
+}
+
+void vtkNeuralVolumeReader::ReadPiece(const nvi::VolumeFileEntry& e, vtkImageData* output)
+{
   try
   {
     const nv::Model model = nv::deserialize(e.Network);
@@ -312,7 +328,6 @@ int vtkNeuralVolumeReader::RequestData(
     vtkErrorMacro("NeuralVolume reader: '" << this->FileName << "': " << err.what() << ". The output is empty.");
     output->Initialize();
   }
-  return 1;
 }
 
 void vtkNeuralVolumeReader::PrintSelf(ostream& os, vtkIndent indent)

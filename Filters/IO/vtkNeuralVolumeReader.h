@@ -17,6 +17,11 @@
 
 #include <memory>
 
+namespace vtkNeuralCompressInternals
+{
+struct VolumeFileEntry;
+}
+
 class NEURALVOLUMEFILTERS_EXPORT vtkNeuralVolumeReader : public vtkImageAlgorithm
 {
 public:
@@ -54,6 +59,8 @@ protected:
 private:
   vtkNeuralVolumeReader(const vtkNeuralVolumeReader&) = delete;
   void operator=(const vtkNeuralVolumeReader&) = delete;
+  /// The output of one entry: its network, geometry and (OutputMode) decoded field; under MPI its piece.
+  void ReadPiece(const vtkNeuralCompressInternals::VolumeFileEntry& entry, vtkImageData* output);
 
   struct vtkInternals;
   std::unique_ptr<vtkInternals> Internals;

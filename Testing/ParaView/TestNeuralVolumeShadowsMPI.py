@@ -9,7 +9,9 @@ serial pvbatch (this script with --serial-reference <folder>) and checks, for bo
 - the composited picture against the serial one >= PICTURE_DB (path tracing on 4x4-pixel means: the ranks' paths and
   the serial ones differ where their networks do, so their noise differs);
 - with the boundary planes edge-on and the light across them, the pixels along the piece boundaries no worse than
-  BAND_RATIO x the mean error of the rest.
+  BAND_RATIO x the mean error of the rest;
+- the ranks' networks saved as one .nvol and opened by as many ranks: the reader gives every rank the same grid, and
+  its shadowed edge-on picture is the filter's (>= SAME_NETWORK_DB).
 """
 import json
 import math
@@ -36,6 +38,7 @@ MODES = [("Ray Marching + Shadows", "shadows", 1, 1, 1),
          ("Path Tracing + Next-Event Estimation", "ptnee", 32, 256, 4)]
 LIGHT = [0.45, 0.3, 0.85]  # towards the light: across the planes z = const (and y = const) of the pieces
 PICTURE_DB = 35.0
+SAME_NETWORK_DB = 45.0
 BAND_RATIO = 1.5
 BAND_PIXELS = 4
 SIZE = [160, 160]
@@ -164,6 +167,28 @@ def check_mode(mode, extents, folder, tag):
           % (name, ratio, BAND_RATIO))
 
 
+def check_nvol(nc, ranks, folder, grids):
+    """The .nvol of the ranks' networks opened under MPI: the same surroundings grid, the same shadowed picture."""
+    path = os.path.join(folder, "shadows.nvol")
+    if os.path.exists(path):
+        os.remove(path)
+    SaveData(path, proxy=nc)
+    opened = NeuralVolumeReader(FileName=path)
+    with nvtest.captured_messages() as messages:
+        opened.UpdatePipeline()
+    nvtest.check("ERROR" not in messages[0] and "surroundings" not in messages[0],
+                 ".nvol opened under MPI without an error or a surroundings warning: %r" % messages[0][-300:])
+    back = check_surroundings(opened, ranks)
+    nvtest.check(bool(back) and bool(grids) and np.array_equal(back[0][0], grids[0][0]) and back[0][1] == grids[0][1],
+                 "the .nvol's pieces carry the filter's surroundings grid")
+    mode = MODES[0]
+    picture = os.path.join(folder, "nvol-%s-edge.png" % mode[1])
+    render(opened, mode, picture, edge=True)
+    nvtest.compare_images(picture, os.path.join(folder, "mpi%d-%s-edge.png" % (ranks, mode[1])), SAME_NETWORK_DB,
+                          "%s: the .nvol's edge-on picture vs the filter's" % mode[0])
+    Delete(opened)
+
+
 def mpi_run():
     check, log = nvtest.check, nvtest.log
     ranks, folder, reference = nvtest.mpi_test_start(__file__, out_dir, "ShadowsMPI")
@@ -178,11 +203,12 @@ def mpi_run():
     check("ERROR" not in messages[0] and "surroundings" not in messages[0], "no error, no surroundings warning: %r"
           % messages[0][-400:])
     extents = [servermanager.Fetch(nc, r).GetExtent() for r in range(ranks)]
-    check_surroundings(nc, ranks)
+    grids = check_surroundings(nc, ranks)
     tag = "mpi%d" % ranks
     pictures(nc, folder, tag)
     for mode in MODES:
         check_mode(mode, extents, folder, tag)
+    check_nvol(nc, ranks, folder, grids)
 
 
 if SERIAL:
