@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue 23's GPU checks on the device machine (2 or 4 GPUs), inside Debian's ParaView unpacked there: each MPI rank on
 # the GPU of its local rank (Testing/ParaView/TestNeuralCompressGpuRanks.py under mpiexec -n 2, and -n 4 with 4 GPUs:
-# RANK lines give each rank's device), then the strong and weak scaling of training on the GPUs at 1, 2 (and 4) ranks
+# RANK lines give each rank's device), shadows and path tracing across pieces on the GPUs
+# (TestNeuralVolumeShadowsMPI.py --device CUDA), then the strong and weak scaling of training on the GPUs at 1, 2 (and 4) ranks
 # (Testing/Benchmarks/run_distributed_bench.sh, JSON lines in distributed_gpu.jsonl), and with a memory size the
 # per-rank memory of a large field split over the most ranks against one rank (distributed_gpu_memory.jsonl). Needs
 # what run_paraview_gpu.sh needs plus Open MPI carried as .devcarry/mpi-extras.tar.xz (Testing/Gpu/pack_mpi_extras.sh).
@@ -35,6 +36,13 @@ for n in $(echo "$ranks" | tr ' ' '\n' | grep -v '^1$'); do
   echo "rc=$rc"; grep -E "RANK|FAIL|SKIP|checks passed|check\(s\) failed" "$out/TestNeuralCompressGpuRanks$n.log" | tail -20
   [ $rc -eq 0 ] || status=1
 done
+echo "== TestNeuralVolumeShadowsMPI --device CUDA (mpiexec -n 2 pvbatch)"
+timeout 600 "$NV_MPIEXEC" --allow-run-as-root --oversubscribe -n 2 "$NV_PVBATCH" --displays :57,:58 \
+  --force-offscreen-rendering "$here/Testing/ParaView/TestNeuralVolumeShadowsMPI.py" --device CUDA \
+  > "$out/TestNeuralVolumeShadowsMPI2Gpu.log" 2>&1
+rc=$?
+echo "rc=$rc"; grep -E "FAIL|SKIP|dB|ratio|checks passed|check\(s\) failed" "$out/TestNeuralVolumeShadowsMPI2Gpu.log" | tail -20
+[ $rc -eq 0 ] || status=1
 echo "== strong and weak scaling on the GPUs (ranks $ranks)"
 NV_MPIEXEC=$NV_MPIEXEC NV_PVBATCH=$NV_PVBATCH NV_PLUGIN=$NV_PLUGIN bash "$here/Testing/Benchmarks/run_distributed_bench.sh" \
   none "$out/distributed_gpu.jsonl" "$ranks" "$steps" 1 "$size" CUDA "$batch" || status=1

@@ -12,6 +12,8 @@ serial pvbatch (this script with --serial-reference <folder>) and checks, for bo
   BAND_RATIO x the mean error of the rest;
 - the ranks' networks saved as one .nvol and opened by as many ranks: the reader gives every rank the same grid, and
   its shadowed edge-on picture is the filter's (>= SAME_NETWORK_DB).
+With --device CUDA (label gpu-paraview, Testing/Gpu/run_paraview_gpu_mpi.sh; SKIP without a usable GPU) every network
+trains and renders on the GPU, the serial reference too.
 """
 import json
 import math
@@ -28,9 +30,10 @@ import paraview.simple  # noqa: E402
 from paraview import servermanager  # noqa: E402
 
 SERIAL = "--serial-reference" in sys.argv
+DEVICE = sys.argv[sys.argv.index("--device") + 1] if "--device" in sys.argv else "CPU"
 WHOLE = [-32, 31, -32, 31, -32, 31]  # the Wavelet's peak at the centre, where the pieces meet
 CENTRE = -0.5
-SETTINGS = dict(SelectInputScalars=["POINTS", "RTData"], Device="CPU", Seed=7, Deterministic=1, TrainingSteps=200,
+SETTINGS = dict(SelectInputScalars=["POINTS", "RTData"], Device=DEVICE, Seed=7, Deterministic=1, TrainingSteps=200,
                 BatchSize=8192, Levels=8, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Loss="L2",
                 Log2TableSize=14, Threads=1, PSNRInterval=0, TrainInBackground=0, OutputMode="Network only")
 # (shading mode, its tag, paths per render, paths accumulated, block of the comparison)
@@ -191,11 +194,16 @@ def check_nvol(nc, ranks, folder, grids):
 
 def mpi_run():
     check, log = nvtest.check, nvtest.log
-    ranks, folder, reference = nvtest.mpi_test_start(__file__, out_dir, "ShadowsMPI")
-    if reference is None:
-        return
     wavelet = Wavelet(WholeExtent=WHOLE)
     nc = NeuralCompress(Input=wavelet, **SETTINGS)
+    if DEVICE == "CUDA":
+        nc.UpdatePropertyInformation()
+        if not nc.GetPropertyValue("GPUUsable"):
+            nvtest.skip("no usable GPU on rank 0")
+    ranks, folder, reference = nvtest.mpi_test_start(__file__, out_dir, "ShadowsMPI%s" % DEVICE,
+                                                     ("--device", DEVICE))
+    if reference is None:
+        return
     started = time.time()
     with nvtest.captured_messages() as messages:
         nc.UpdatePipeline()

@@ -423,10 +423,11 @@ def baseline(test_png, name, threshold_db, label, block=1):
     return compare_images(test_png, reference, threshold_db, label, block)
 
 
-def mpi_test_start(script, out_dir, tag):
+def mpi_test_start(script, out_dir, tag, extra=()):
     """The prologue of the 2- and 4-rank MPI tests: their rank count (a SKIP otherwise), their output folder
     (out_dir/<tag><ranks>: the 2- and 4-rank tests may run at once), a display, and the serial reference run of
-    `script` (run_serial_reference). Returns (ranks, folder, reference); reference None: the reference failed (checked)."""
+    `script` (run_serial_reference, with the arguments `extra`). Returns (ranks, folder, reference); reference None:
+    the reference failed (checked)."""
     from vtkmodules.vtkParallelCore import vtkMultiProcessController
     controller = vtkMultiProcessController.GetGlobalController()
     ranks = controller.GetNumberOfProcesses() if controller else 1
@@ -435,12 +436,13 @@ def mpi_test_start(script, out_dir, tag):
     folder = os.path.join(out_dir, "%s%d" % (tag, ranks))
     os.makedirs(folder, exist_ok=True)
     require_display()
-    return ranks, folder, run_serial_reference(script, folder)
+    return ranks, folder, run_serial_reference(script, folder, extra)
 
 
-def run_serial_reference(script, out_dir):
-    """The MPI tests' serial reference: `script --serial-reference out_dir` in a pvbatch of its own, without the MPI
-    launcher's environment (it would make that pvbatch a rank); returns its serial.json, or None (checked) on failure."""
+def run_serial_reference(script, out_dir, extra=()):
+    """The MPI tests' serial reference: `script --serial-reference out_dir [extra...]` in a pvbatch of its own, without
+    the MPI launcher's environment (it would make that pvbatch a rank); returns its serial.json, or None (checked) on
+    failure."""
     import json
     import subprocess
     import time
@@ -449,7 +451,7 @@ def run_serial_reference(script, out_dir):
     env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
     started = time.time()
     serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(script), "--serial-reference",
-                             out_dir], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
+                             out_dir] + list(extra), env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
     log("serial reference pvbatch: exit %d in %.1f s\n%s" % (serial.returncode, time.time() - started,
                                                              serial.stdout.decode(errors="replace")[-2000:]))
     if not check(serial.returncode == 0 and os.path.exists(os.path.join(out_dir, "serial.json")),
