@@ -426,8 +426,10 @@ def baseline(test_png, name, threshold_db, label, block=1):
 def mpi_test_start(script, out_dir, tag, extra=()):
     """The prologue of the 2- and 4-rank MPI tests: their rank count (a SKIP otherwise), their output folder
     (out_dir/<tag><ranks>: the 2- and 4-rank tests may run at once), a display, and the serial reference run of
-    `script` (run_serial_reference, with the arguments `extra`). Returns (ranks, folder, reference); reference None:
-    the reference failed (checked)."""
+    `script` (run_serial_reference, with the arguments `extra`; with --serial-done on the command line the reference
+    that `script --serial-reference <folder>` wrote there beforehand, where a pvbatch started by an MPI rank cannot
+    initialise MPI: Open MPI unpacked on the GPU machine). Returns (ranks, folder, reference); reference None: the
+    reference failed (checked)."""
     from vtkmodules.vtkParallelCore import vtkMultiProcessController
     controller = vtkMultiProcessController.GetGlobalController()
     ranks = controller.GetNumberOfProcesses() if controller else 1
@@ -436,6 +438,13 @@ def mpi_test_start(script, out_dir, tag, extra=()):
     folder = os.path.join(out_dir, "%s%d" % (tag, ranks))
     os.makedirs(folder, exist_ok=True)
     require_display()
+    if "--serial-done" in sys.argv:
+        import json
+        done = os.path.join(folder, "serial.json")
+        if not check(os.path.exists(done), "the serial reference made beforehand exists (%s)" % done):
+            return ranks, folder, None
+        with open(done) as f:
+            return ranks, folder, json.load(f)
     return ranks, folder, run_serial_reference(script, folder, extra)
 
 
@@ -448,7 +457,10 @@ def run_serial_reference(script, out_dir, extra=()):
     import time
     pvbatch = os.environ.get("NV_PVBATCH", "pvbatch")
     launcher = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "PRTE_", "ORTE_", "HYDRA_", "MPI_LOCALRANKID")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher)}
+    # Where Open MPI itself lives (an unpacked one: Testing/Gpu/paraview_gpu_env.sh) is not the launcher's: the
+    # reference's MPI_Init as a singleton needs it.
+    installation = ("OPAL_PREFIX", "OMPI_MCA_mca_base_param_files", "PMIX_MCA_mca_base_component_path")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(launcher) or k in installation}
     started = time.time()
     serial = subprocess.run([pvbatch, "--force-offscreen-rendering", os.path.abspath(script), "--serial-reference",
                              out_dir] + list(extra), env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=500)
