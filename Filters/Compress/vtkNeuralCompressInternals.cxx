@@ -129,7 +129,7 @@ namespace
 {
 /// The first and last lattice index (Origin + index x Spacing, indices 0..last) of a resampled axis that a piece
 /// owning [lo, hi] decodes: see PieceOfWholeGeometry.
-void OwnedLatticeRange(double lo, double hi, bool upperPiece, bool cells, double latticeOrigin, double latticeSpacing,
+void OutputLatticeRange(double lo, double hi, bool upperPiece, bool cells, double latticeOrigin, double latticeSpacing,
   int lastPoint, int& first, int& last)
 {
   constexpr double slack = 1e-6; // in lattice steps: a sample on the boundary counts as on it
@@ -157,7 +157,7 @@ OutputGeometry PieceOfWholeGeometry(const OutputGeometry& whole, const int piece
       continue; // the source lattice (cropped by the filter), or a single layer every piece keeps
     const double lo = origin[a] + owned[2 * a] * spacing[a], hi = origin[a] + owned[2 * a + 1] * spacing[a];
     int first = 0, last = 0;
-    OwnedLatticeRange(std::min(lo, hi), std::max(lo, hi), owned[2 * a + 1] >= wholeExtent[2 * a + 1], cells,
+    OutputLatticeRange(std::min(lo, hi), std::max(lo, hi), owned[2 * a + 1] >= wholeExtent[2 * a + 1], cells,
       whole.Origin[a], whole.Spacing[a], whole.Extent[2 * a + 1], first, last);
     g.Extent[2 * a] = first;
     g.Extent[2 * a + 1] = cells ? last + 1 : last;
