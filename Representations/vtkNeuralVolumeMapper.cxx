@@ -274,7 +274,7 @@ void vtkNeuralVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
     }
     this->ReadSceneDepth(ren, vol, q);
     bool drawn = false;
-    if (this->ProgressiveRefinement && in.Session->device() == nv::Device::Cpu && !in.WorkerRefused)
+    if (this->Progressive() && in.Session->device() == nv::Device::Cpu && !in.WorkerRefused)
     {
       // In the background: this render only starts or continues the work and draws the newest image.
       std::string error;
@@ -388,7 +388,7 @@ void vtkNeuralVolumeMapper::RenderBlocking(
   const bool pathTracing = static_cast<int>(q.shading) >= PATH_TRACING;
   if (in.Worker)
   {
-    in.Worker->Cancel(); // back to blocking renders (a script turned ProgressiveRefinement off)
+    in.Worker->Cancel(); // back to blocking renders (ProgressiveRefinement turned off, or a screenshot)
   }
   in.ImageScale = scale;
   in.ImageLevel = 0;
@@ -404,7 +404,7 @@ void vtkNeuralVolumeMapper::RenderBlocking(
   if (render)
   {
     this->RenderOnce(ren, q, key);
-    if (!this->ProgressiveRefinement && !interactive)
+    if (!this->Progressive() && !interactive)
     {
       this->FinishStillPicture(ren, q, key);
     }
@@ -552,7 +552,7 @@ void vtkNeuralVolumeMapper::DrawImage(vtkRenderer* ren, std::chrono::steady_cloc
     }
     in.Timings[4] = in.Compositor.GetDrawMilliseconds();
     in.Timings[5] = MillisecondsSince(frameStart);
-    if (this->ProgressiveRefinement && in.Worker && in.Worker->Busy() &&
+    if (this->Progressive() && in.Worker && in.Worker->Busy() &&
       in.Worker->BusySeconds() > kProgressDelaySeconds)
     {
       in.Compositor.DrawProgress(ren, in.Worker->Progress());
@@ -587,6 +587,7 @@ void vtkNeuralVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
      << indent << "AdaptiveInteractiveScale: " << this->AdaptiveInteractiveScale << "\n"
      << indent << "MaximumInteractiveFrameRate: " << this->MaximumInteractiveFrameRate << "\n"
      << indent << "ProgressiveRefinement: " << this->ProgressiveRefinement << "\n"
+     << indent << "FinalPictureRequired: " << this->FinalPictureRequired << "\n"
      << indent << "EngineRenderCount: " << this->GetEngineRenderCount() << "\n"
      << indent << "FrameBudget: " << this->FrameBudget << "\n"
      << indent << "WorkPending: " << this->GetWorkPending() << "\n"

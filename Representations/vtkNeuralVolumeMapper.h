@@ -179,6 +179,13 @@ public:
   ///@}
 
   ///@{
+  /// On: still renders return the final picture even with ProgressiveRefinement, for the image of the requested size
+  /// and camera (the representation sets it while the view captures a screenshot: Save Screenshot, SaveScreenshot()).
+  vtkSetMacro(FinalPictureRequired, bool);
+  vtkGetMacro(FinalPictureRequired, bool);
+  ///@}
+
+  ///@{
   /// Progressive mode: milliseconds the first image of a new picture should take (5 - 1000, default 50).
   vtkSetClampMacro(FrameBudget, double, 5.0, 1000.0);
   vtkGetMacro(FrameBudget, double);
@@ -279,6 +286,9 @@ protected:
   bool AdaptiveInteractiveScale = true;
   double MaximumInteractiveFrameRate = 60.0;
   bool ProgressiveRefinement = false;
+  bool FinalPictureRequired = false;
+  /// ProgressiveRefinement unless a final picture is required now.
+  bool Progressive() const { return this->ProgressiveRefinement && !this->FinalPictureRequired; }
   double FrameBudget = 50.0;
   bool CudaGLInterop = true;
 

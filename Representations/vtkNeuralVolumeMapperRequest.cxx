@@ -53,7 +53,7 @@ std::string vtkNeuralVolumeMapper::BuildRequest(vtkRenderer* ren, vtkVolume* vol
   this->WarnUnboundedPicture(session, q);
   // A still render that returns the final picture (scripts, pvbatch) decodes the full grid at once on every
   // thread of the session rather than showing a coarse grid and polling a one-thread background decode.
-  q.waitForDecode = !this->ProgressiveRefinement && !interactive;
+  q.waitForDecode = !this->Progressive() && !interactive;
   q.liveRefreshMilliseconds = interactive ? kLiveRefreshMilliseconds : 0.0;
   // Interop (a render to device memory): return before the GPU finishes, the texture copy waits on the GPU.
   q.deferDeviceSync = true;

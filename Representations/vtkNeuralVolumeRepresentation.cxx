@@ -11,6 +11,7 @@
 #include "vtkInformationVector.h"
 #include "vtkMultiProcessController.h"
 #include "vtkObjectFactory.h"
+#include "vtkPVView.h"
 #include "vtkPointData.h"
 #include "vtkStringArray.h"
 
@@ -261,6 +262,27 @@ int vtkNeuralVolumeRepresentation::RequestData(
     }
   }
   return ok;
+}
+
+//------------------------------------------------------------------------------
+namespace
+{
+/// vtkPVView's screenshot flag (set between PrepareForScreenshot and CleanupAfterScreenshot on every process of the
+/// view), which ParaView 5.11 keeps protected: read through a member pointer named in a derived class.
+struct ScreenshotFlag : vtkPVView
+{
+  static bool Of(vtkPVView* view) { return view && (view->*(&ScreenshotFlag::GetInCaptureScreenshot))(); }
+};
+} // namespace
+
+int vtkNeuralVolumeRepresentation::ProcessViewRequest(
+  vtkInformationRequestKey* request, vtkInformation* inInfo, vtkInformation* outInfo)
+{
+  if (request == vtkPVView::REQUEST_RENDER())
+  {
+    this->NeuralMapper->SetFinalPictureRequired(ScreenshotFlag::Of(vtkPVView::SafeDownCast(this->GetView())));
+  }
+  return this->Superclass::ProcessViewRequest(request, inInfo, outInfo);
 }
 
 //------------------------------------------------------------------------------

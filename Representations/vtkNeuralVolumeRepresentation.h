@@ -79,6 +79,10 @@ public:
   /// holding the network's value range (NeuralValueRange). That array is for the range only and is never rendered.
   vtkDataObject* GetRenderedDataObject(int port) override;
 
+  /// Before each render: while the view captures a screenshot the mapper draws the final picture of the requested
+  /// size (a progressive view would otherwise give the picture refined so far, or one of the view's earlier size).
+  int ProcessViewRequest(vtkInformationRequestKey* request, vtkInformation* inInfo, vtkInformation* outInfo) override;
+
 protected:
   vtkNeuralVolumeRepresentation();
   ~vtkNeuralVolumeRepresentation() override;

@@ -50,8 +50,40 @@ def start():
         check(frames < TARGET, "the still render returned before the target (%d of %d frames drawn)" % (frames, TARGET))
         check(nvtest.info(display, "WorkPending") == 1, "... with work pending (accumulation)")
     first = len(renders)
-    # (This capture renders once more: one more frame of the accumulation.)
-    nvtest.shot(view, os.path.join(nvtest.output_dir(), "gui_%s_first.png" % LABEL), [300, 300])
+    # The view's first frame as the window shows it (a screenshot would render the final picture).
+    grab(view, os.path.join(nvtest.output_dir(), "gui_%s_first.png" % LABEL))
+
+
+def grab(view, path):
+    """The pixels the view's window holds now, without rendering (not a screenshot)."""
+    from vtkmodules.vtkIOImage import vtkPNGWriter
+    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
+    window = vtkWindowToImageFilter()
+    window.SetInput(view.GetRenderWindow())
+    window.ShouldRerenderOff()
+    window.ReadFrontBufferOff()
+    window.Update()
+    writer = vtkPNGWriter()
+    writer.SetFileName(path)
+    writer.SetInputConnection(window.GetOutputPort())
+    writer.Write()
+
+
+def check_screenshot_final():
+    """Save Screenshot while the picture refines, at another size than the view's: the final picture of that size,
+    not the frame refined so far nor one of the view's size (the built-in session reads the representation's figures;
+    a client's describe the client, so the remote session only shows that the capture works)."""
+    display.ShadingMode = "Path Tracing"
+    display.TargetSamples = TARGET
+    nvtest.set_camera(view, [60.0, 45.0, 70.0])
+    Render(view)
+    size = [200, 150]
+    SaveScreenshot(os.path.join(nvtest.output_dir(), "gui_%s_screenshot.png" % LABEL), view, ImageResolution=size)
+    if not REMOTE:
+        paths, image = nvtest.info(display, "LastAccumulatedPaths"), list(nvtest.info(display, "LastImageSize"))
+        log("Save Screenshot while refining: %s paths a pixel, image %s" % (paths, image))
+        check(paths >= TARGET and image == size, "Save Screenshot rendered the final picture of its size (%s paths a "
+              "pixel of %d, image %s)" % (paths, TARGET, image))
 
 
 phase = ["path tracing"]
@@ -88,6 +120,7 @@ def decoded():
         check(nvtest.info(display, "WorkPending") == 0, "the full grid is shown in the end")
         check(nvtest.info(display, "EngineRenderCount") >= engine_renders + 2, "coarse, then full grid")
     log("decode: view renders after the first: %d" % (len(renders) - first))
+    check_screenshot_final()
     if not REMOTE:
         # A state saved by a script (ProgressiveRefinement off, a large decode grid) loaded in the GUI: the view
         # gets its interactor after the state set its representations, and its first still render must still show a
