@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <sstream>
 #include <string>
@@ -377,14 +378,19 @@ void setSampleDistances(const RenderRequest& q, const SourceInfo& src, ray::Para
   // Secondary rays also cross the surroundings (RaySurroundings.h): their box counts as well.
   if (usesSurroundings(q))
     edges = std::max(edges, surroundingsEdgeLength(*q.surroundings, b));
+  // (Counts as text with %.3g: a count beyond the integers, 1e31 say, must not be converted to one.)
+  auto count = [](double value) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.3g", value);
+    return std::string(text);
+  };
   if (edges / dt > kMaxStepsPerRay)
-    NV_THROW("invalid render request: sample distance " + std::to_string(dt) + " gives " +
-      std::to_string(static_cast<int64_t>(edges / dt)) + " samples across the volume (at most " +
-      std::to_string(static_cast<int64_t>(kMaxStepsPerRay)) + ")");
+    NV_THROW("invalid render request: sample distance " + std::to_string(dt) + " gives " + count(edges / dt) +
+      " samples across the volume (at most " + count(kMaxStepsPerRay) + ")");
   if (edges / q.transfer.unitDistance > kMaxStepsPerRay)
     NV_THROW("invalid render request: opacity unit distance " + std::to_string(q.transfer.unitDistance) +
-      " is too small for the volume (" + std::to_string(static_cast<int64_t>(edges / q.transfer.unitDistance)) +
-      " units across it, at most " + std::to_string(static_cast<int64_t>(kMaxStepsPerRay)) + ")");
+      " is too small for the volume (" + count(edges / q.transfer.unitDistance) + " units across it, at most " +
+      count(kMaxStepsPerRay) + ")");
   P.dt = static_cast<float>(dt);
   P.dtShadow = static_cast<float>(2.0 * dt);
   // >= 1 is off: a ray's opacity can reach exactly 1.0f, so "off" must be out of reach.

@@ -138,10 +138,13 @@ void OutputLatticeRange(double lo, double hi, bool upperPiece, bool cells, doubl
   const double from = std::ceil((lo - latticeOrigin) / latticeSpacing - shift - slack);
   // The first sample at or beyond hi belongs to the upper neighbour.
   const double beyond = std::ceil((hi - latticeOrigin) / latticeSpacing - shift - slack);
-  first = static_cast<int>(std::min<double>(std::max(from, 0.0), lastSample));
+  // An index in 0..lastSample (a non-finite position, which no valid image gives, counts as 0).
+  auto clamped = [lastSample](double index) {
+    return std::isfinite(index) ? static_cast<int>(std::min<double>(std::max(index, 0.0), lastSample)) : 0;
+  };
+  first = clamped(from);
   // Points: up to and including that neighbour's first sample (the shared layer); cells: its last own cell.
-  const double to = upperPiece ? lastSample : cells ? beyond - 1.0 : beyond;
-  last = std::max(first, static_cast<int>(std::min<double>(std::max(to, 0.0), lastSample)));
+  last = std::max(first, clamped(upperPiece ? lastSample : cells ? beyond - 1.0 : beyond));
 }
 } // namespace
 
