@@ -15,6 +15,7 @@
 #include "vtkImageData.h"
 #include "vtkIntArray.h"
 #include "vtkMultiProcessController.h"
+#include "vtkNew.h"
 
 #include <algorithm>
 #include <cfloat>
@@ -121,7 +122,7 @@ bool Surroundings::WholeBounds(const double* own, double whole[6])
 }
 
 void Surroundings::DecodeOwnPoints(nv::NetworkSession& session, const double whole[6], const int dims[3],
-  const double own[6], std::vector<float>& sums)
+  const double own[6], std::vector<float>& values)
 {
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a)
@@ -152,11 +153,8 @@ void Surroundings::DecodeOwnPoints(nv::NetworkSession& session, const double who
       const double v = range.denormalize(static_cast<double>(out[k]));
       const bool inside = !masked || nv::domainBit(src.domain.data(), domainDims, xyz[3 * k], xyz[3 * k + 1],
         xyz[3 * k + 2]);
-      if (inside && std::isfinite(v) && std::fabs(v) <= FLT_MAX)
-      {
-        sums[2 * index[k]] = static_cast<float>(v);
-        sums[2 * index[k] + 1] = 1.0f;
-      }
+      if (inside && std::isfinite(v) && std::fabs(v) < FLT_MAX)
+        values[index[k]] = static_cast<float>(v);
     }
     index.clear();
     xyz.clear();
@@ -174,18 +172,15 @@ void Surroundings::DecodeOwnPoints(nv::NetworkSession& session, const double who
     flush();
 }
 
-void Surroundings::Keep(const double whole[6], const int dims[3], const std::vector<float>& sums)
+void Surroundings::Keep(const double whole[6], const int dims[3], vtkFloatArray* values)
 {
-  const int64_t n = static_cast<int64_t>(sums.size() / 2);
-  this->Values = vtkSmartPointer<vtkFloatArray>::New();
-  this->Values->SetName("NeuralSurroundings");
-  this->Values->SetNumberOfValues(n);
-  for (int64_t i = 0; i < n; ++i)
-  {
-    // Two ranks own no point together, but a sum of several (a rounding at a boundary) is still their mean.
-    const float count = sums[2 * i + 1];
-    this->Values->SetValue(i, count > 0.0f ? sums[2 * i] / count : NAN);
-  }
+  // The reduced maxima: a point no rank had a value for is still kNoValue (NaN there: no data).
+  float* v = values->GetPointer(0);
+  for (vtkIdType i = 0; i < values->GetNumberOfValues(); ++i)
+    if (v[i] == kNoValue)
+      v[i] = NAN;
+  values->SetName("NeuralSurroundings");
+  this->Values = values;
   this->Dimensions = vtkSmartPointer<vtkIntArray>::New();
   this->Dimensions->SetName("NeuralSurroundingsDimensions");
   this->BoundsArray = vtkSmartPointer<vtkDoubleArray>::New();
@@ -229,20 +224,25 @@ void Surroundings::Update(vtkImageData* output, std::string& problem)
   this->Signature = signature;
   if (anyChanged)
   {
+    // One float a point: this rank's value where it owns the point, kNoValue elsewhere; the maximum over the ranks
+    // is the owner's (each point has one owner). Reduced straight into the array kept (a 80^3 grid: 2 MiB, and as
+    // much while it is reduced).
     const int64_t n = static_cast<int64_t>(dims[0]) * dims[1] * dims[2];
-    std::vector<float> sums(static_cast<size_t>(2 * n), 0.0f), all(static_cast<size_t>(2 * n), 0.0f);
+    std::vector<float> mine(static_cast<size_t>(n), kNoValue);
+    vtkNew<vtkFloatArray> all;
+    all->SetNumberOfValues(n);
     try
     {
       if (have)
-        DecodeOwnPoints(*session, whole, dims, own, sums);
+        DecodeOwnPoints(*session, whole, dims, own, mine);
     }
     catch (const std::exception& e)
     {
       // This rank contributes nothing (its points have no value); the collective goes on.
-      std::fill(sums.begin(), sums.end(), 0.0f);
+      std::fill(mine.begin(), mine.end(), kNoValue);
       problem = std::string("decoding this rank's network for the surroundings grid failed: ") + e.what();
     }
-    c->AllReduce(sums.data(), all.data(), static_cast<vtkIdType>(sums.size()), vtkCommunicator::SUM_OP);
+    c->AllReduce(mine.data(), all->GetPointer(0), static_cast<vtkIdType>(n), vtkCommunicator::MAX_OP);
     this->Keep(whole, dims, all);
   }
   if (have && this->Values)

@@ -7,8 +7,8 @@
 // agree on one lattice of about kSurroundingsSamples points over the union of their pieces' bounds (NeuralPieceBounds;
 // anisotropic like it), each rank decodes its own network at the lattice points its piece owns (a boundary plane
 // shared by two pieces belongs to the upper one, the whole's last plane to the last piece, as for the global
-// figures), and one all-reduce of the values and a coverage count gives every rank the whole lattice (NaN where no
-// rank had a value). The output carries it as field data NeuralSurroundings (float values, x fastest),
+// figures), and one all-reduce (the maximum at each point: its owner's value, kNoValue from the others) gives every
+// rank the whole lattice (NaN where no rank had a value). The output carries it as field data NeuralSurroundings (float values, x fastest),
 // NeuralSurroundingsDimensions and NeuralSurroundingsBounds (the image's index-aligned frame, as NeuralPieceBounds);
 // the Neural Volume passes it to the engine for the shading modes with secondary rays. No rank holds more than its
 // piece and this grid (O(model)). It is built again only when some rank's network changed (a new version while it
@@ -37,6 +37,8 @@ namespace vtkNeuralCompressInternals
 
 /// Points of the coarse lattice over the whole field (about 80^3: 2 MiB of floats on every rank).
 constexpr int64_t kSurroundingsSamples = 80 * 80 * 80;
+/// A lattice point this rank has no value for, before the reduction (the maximum over the ranks keeps the owner's).
+constexpr float kNoValue = -3.402823466e+38f;
 
 /// Samples per axis of a lattice of about `budget` points over `bounds` (xmin xmax ...), each axis's count
 /// proportional to its length (at least 2; a flat axis gets 2).
@@ -59,12 +61,12 @@ public:
 private:
   /// The union of every rank's piece bounds (a collective); false when no rank has a piece.
   static bool WholeBounds(const double* own, double whole[6]);
-  /// This rank's contributions to the lattice of `dims` points over `whole`: per point the decoded value and 1 where
-  /// this rank owns it and its network has a value there (sums[2 i], sums[2 i + 1]).
+  /// This rank's values at the points of the lattice of `dims` points over `whole` that it owns and where its
+  /// network has a value (values[i]; the others stay as they are: kNoValue).
   static void DecodeOwnPoints(nv::NetworkSession& session, const double whole[6], const int dims[3],
-    const double own[6], std::vector<float>& sums);
-  /// The reduced sums into the arrays (value = sum / count, NaN where the count is 0).
-  void Keep(const double whole[6], const int dims[3], const std::vector<float>& sums);
+    const double own[6], std::vector<float>& values);
+  /// The reduced values kept (kNoValue, a point no rank had a value for, becomes NaN).
+  void Keep(const double whole[6], const int dims[3], vtkFloatArray* values);
 
   uint64_t Signature = 0;   ///< this rank's network and bounds at the last build
   double Bounds[6] = { 0, -1, 0, -1, 0, -1 };
