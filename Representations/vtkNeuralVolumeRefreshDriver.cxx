@@ -10,6 +10,7 @@
 #include "vtkSMPropertyHelper.h"
 #include "vtkSMProxyIterator.h"
 #include "vtkSMProxyManager.h"
+#include "vtkSMSession.h"
 #include "vtkSMSessionProxyManager.h"
 #include "vtkSMViewProxy.h"
 #include "vtkWeakPointer.h"
@@ -205,6 +206,13 @@ void vtkNeuralVolumeRefreshDriver::MakeProgressive(vtkSMViewProxy* view)
     }
     v.Interactor = interactor;
     v.TimerTag = interactor->AddObserver(vtkCommand::TimerEvent, this, &vtkNeuralVolumeRefreshDriver::OnTimer);
+  }
+  // A parallel render server composites its ranks' pictures in every still render: progressive pictures would each
+  // stand at their own rank's stage (the GUI showed an empty or cut view). There still renders stay blocking.
+  vtkSMSession* session = view->GetSession();
+  if (session && session->GetNumberOfProcesses(vtkPVSession::RENDER_SERVER) > 1)
+  {
+    return;
   }
   // Representations of image data in this view render progressively (Neural Volume uses it; the others ignore it).
   vtkSMPropertyHelper members(view, "Representations");

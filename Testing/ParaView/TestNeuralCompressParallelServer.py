@@ -1,4 +1,5 @@
-"""A parallel pvserver (`mpiexec -n 2 pvserver`) driven by a pvpython client (issue 23): Neural Compress trains one
+"""A parallel pvserver (`mpiexec -n 2 pvserver`) driven by a pvpython client (issue 23), then by the GUI
+(NeuralVolumeGuiParallelScript.py: the view shows the composited picture): Neural Compress trains one
 network per rank on a Wavelet [0,47]^3 (each rank its own piece, the same global PSNR on both and in the client's
 data information), the Neural Volume
 composited by the server matches the built-in session's serial picture (>= 35 dB), and a saved state loaded again
@@ -117,6 +118,43 @@ def remote_run():
     return psnr
 
 
+def gui_run():
+    """The GUI connected to a 2-rank pvserver (NeuralVolumeGuiParallelScript.py): the view shows the composited
+    picture."""
+    import shutil
+    paraview = os.path.join(os.path.dirname(sys.executable), "paraview")
+    paraview = paraview if os.path.exists(paraview) else shutil.which("paraview")
+    if not paraview or not os.environ.get("DISPLAY"):
+        log("SKIP (part): no paraview executable or display for the GUI")
+        return
+    server, port = start_server(os.path.join(out_dir, "ParallelServer_gui_pvserver.log"))
+    if not check(port is not None, "the 2-rank pvserver for the GUI accepts connections"):
+        server.kill()
+        return
+    env = dict(os.environ, NV_TEST_DIR=os.path.dirname(os.path.abspath(__file__)))
+    stale = os.path.join(nvtest.output_dir(), "gui_parallel.log")
+    if os.path.exists(stale):
+        os.remove(stale)
+    try:
+        script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "NeuralVolumeGuiParallelScript.py")
+        result = subprocess.run([paraview, "--dr", "--server-url=cs://127.0.0.1:%d" % port, "--script=" + script],
+                                env=env, timeout=240, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        log(result.stdout.decode(errors="replace")[-3000:])
+        checks = os.path.join(nvtest.output_dir(), "gui_parallel.log")
+        if os.path.exists(checks):
+            log("the GUI's checks:\n" + open(checks).read())
+        check(result.returncode == 0, "the GUI on a 2-rank pvserver: every check passed (exit code %d)"
+              % result.returncode)
+    except subprocess.TimeoutExpired:
+        check(False, "the GUI on a 2-rank pvserver finished in time")
+    finally:
+        server.terminate()
+        try:
+            server.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            server.kill()
+
+
 psnr = remote_run()
 if psnr is not None:
     Connect()  # the built-in session: the serial reference
@@ -129,4 +167,5 @@ if psnr is not None:
     nvtest.compare_images(os.path.join(out_dir, "ParallelServer.png"),
                           os.path.join(out_dir, "ParallelServer_serial.png"), PICTURE_DB,
                           "2-rank pvserver picture vs serial")
+gui_run()
 nvtest.finish()
