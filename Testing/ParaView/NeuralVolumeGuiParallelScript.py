@@ -20,22 +20,6 @@ BACKGROUND = [0.32, 0.34, 0.43]
 SAME_PICTURE_DB = 50.0  # the same render: identical here (a progressive one had a seam along the pieces: 44.6 dB)
 
 
-def grab(view, path):
-    """The pixels the view's window holds now, without rendering (not a screenshot); returns them (rows, cols, 3)."""
-    from vtkmodules.vtkIOImage import vtkPNGWriter
-    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
-    window = vtkWindowToImageFilter()
-    window.SetInput(view.GetRenderWindow())
-    window.ShouldRerenderOff()
-    window.ReadFrontBufferOff()
-    window.Update()
-    writer = vtkPNGWriter()
-    writer.SetFileName(path)
-    writer.SetInputConnection(window.GetOutputPort())
-    writer.Write()
-    return nvtest.read_png(path)
-
-
 def covered(pixels):
     return np.abs(pixels - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0
 
@@ -63,7 +47,7 @@ def run():
     Render(view)
     out = nvtest.output_dir()
     size = list(view.ViewSize)
-    window = grab(view, os.path.join(out, "gui_parallel_window.png"))
+    window = nvtest.grab_window(view, os.path.join(out, "gui_parallel_window.png"))
     shot = os.path.join(out, "gui_parallel_screenshot.png")
     SaveScreenshot(shot, view, ImageResolution=size)
     screenshot = nvtest.read_png(shot)

@@ -51,22 +51,7 @@ def start():
         check(nvtest.info(display, "WorkPending") == 1, "... with work pending (accumulation)")
     first = len(renders)
     # The view's first frame as the window shows it (a screenshot would render the final picture).
-    grab(view, os.path.join(nvtest.output_dir(), "gui_%s_first.png" % LABEL))
-
-
-def grab(view, path):
-    """The pixels the view's window holds now, without rendering (not a screenshot)."""
-    from vtkmodules.vtkIOImage import vtkPNGWriter
-    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
-    window = vtkWindowToImageFilter()
-    window.SetInput(view.GetRenderWindow())
-    window.ShouldRerenderOff()
-    window.ReadFrontBufferOff()
-    window.Update()
-    writer = vtkPNGWriter()
-    writer.SetFileName(path)
-    writer.SetInputConnection(window.GetOutputPort())
-    writer.Write()
+    nvtest.grab_window(view, os.path.join(nvtest.output_dir(), "gui_%s_first.png" % LABEL))
 
 
 def check_screenshot_final():

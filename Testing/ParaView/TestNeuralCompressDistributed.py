@@ -195,18 +195,6 @@ def check_headsq(ranks, reference):
     Delete(head)
 
 
-def band_mask(extents, shape):
-    """Pixels within BAND_PIXELS of the image's centre row (planes z = const edge-on) and centre column (y = const)
-    where the pieces split that axis."""
-    mask = np.zeros(shape[:2], dtype=bool)
-    rows, cols = shape[0], shape[1]
-    if any(e[5] < WHOLE[5] for e in extents):
-        mask[rows // 2 - BAND_PIXELS:rows // 2 + BAND_PIXELS + 1, :] = True
-    if any(e[3] < WHOLE[3] for e in extents):
-        mask[:, cols // 2 - BAND_PIXELS:cols // 2 + BAND_PIXELS + 1] = True
-    return mask
-
-
 def check_pictures(extents, tag):
     check, log = nvtest.check, nvtest.log
     for suffix in ("", "-slice"):
@@ -219,7 +207,7 @@ def check_pictures(extents, tag):
                           PICTURE_DB, "%d-rank edge-on picture vs serial" % len(extents))
     covered = np.abs(serial - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0
     error = np.abs(mpi - serial).mean(axis=2)
-    band = band_mask(extents, serial.shape) & covered
+    band = nvtest.band_mask(extents, serial.shape, WHOLE, BAND_PIXELS) & covered
     rest = covered & ~band
     if not check(band.sum() > 100 and rest.sum() > 1000, "the edge-on picture shows the boundaries (%d band, %d "
                  "other covered pixels)" % (band.sum(), rest.sum())):

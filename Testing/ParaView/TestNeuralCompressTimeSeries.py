@@ -11,9 +11,6 @@ import nvtest  # noqa: E402
 
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
-from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
-from vtkmodules.vtkIOXML import vtkXMLImageDataWriter  # noqa: E402
-from vtkmodules.util.numpy_support import numpy_to_vtk  # noqa: E402
 
 nvtest.load_plugin(globals())
 check, log = nvtest.check, nvtest.log
@@ -22,27 +19,7 @@ check, log = nvtest.check, nvtest.log
 N, STEPS = 40, 5
 folder = os.path.join(nvtest.output_dir(), "timeseries")
 os.makedirs(folder, exist_ok=True)
-z, y, x = np.meshgrid(*(np.linspace(0.0, 1.0, N),) * 3, indexing="ij")
-entries = []
-for t in range(STEPS):
-    cx = 0.35 + 0.04 * t
-    field = (np.sin(7 * (x - cx)) * np.cos(6 * y) + 0.8 * np.exp(-((x - cx) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) / 0.05)
-             + 0.3 * np.sin(9 * z + 0.3 * t))
-    image = vtkImageData()
-    image.SetDimensions(N, N, N)
-    array = numpy_to_vtk(field.astype(np.float32).ravel(), deep=True)
-    array.SetName("f")
-    image.GetPointData().SetScalars(array)
-    writer = vtkXMLImageDataWriter()
-    name = "step_%d.vti" % t
-    writer.SetFileName(os.path.join(folder, name))
-    writer.SetInputData(image)
-    writer.Write()
-    entries.append('<DataSet timestep="%g" file="%s"/>' % (0.1 * t, name))
-pvd = os.path.join(folder, "series.pvd")
-with open(pvd, "w") as f:
-    f.write('<?xml version="1.0"?><VTKFile type="Collection" version="0.1"><Collection>%s</Collection></VTKFile>'
-            % "".join(entries))
+pvd, _ = nvtest.drifting_series(folder, N, STEPS)
 
 NET = dict(BatchSize=8192, Levels=10, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Loss="L2", Threads=2,
            TargetCompressionRatio=1.5, Deterministic=0, TimeBudget=0)

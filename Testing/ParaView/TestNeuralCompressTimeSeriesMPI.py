@@ -20,10 +20,7 @@ import nvtest  # noqa: E402
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401,F403
 from paraview import servermanager  # noqa: E402
-from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
-from vtkmodules.vtkIOXML import vtkXMLImageDataWriter  # noqa: E402
 from vtkmodules.vtkParallelCore import vtkMultiProcessController  # noqa: E402
-from vtkmodules.util.numpy_support import numpy_to_vtk  # noqa: E402
 
 N, STEPS = 48, 4
 NET = dict(BatchSize=8192, Levels=10, FeaturesPerLevel=2, NetworkWidth=32, HiddenLayers=2, Loss="L2", Threads=1,
@@ -35,33 +32,6 @@ GLOBAL_PSNR_DB = 0.05
 
 nvtest.load_plugin(globals(), scripted=False)
 check, log = nvtest.check, nvtest.log
-
-
-def write_series(folder):
-    """A vortex drifting along x over STEPS time steps, as a .pvd of .vti files; returns the path and the fields."""
-    z, y, x = np.meshgrid(*(np.linspace(0.0, 1.0, N),) * 3, indexing="ij")
-    entries, fields = [], []
-    for t in range(STEPS):
-        cx = 0.35 + 0.04 * t
-        field = (np.sin(7 * (x - cx)) * np.cos(6 * y) +
-                 0.8 * np.exp(-((x - cx) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) / 0.05) + 0.3 * np.sin(9 * z + 0.3 * t))
-        fields.append(field.astype(np.float32).astype(np.float64))
-        image = vtkImageData()
-        image.SetDimensions(N, N, N)
-        array = numpy_to_vtk(field.astype(np.float32).ravel(), deep=True)
-        array.SetName("f")
-        image.GetPointData().SetScalars(array)
-        writer = vtkXMLImageDataWriter()
-        name = "step_%d.vti" % t
-        writer.SetFileName(os.path.join(folder, name))
-        writer.SetInputData(image)
-        writer.Write()
-        entries.append('<DataSet timestep="%g" file="%s"/>' % (0.1 * t, name))
-    pvd = os.path.join(folder, "series.pvd")
-    with open(pvd, "w") as f:
-        f.write('<?xml version="1.0"?><VTKFile type="Collection" version="0.1"><Collection>%s</Collection></VTKFile>'
-                % "".join(entries))
-    return pvd, fields
 
 
 def pieces_of(nc, ranks):
@@ -129,7 +99,7 @@ def main():
         nvtest.skip("this test runs under `mpiexec -n 2` or `-n 4 pvbatch` (here %d processes)" % ranks)
     folder = os.path.join(nvtest.output_dir(), "TimeSeriesMPI%d" % ranks)
     os.makedirs(folder, exist_ok=True)
-    pvd, fields = write_series(folder)
+    pvd, fields = nvtest.drifting_series(folder, N, STEPS)
     reader = PVDReader(FileName=pvd)
     times = list(reader.TimestepValues)
     check(len(times) == STEPS, "the series has %d time steps" % STEPS)

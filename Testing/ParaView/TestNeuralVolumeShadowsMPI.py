@@ -127,18 +127,6 @@ def check_surroundings(nc, ranks):
     return grids
 
 
-def band_mask(extents, shape):
-    """Pixels within BAND_PIXELS of the edge-on picture's centre row (planes z = const) and centre column (y = const)
-    where the pieces split that axis."""
-    mask = np.zeros(shape[:2], dtype=bool)
-    rows, cols = shape[0], shape[1]
-    if any(e[5] < WHOLE[5] for e in extents):
-        mask[rows // 2 - BAND_PIXELS:rows // 2 + BAND_PIXELS + 1, :] = True
-    if any(e[3] < WHOLE[3] for e in extents):
-        mask[:, cols // 2 - BAND_PIXELS:cols // 2 + BAND_PIXELS + 1] = True
-    return mask
-
-
 def check_mode(mode, extents, folder, tag):
     """The composited pictures against the serial ones, and the boundary band against the rest (edge-on)."""
     check, log = nvtest.check, nvtest.log
@@ -151,7 +139,7 @@ def check_mode(mode, extents, folder, tag):
                           % (name, len(extents)), block)
     mpi, serial = nvtest.read_png(edge), nvtest.read_png(serial_edge)
     covered = np.abs(serial - np.array(BACKGROUND) * 255.0).max(axis=2) > 8.0
-    band = band_mask(extents, serial.shape)
+    band = nvtest.band_mask(extents, serial.shape, WHOLE, BAND_PIXELS)
     if block > 1:
         mpi, serial = nvtest.block_means(mpi, block), nvtest.block_means(serial, block)
         covered = nvtest.block_means(covered[:, :, None].astype(float), block)[:, :, 0] > 0.5

@@ -614,3 +614,66 @@ def check_global_figures(decoded, original, psnr, max_error, tolerance_db, again
     check(abs(max_error - numpy_max) <= 1e-3 * max(1.0, scale), "NeuralMaxError %.4f is numpy's %.4f"
           % (max_error, numpy_max))
     return numpy_psnr, numpy_max
+
+
+def band_mask(extents, shape, whole, pixels):
+    """The MPI tests' band along the piece boundaries in a picture with the planes z = const and y = const edge-on
+    through its centre: pixels within `pixels` of the centre row (where the pieces split z) and of the centre column
+    (where they split y), for pieces of point extents `extents` of the whole extent `whole`."""
+    import numpy as np
+    mask = np.zeros(shape[:2], dtype=bool)
+    rows, cols = shape[0], shape[1]
+    if any(e[5] < whole[5] for e in extents):
+        mask[rows // 2 - pixels:rows // 2 + pixels + 1, :] = True
+    if any(e[3] < whole[3] for e in extents):
+        mask[:, cols // 2 - pixels:cols // 2 + pixels + 1] = True
+    return mask
+
+
+def grab_window(view, path):
+    """The pixels the view's window holds now, without rendering (unlike a screenshot, which renders the final
+    picture), written to `path`; returns them (rows, columns, 3)."""
+    from vtkmodules.vtkIOImage import vtkPNGWriter
+    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
+    window = vtkWindowToImageFilter()
+    window.SetInput(view.GetRenderWindow())
+    window.ShouldRerenderOff()
+    window.ReadFrontBufferOff()
+    window.Update()
+    writer = vtkPNGWriter()
+    writer.SetFileName(path)
+    writer.SetInputConnection(window.GetOutputPort())
+    writer.Write()
+    return read_png(path)
+
+
+def drifting_series(folder, n, steps):
+    """A vortex drifting along x over `steps` time steps (n^3 points, array "f"), written as a .pvd of .vti files in
+    `folder`; returns the .pvd's path and the fields (z, y, x; float32 values as float64)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+    z, y, x = np.meshgrid(*(np.linspace(0.0, 1.0, n),) * 3, indexing="ij")
+    entries, fields = [], []
+    for t in range(steps):
+        cx = 0.35 + 0.04 * t
+        field = (np.sin(7 * (x - cx)) * np.cos(6 * y) +
+                 0.8 * np.exp(-((x - cx) ** 2 + (y - 0.5) ** 2 + (z - 0.5) ** 2) / 0.05) + 0.3 * np.sin(9 * z + 0.3 * t))
+        fields.append(field.astype(np.float32).astype(np.float64))
+        image = vtkImageData()
+        image.SetDimensions(n, n, n)
+        array = numpy_to_vtk(field.astype(np.float32).ravel(), deep=True)
+        array.SetName("f")
+        image.GetPointData().SetScalars(array)
+        writer = vtkXMLImageDataWriter()
+        name = "step_%d.vti" % t
+        writer.SetFileName(os.path.join(folder, name))
+        writer.SetInputData(image)
+        writer.Write()
+        entries.append('<DataSet timestep="%g" file="%s"/>' % (0.1 * t, name))
+    pvd = os.path.join(folder, "series.pvd")
+    with open(pvd, "w") as f:
+        f.write('<?xml version="1.0"?><VTKFile type="Collection" version="0.1"><Collection>%s</Collection></VTKFile>'
+                % "".join(entries))
+    return pvd, fields
