@@ -110,11 +110,7 @@ def remote_run():
               "training (restored %s, PSNR %s, trained %s)" % (restored, psnrs, psnr))
         Disconnect()
     finally:
-        server.terminate()
-        try:
-            server.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        nvtest.stop_process(server, 30)
     return psnr
 
 
@@ -148,11 +144,7 @@ def gui_run():
     except subprocess.TimeoutExpired:
         check(False, "the GUI on a 2-rank pvserver finished in time")
     finally:
-        server.terminate()
-        try:
-            server.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        nvtest.stop_process(server, 30)
 
 
 psnr = remote_run()

@@ -122,11 +122,17 @@ def pvserver(executable, log_name):
                     time.sleep(0.5)
             yield server, port
         finally:
-            server.terminate()
-            try:
-                server.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                server.kill()
+            stop_process(server, 20)
+
+
+def stop_process(process, seconds):
+    """Terminate a server process, killing it when it has not ended within `seconds`."""
+    import subprocess
+    process.terminate()
+    try:
+        process.wait(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        process.kill()
 
 
 def skip(reason):
